@@ -1,0 +1,57 @@
+# cart2d — top-level build. `make run` and `make test` are the two commands a user needs.
+SHELL := /bin/bash
+.DEFAULT_GOAL := help
+
+PORT ?= /dev/ttyUSB0
+FLASH_BAUD ?= 115200   # Nano with the new (Optiboot) bootloader; 57600 for the old one
+FUZZ_SECONDS ?= 300
+
+include firmware/avr.mk
+
+HOST_BUILD := build/host
+
+.PHONY: help deps firmware flash host-tests fuzz fuzz-quick test bench-firmware run clean
+
+help:
+	@echo "make run             install what is missing, build, start cart2d"
+	@echo "make test            build everything and run all tests"
+	@echo "make firmware        build $(AVR_HEX) and print its size"
+	@echo "make flash PORT=...  flash the Nano with avrdude"
+	@echo "make bench-firmware  print flash and RAM use against the budgets"
+	@echo "make fuzz            fuzz the packet parser and dispatcher for $(FUZZ_SECONDS) s"
+
+deps:
+	@tools/install-deps.sh
+
+firmware: $(AVR_HEX)
+	@avr-size $(AVR_ELF)
+
+flash: $(AVR_HEX)
+	avrdude -p m328p -c arduino -P $(PORT) -b $(FLASH_BAUD) -D -U flash:w:$(AVR_HEX):i
+
+$(HOST_BUILD)/build.ninja: firmware/CMakeLists.txt
+	cmake -S firmware -B $(HOST_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Debug \
+	      -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_C_COMPILER=clang
+
+host-tests: $(HOST_BUILD)/build.ninja
+	cmake --build $(HOST_BUILD)
+	ctest --test-dir $(HOST_BUILD) --output-on-failure
+
+fuzz-quick: host-tests
+	tools/run-fuzz.sh $(HOST_BUILD)/fuzz_packets 30
+
+fuzz: host-tests
+	tools/run-fuzz.sh $(HOST_BUILD)/fuzz_packets $(FUZZ_SECONDS)
+
+test: deps firmware host-tests fuzz-quick bench-firmware
+
+bench-firmware: $(AVR_ELF)
+	@python3 tools/firmware_size.py $(AVR_ELF)
+
+run: deps firmware
+	@echo "cart2d so far: the Nano firmware is built ($(AVR_HEX))."
+	@echo "Flash it with: make flash PORT=/dev/ttyUSB0"
+	@echo "The simulator and the gateway are not there yet, so nothing else starts."
+
+clean:
+	rm -rf build

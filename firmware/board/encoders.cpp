@@ -1,0 +1,57 @@
+#include "encoders.hpp"
+
+#include <avr/interrupt.h>  // ISR
+#include <util/atomic.h>    // ATOMIC_BLOCK
+
+#include "io.hpp"  // read_pin, make_input
+
+namespace board {
+namespace encoders {
+
+namespace pins = params::pins;
+namespace enc = params::encoders;
+
+static volatile int16_t left_counts;
+static volatile int16_t right_counts;
+
+void init() {
+  make_input(pins::left_enc_a, false);  // 12 V push-pull outputs through dividers: no pull-ups
+  make_input(pins::left_enc_b, false);
+  make_input(pins::right_enc_a, false);
+  make_input(pins::right_enc_b, false);
+  // Any logical change of A: both edges are counted (x2 decoding). Rising-only counting, as in
+  // the seed, gains a count every time a wheel dithers across an edge.
+  EICRA = (1 << ISC10) | (1 << ISC00);
+  EIFR = (1 << INTF1) | (1 << INTF0);
+  EIMSK = (1 << INT1) | (1 << INT0);
+}
+
+void take_counts(int16_t& left, int16_t& right) {
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    left = left_counts;
+    right = right_counts;
+    left_counts = 0;
+    right_counts = 0;
+  }
+}
+
+// After an edge of A: forwards when (A == B) matches the mounting's "B high on A's rising edge
+// is forwards" (robot.toml); on a falling edge B is the opposite for the same direction.
+static inline int8_t step(bool a, bool b, bool b_high_on_rise_is_forward) {
+  return ((a == b) == b_high_on_rise_is_forward) ? 1 : -1;
+}
+
+}  // namespace encoders
+}  // namespace board
+
+using namespace board;
+
+ISR(INT0_vect) {
+  encoders::left_counts += encoders::step(read_pin(encoders::pins::left_enc_a), read_pin(encoders::pins::left_enc_b),
+                                          encoders::enc::left_b_high_on_rise_is_forward);
+}
+
+ISR(INT1_vect) {
+  encoders::right_counts += encoders::step(read_pin(encoders::pins::right_enc_a), read_pin(encoders::pins::right_enc_b),
+                                           encoders::enc::right_b_high_on_rise_is_forward);
+}

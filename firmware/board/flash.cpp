@@ -1,0 +1,9 @@
+#include "flash.hpp"
+
+#include <avr/pgmspace.h>  // pgm_read_float
+
+namespace core {
+
+float flash_read_float(const float* address) { return pgm_read_float(address); }
+
+}  // namespace core

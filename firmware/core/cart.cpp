@@ -1,0 +1,188 @@
+#include "cart.hpp"
+
+#include "num.hpp"  // fabsf, step_toward
+
+namespace core {
+
+using namespace params::settings;  // setting ids
+
+constexpr float kOvershootPassFactor = 4.0f;
+
+static uint16_t seconds_to_ticks(float seconds) {
+  const float ticks = seconds * params::control::tick_hz + 0.5f;
+  return ticks > 65535.0f ? 65535 : static_cast<uint16_t>(ticks);
+}
+
+WheelGeometry Cart::geometry() const {
+  return WheelGeometry{setting(enc_radius_left_m), setting(enc_radius_right_m), setting(enc_track_m),
+                       kCountsPerRev};
+}
+
+MotorOutput Cart::tick(const TickInput& in) {
+  switch_left_ = in.switch_left;
+  switch_right_ = in.switch_right;
+  odometry_.update(in.counts_left, in.counts_right, geometry(), kTickPeriod_s);
+
+  float v_mps = 0.0f;
+  float omega_radps = 0.0f;
+  switch (mode_) {
+    case proto::MODE_IDLE:
+      return output_;
+    case proto::MODE_HOLD:
+      break;
+    case proto::MODE_PATH:
+      if (!follow_path(v_mps, omega_radps)) return output_;
+      break;
+    case proto::MODE_MANUAL:
+      if (manual_ticks_left_ == 0) {
+        safe_stop(proto::FLAG_MANUAL_TIMEOUT);  // the link went quiet: never drive blind
+        return output_;
+      }
+      --manual_ticks_left_;
+      v_mps = manual_v_mps_;
+      omega_radps = manual_omega_radps_;
+      break;
+    case proto::MODE_RESET_ROUTINE:
+      run_reset_routine(in);
+      return output_;
+  }
+
+  // Acceleration limits keep the commanded speeds physically reachable.
+  v_ref_mps_ = step_toward(v_ref_mps_, v_mps, setting(a_max_mps2) * kTickPeriod_s);
+  omega_ref_radps_ = step_toward(omega_ref_radps_, omega_radps, setting(alpha_max_radps2) * kTickPeriod_s);
+  wheel_targets_ = wheel_speeds(v_ref_mps_, omega_ref_radps_, setting(enc_track_m));
+  const WheelSpeeds measured{odometry_.v_left_mps(), odometry_.v_right_mps()};
+  const PiGains gains{setting(speed_kp), setting(speed_ki)};
+  output_.pwm = speed_.update(wheel_targets_, measured, gains, kTickPeriod_s, params::control::pwm_max);
+  output_.enabled = true;
+  return output_;
+}
+
+// Computes the speeds that drive the path; false when the cart has just stopped on the end.
+bool Cart::follow_path(float& v_mps, float& omega_radps) {
+  if (path_.upload_open()) return true;  // brake (zero targets) until the rest has arrived
+  if (!path_.active()) {
+    safe_stop(0);
+    return false;
+  }
+  const PolarGains gains{setting(pos_rho_kp), setting(pos_phase_kp)};
+  const MotionLimits limits{setting(v_max_mps), setting(w_max_radps), setting(a_max_mps2)};
+  const Pose& pose = odometry_.pose();
+  PolarOutput cmd = polar_control(pose, path_.approach(limits.v_max_mps), gains, limits);
+  // Intermediate waypoints are passed at the coarser tolerance, without slowing down; one
+  // overshot a little (beyond it along its segment) counts as passed rather than being chased.
+  const float tol_pass = setting(tol_pass_m);
+  while (!path_.at_last() && (fabsf(cmd.rho_m) < tol_pass ||
+                              (fabsf(cmd.rho_m) < kOvershootPassFactor * tol_pass && path_.passed(pose)))) {
+    path_.advance();
+    cmd = polar_control(pose, path_.approach(limits.v_max_mps), gains, limits);
+  }
+  distance_to_waypoint_m_ = fabsf(cmd.rho_m);
+  // Arrival is judged on the distance between robot and waypoint (the seed compared
+  // distances from the origin) and only once the cart has nearly stopped on it.
+  if (path_.at_last() && distance_to_waypoint_m_ < setting(tol_final_m) &&
+      fabsf(odometry_.v_mps()) < params::control::arrive_speed_mps) {
+    path_.advance();
+    safe_stop(proto::FLAG_ARRIVED);
+    return false;
+  }
+  v_mps = cmd.v_mps;
+  omega_radps = cmd.omega_radps;
+  return true;
+}
+
+void Cart::run_reset_routine(const TickInput& in) {
+  const WheelSpeeds creep = routine_.step(in.switch_left, in.switch_right, params::control::reset_routine_speed_mps);
+  if (routine_.state() == ResetRoutine::State::kDone) {
+    safe_stop(0);
+    odometry_.set_pose(Pose{setting(reset_x_m), setting(reset_y_m), setting(reset_theta_rad)});
+    return;
+  }
+  if (routine_.state() == ResetRoutine::State::kFailed) {
+    safe_stop(proto::FLAG_ROUTINE_FAILED);
+    return;
+  }
+  wheel_targets_ = creep;
+  const WheelSpeeds measured{odometry_.v_left_mps(), odometry_.v_right_mps()};
+  const PiGains gains{setting(speed_kp), setting(speed_ki)};
+  output_.pwm = speed_.update(wheel_targets_, measured, gains, kTickPeriod_s, params::control::pwm_max);
+  output_.enabled = true;
+}
+
+void Cart::enter(proto::Mode mode) {
+  if (mode_ == proto::MODE_IDLE) {
+    speed_.reset();  // a fresh start: no stale integrator, speeds ramp up from zero
+    v_ref_mps_ = omega_ref_radps_ = 0.0f;
+  }
+  sticky_flags_ &= proto::FLAG_SETTINGS_DEFAULTED;
+  mode_ = mode;
+}
+
+void Cart::safe_stop(uint16_t reason_flag) {
+  mode_ = proto::MODE_IDLE;
+  sticky_flags_ |= reason_flag;
+  speed_.reset();
+  v_ref_mps_ = omega_ref_radps_ = 0.0f;
+  wheel_targets_ = WheelSpeeds();
+  output_ = MotorOutput();
+}
+
+void Cart::go_to(const Point& target) {
+  path_.set_single(target);
+  path_.start_from(odometry_.pose());
+  enter(proto::MODE_PATH);
+}
+
+uint8_t Cart::begin_path(float count, const float* xy, uint8_t n) {
+  if (count >= 1.0f && n > count) return proto::REASON_ARG_COUNT;
+  const uint8_t refused = path_.begin(count);
+  if (refused) return refused;
+  path_.start_from(odometry_.pose());
+  path_.append(0.0f, xy, n);
+  enter(proto::MODE_PATH);
+  return 0;
+}
+
+uint8_t Cart::append_path(float index, const float* xy, uint8_t n) {
+  return path_.append(index, xy, n);
+}
+
+void Cart::start() {
+  if (mode_ != proto::MODE_IDLE) return;
+  const bool path_pending = path_.upload_open() || path_.active();
+  if (path_pending) path_.start_from(odometry_.pose());
+  enter(path_pending ? proto::MODE_PATH : proto::MODE_HOLD);
+}
+
+uint8_t Cart::drive(float v_mps, float omega_radps) {
+  if (!(fabsf(v_mps) <= setting(v_max_mps) && fabsf(omega_radps) <= setting(w_max_radps)))  // NaN fails
+    return proto::REASON_OUT_OF_RANGE;
+  manual_v_mps_ = v_mps;
+  manual_omega_radps_ = omega_radps;
+  manual_ticks_left_ = seconds_to_ticks(setting(manual_timeout_s));
+  enter(proto::MODE_MANUAL);
+  return 0;
+}
+
+void Cart::start_reset_routine() {
+  routine_.start(seconds_to_ticks(params::control::reset_routine_timeout_s));
+  enter(proto::MODE_RESET_ROUTINE);
+}
+
+void Cart::set_settings_defaulted(bool defaulted) {
+  if (defaulted)
+    sticky_flags_ |= proto::FLAG_SETTINGS_DEFAULTED;
+  else
+    sticky_flags_ &= ~static_cast<uint16_t>(proto::FLAG_SETTINGS_DEFAULTED);
+}
+
+uint16_t Cart::flags() const {
+  uint16_t f = sticky_flags_;
+  if (output_.enabled) f |= proto::FLAG_MOTORS_ENABLED;
+  if (switch_left_) f |= proto::FLAG_SWITCH_LEFT;
+  if (switch_right_) f |= proto::FLAG_SWITCH_RIGHT;
+  if (path_.upload_open()) f |= proto::FLAG_UPLOAD_OPEN;
+  return f;
+}
+
+}  // namespace core

@@ -1,0 +1,91 @@
+// The cart's control state machine: one tick() per 8 ms control period turns encoder counts and
+// switch states into motor commands, according to the current mode (proto::Mode). Every fault
+// and every stop goes through safe_stop(): motors disabled, controllers reset.
+#pragma once
+
+#include <stdint.h>
+
+#include "odometry.hpp"
+#include "path.hpp"
+#include "polar_controller.hpp"
+#include "protocol_table.hpp"  // proto::Mode, proto::Flag
+#include "reset_routine.hpp"
+#include "settings.hpp"
+#include "speed_controller.hpp"
+
+namespace core {
+
+constexpr float kTickPeriod_s = 1.0f / params::control::tick_hz;
+constexpr float kCountsPerRev =
+    static_cast<float>(params::encoders::pulses_per_rev * params::encoders::edges_per_pulse);
+
+struct TickInput {
+  int16_t counts_left = 0;   // encoder counts since the previous tick, positive = forwards
+  int16_t counts_right = 0;
+  bool switch_left = false;  // front switches, true = pressed
+  bool switch_right = false;
+};
+
+struct MotorOutput {
+  MotorCommand pwm;
+  bool enabled = false;
+};
+
+class Cart {
+ public:
+  // The waypoint buffer is passed in rather than owned so that on the AVR it can sit in .bss
+  // (zero-filled at start-up) instead of .data (its 256 zero bytes copied from flash).
+  constexpr Cart(const Settings& settings, Path& path) : settings_(settings), path_(path) {}
+
+  MotorOutput tick(const TickInput& in);
+
+  // Commands. Those returning uint8_t answer with a proto::Reason, 0 when accepted; a refused
+  // command changes nothing.
+  void set_pose(const Pose& pose) { odometry_.set_pose(pose); }
+  void go_to(const Point& target);
+  uint8_t begin_path(float count, const float* xy, uint8_t n);
+  uint8_t append_path(float index, const float* xy, uint8_t n);
+  void start();
+  void stop() { safe_stop(0); }
+  uint8_t drive(float v_mps, float omega_radps);
+  void start_reset_routine();
+  void set_settings_defaulted(bool defaulted);
+
+  proto::Mode mode() const { return mode_; }
+  uint16_t flags() const;
+  const Odometry& odometry() const { return odometry_; }
+  const Path& path() const { return path_; }
+  const WheelSpeeds& wheel_targets() const { return wheel_targets_; }
+  const MotorOutput& output() const { return output_; }
+  float v_ref_mps() const { return v_ref_mps_; }
+  float omega_ref_radps() const { return omega_ref_radps_; }
+  float distance_to_waypoint_m() const { return distance_to_waypoint_m_; }
+
+ private:
+  void enter(proto::Mode mode);
+  void safe_stop(uint16_t reason_flag);
+  bool follow_path(float& v_mps, float& omega_radps);
+  void run_reset_routine(const TickInput& in);
+  WheelGeometry geometry() const;
+  float setting(uint8_t id) const { return settings_.get(id); }
+
+  const Settings& settings_;
+  Odometry odometry_;
+  SpeedController speed_;
+  Path& path_;
+  ResetRoutine routine_;
+  proto::Mode mode_ = proto::MODE_IDLE;
+  uint16_t sticky_flags_ = 0;  // ARRIVED, ROUTINE_FAILED, MANUAL_TIMEOUT, SETTINGS_DEFAULTED
+  bool switch_left_ = false;
+  bool switch_right_ = false;
+  float manual_v_mps_ = 0.0f;
+  float manual_omega_radps_ = 0.0f;
+  uint16_t manual_ticks_left_ = 0;
+  float v_ref_mps_ = 0.0f;       // after the acceleration limiter
+  float omega_ref_radps_ = 0.0f;
+  float distance_to_waypoint_m_ = 0.0f;
+  WheelSpeeds wheel_targets_;
+  MotorOutput output_;
+};
+
+}  // namespace core

@@ -1,0 +1,23 @@
+// A PI controller with output saturation and anti-windup (the shape of ArduPilot's AC_PID:
+// finite-input guard, an integrator that may only shrink while the output is saturated).
+#pragma once
+
+namespace core {
+
+struct PiGains {
+  float kp;
+  float ki;
+};
+
+class PiController {
+ public:
+  // One step of h_s seconds on `error`; the result is clamped to [-limit, limit].
+  float update(float error, const PiGains& gains, float h_s, float limit);
+  void reset() { integrator_ = 0.0f; }
+  float integrator() const { return integrator_; }
+
+ private:
+  float integrator_ = 0.0f;  // already multiplied by ki: output units
+};
+
+}  // namespace core

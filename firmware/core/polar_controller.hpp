@@ -1,0 +1,45 @@
+// The seed's polar position controller, extended so that a path is driven at speed:
+// speed follows the distance left along the path, capped so the cart can brake in time for
+// the next corner (or the final stop) with the acceleration limit.
+#pragma once
+
+#include "odometry.hpp"  // Pose
+
+namespace core {
+
+struct PolarGains {
+  float rho_kp;    // 1/s: v = rho_kp * distance
+  float phase_kp;  // 1/s: omega = phase_kp * heading error
+};
+
+struct MotionLimits {
+  float v_max_mps;
+  float w_max_radps;
+  float a_max_mps2;
+};
+
+// What the path tells the controller about the waypoint being approached.
+struct Approach {
+  float x_m;
+  float y_m;
+  float after_m;           // path length beyond this waypoint (0 for the last one)
+  float exit_speed_mps;    // speed at which the cart may pass it (0 for the last one)
+  bool final;              // the last waypoint: stop on it
+};
+
+struct PolarOutput {
+  float v_mps;
+  float omega_radps;
+  float rho_m;             // signed distance to the waypoint (negative: it is behind)
+  bool behind;             // the waypoint is behind the cart (it drives backwards)
+};
+
+// Within this distance of the FINAL waypoint the bearing is too noisy to steer by: stop
+// turning and only close the distance along the current heading (while the waypoint is within
+// 45 deg of the heading line; further off to the side the cart must still turn towards it).
+constexpr float kFinalApproachRadius_m = 0.02f;
+
+PolarOutput polar_control(const Pose& pose, const Approach& target, const PolarGains& gains,
+                          const MotionLimits& limits);
+
+}  // namespace core

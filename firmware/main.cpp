@@ -1,0 +1,121 @@
+// cart2d Nano firmware: wires the ATmega328P drivers (board/) to the portable control core
+// (core/). The loop sleeps until an interrupt; every 8 ms tick runs odometry and control; in
+// between it parses request packets. Nothing here waits for the line or the EEPROM.
+
+#include <avr/interrupt.h>  // sei
+
+#include "board/encoders.hpp"
+#include "board/eeprom.hpp"
+#include "board/motors.hpp"
+#include "board/switches.hpp"
+#include "board/system.hpp"
+#include "board/tick_timer.hpp"
+#include "board/uart.hpp"
+#include "core/cart.hpp"
+#include "core/dispatcher.hpp"
+#include "core/packet.hpp"
+#include "core/settings_store.hpp"
+#include "core/telemetry.hpp"
+
+using namespace board;
+
+namespace {
+
+core::Settings settings;
+core::SettingsStore store(eeprom::kPort);
+core::Path path;
+core::Cart cart(settings, path);
+core::Health health;
+core::Dispatcher dispatcher(cart, settings, store, health);
+core::PacketReceiver receiver;
+
+uint8_t telemetry_countdown = 1;
+uint8_t quiet_ticks = 0;        // ticks since the last received byte
+uint16_t busy_counts_sum = 0;   // Timer2 counts spent busy in the current second
+uint8_t busy_counts_max = 0;
+uint8_t ticks_in_second = 0;
+bool measuring_tick = false;    // a tick ran since the loop last went to sleep
+
+// A partial packet older than this is given up (2 ticks = 16 ms = ~180 byte times).
+constexpr uint8_t kPacketExpiryTicks = 2;
+
+void send_telemetry() {
+  const uint8_t divider = core::telemetry_divider(settings.get(params::settings::telemetry_hz));
+  if (divider == 0 || --telemetry_countdown > 0) return;
+  telemetry_countdown = divider;
+  // Telemetry is lossy by design: skip a frame rather than delay a reply.
+  if (uart::tx_free() < core::wire::kTelemetrySize + core::wire::kMaxReply) return;
+  uint8_t frame[core::wire::kTelemetrySize];
+  core::encode_cart_telemetry(cart, health.ticks, frame);
+  uart::write(frame, sizeof frame);
+}
+
+void account_busy_time() {
+  if (!measuring_tick) return;
+  measuring_tick = false;
+  const uint8_t counts = tick_timer::elapsed_counts();
+  busy_counts_sum += counts;
+  if (counts > busy_counts_max) busy_counts_max = counts;
+  if (++ticks_in_second < params::control::tick_hz) return;
+  // Shares of the second and of one tick, in percent (once a second: the division is cheap).
+  health.cpu_load_pct = static_cast<uint8_t>(busy_counts_sum * 100UL / (tick_timer::kCountsPerTick * params::control::tick_hz));
+  health.cpu_max_pct = static_cast<uint8_t>(busy_counts_max * 100U / tick_timer::kCountsPerTick);
+  busy_counts_sum = 0;
+  busy_counts_max = 0;
+  ticks_in_second = 0;
+}
+
+void run_tick() {
+  core::TickInput in;
+  encoders::take_counts(in.counts_left, in.counts_right);
+  in.switch_left = switches::left_pressed();
+  in.switch_right = switches::right_pressed();
+  motors::apply(cart.tick(in));
+
+  ++health.ticks;
+  health.loop_overruns = tick_timer::overruns();
+  health.rx_errors = receiver.errors() + uart::rx_overflows();
+  dispatcher.tick();
+  if (receiver.holding() && ++quiet_ticks >= kPacketExpiryTicks) receiver.expire();
+  send_telemetry();
+  measuring_tick = true;
+}
+
+void serve_requests() {
+  uint8_t byte;
+  while (uart::read(byte)) {
+    quiet_ticks = 0;
+    receiver.push(byte);
+    core::PacketView packet;
+    while (receiver.poll(packet)) {
+      dispatcher.handle(packet);
+      uart::write(dispatcher.reply(), dispatcher.reply_length());
+    }
+  }
+}
+
+bool work_pending() { return tick_timer::pending() || uart::rx_available(); }
+
+}  // namespace
+
+int main() {
+  motors::init();  // first: the H-bridges must see "off" as early as possible
+  encoders::init();
+  switches::init();
+  tick_timer::init();
+  uart::init(params::control::baud);
+
+  const core::record::Verdict verdict = store.load(settings);
+  if (verdict != core::record::Verdict::kValid) settings.reset_to_defaults();
+  dispatcher.set_settings_source(verdict);
+  sei();
+
+  for (;;) {
+    if (tick_timer::take_tick()) run_tick();
+    serve_requests();
+    store.poll();
+    if (dispatcher.reboot_requested() && uart::tx_done()) system::reboot();
+    account_busy_time();
+    system::sleep_unless(work_pending);
+  }
+}

@@ -1,0 +1,37 @@
+#!/usr/bin/env python3
+"""Print the firmware's flash and static RAM use against the budgets (from avr-size)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+FLASH_BUDGET = 16 * 1024   # half of the 32 KiB: room to grow, and for the bootloader
+RAM_BUDGET = 1024          # data + bss; the other 1 KiB of the 2 KiB is for the stack
+RAM_TOTAL = 2048
+
+
+def sections(elf: str) -> dict[str, int]:
+    out = subprocess.run(["avr-size", "-A", elf], check=True, capture_output=True, text=True).stdout
+    sizes = {}
+    for line in out.splitlines():
+        parts = line.split()
+        if len(parts) >= 2 and parts[0].startswith(".") and parts[1].isdigit():
+            sizes[parts[0]] = int(parts[1])
+    return sizes
+
+
+def main() -> int:
+    s = sections(sys.argv[1])
+    flash = s.get(".text", 0) + s.get(".data", 0)
+    ram = s.get(".data", 0) + s.get(".bss", 0)
+    ok = flash <= FLASH_BUDGET and ram <= RAM_BUDGET
+    print(f"firmware flash: {flash} B of {FLASH_BUDGET} B budget ({100 * flash / FLASH_BUDGET:.0f} %), 32768 B chip")
+    print(f"firmware RAM:   {ram} B static (data {s.get('.data', 0)} + bss {s.get('.bss', 0)}) of "
+          f"{RAM_BUDGET} B budget ({100 * ram / RAM_BUDGET:.0f} %); {RAM_TOTAL - ram} B left for the stack")
+    print("budgets:", "met" if ok else "EXCEEDED")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
