@@ -9,13 +9,16 @@ FUZZ_SECONDS ?= 300
 include firmware/avr.mk
 
 HOST_BUILD := build/host
+SIM_BUILD := build/sim
+SIM_BIN := $(SIM_BUILD)/cart2d-sim
 
-.PHONY: help deps firmware flash host-tests fuzz fuzz-quick test bench-firmware run clean
+.PHONY: help deps firmware flash host-tests fuzz fuzz-quick sim sim-tests test bench-firmware run clean
 
 help:
 	@echo "make run             install what is missing, build, start cart2d"
 	@echo "make test            build everything and run all tests"
 	@echo "make firmware        build $(AVR_HEX) and print its size"
+	@echo "make sim             build the simulator ($(SIM_BIN))"
 	@echo "make flash PORT=...  flash the Nano with avrdude"
 	@echo "make bench-firmware  print flash and RAM use against the budgets"
 	@echo "make fuzz            fuzz the packet parser and dispatcher for $(FUZZ_SECONDS) s"
@@ -37,13 +40,22 @@ host-tests: $(HOST_BUILD)/build.ninja
 	cmake --build $(HOST_BUILD)
 	ctest --test-dir $(HOST_BUILD) --output-on-failure
 
+$(SIM_BUILD)/build.ninja: sim/CMakeLists.txt
+	cmake -S sim -B $(SIM_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release
+
+sim: $(SIM_BUILD)/build.ninja
+	cmake --build $(SIM_BUILD)
+
+sim-tests: sim firmware
+	ctest --test-dir $(SIM_BUILD) --output-on-failure
+
 fuzz-quick: host-tests
 	tools/run-fuzz.sh $(HOST_BUILD)/fuzz_packets 30
 
 fuzz: host-tests
 	tools/run-fuzz.sh $(HOST_BUILD)/fuzz_packets $(FUZZ_SECONDS)
 
-test: deps firmware host-tests fuzz-quick bench-firmware
+test: deps firmware host-tests sim-tests fuzz-quick bench-firmware
 
 bench-firmware: $(AVR_ELF)
 	@python3 tools/firmware_size.py $(AVR_ELF)

@@ -18,10 +18,10 @@ AVR_CXXFLAGS := -mmcu=$(AVR_MCU) -DF_CPU=$(AVR_F_CPU) -std=gnu++14 -Os -g \
                 -Ifirmware -Ifirmware/core -I$(AVR_GEN) -MMD -MP
 AVR_LDFLAGS  := -mmcu=$(AVR_MCU) -Os -flto -mrelax -Wl,--gc-sections -Wl,-Map,$(AVR_BUILD)/cart2d-nano.map
 
-$(AVR_GEN)/robot_params.hpp: config/robot.toml tools/gen_params.py
+$(AVR_GEN)/robot_params.hpp: config/robot.toml tools/gen_params.py cart2d/spec.py
 	python3 tools/gen_params.py $< $@
 
-$(AVR_GEN)/protocol_table.hpp: docs/protocol.md tools/gen_protocol.py tools/gen_params.py
+$(AVR_GEN)/protocol_table.hpp: docs/protocol.md tools/gen_protocol.py cart2d/spec.py
 	python3 tools/gen_protocol.py $< $@
 
 $(AVR_BUILD)/obj/%.o: firmware/%.cpp $(AVR_HEADERS)

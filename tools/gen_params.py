@@ -13,6 +13,9 @@ import sys
 import tomllib
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from cart2d.spec import crc16_mcrf4xx  # noqa: E402  (one CRC implementation in Python)
+
 SETTING_FIELDS = ("id", "name", "unit", "min", "max", "default", "doc")
 
 
@@ -23,15 +26,6 @@ def nano_pin(number: int) -> tuple[str, int]:
     if 8 <= number <= 13:
         return "B", number - 8
     raise ValueError(f"D{number} is not a digital pin of the Nano")
-
-
-def crc16_mcrf4xx(data: bytes) -> int:
-    crc = 0xFFFF
-    for byte in data:
-        crc ^= byte
-        for _ in range(8):
-            crc = (crc >> 1) ^ 0x8408 if crc & 1 else crc >> 1
-    return crc
 
 
 def cpp_literal(value: object) -> tuple[str, str]:

@@ -1,0 +1,39 @@
+// ATmega328P facts the parts need: data-space register addresses (datasheet DS40002061B,
+// "Register Summary": I/O address + 0x20), bit positions and vector numbers. Kept here, once,
+// because the simulator is a C++ host program and cannot include avr-libc's <avr/io.h>.
+#pragma once
+
+#include <cstdint>
+
+namespace cart2d::m328p {
+
+constexpr uint16_t kPINB = 0x23, kDDRB = 0x24, kPORTB = 0x25;
+constexpr uint16_t kPINC = 0x26, kDDRC = 0x27, kPORTC = 0x28;
+constexpr uint16_t kPIND = 0x29, kDDRD = 0x2A, kPORTD = 0x2B;
+
+// Timer/Counter1 (datasheet §15.11).
+constexpr uint16_t kTCCR1A = 0x80, kTCCR1B = 0x81;
+constexpr uint16_t kICR1L = 0x86, kICR1H = 0x87;
+constexpr uint16_t kOCR1AL = 0x88, kOCR1AH = 0x89, kOCR1BL = 0x8A, kOCR1BH = 0x8B;
+constexpr int kCOM1A0 = 6;  // COM1A1:0 = TCCR1A bits 7:6
+constexpr int kCOM1B0 = 4;  // COM1B1:0 = TCCR1A bits 5:4
+
+// USART0 (datasheet §19.10).
+constexpr uint16_t kUCSR0A = 0xC0, kUCSR0B = 0xC1, kUCSR0C = 0xC2, kUBRR0L = 0xC4, kUBRR0H = 0xC5;
+constexpr int kU2X0 = 1;    // UCSR0A
+constexpr int kUCSZ02 = 2;  // UCSR0B
+constexpr int kUCSZ00 = 1;  // UCSR0C bits 2:1
+constexpr int kUSBS0 = 3;   // UCSR0C
+constexpr int kUPM01 = 5;   // UCSR0C: parity enabled when set
+
+// Interrupt vector numbers (datasheet §11.1, Table 11-1, counting RESET as 0).
+constexpr uint8_t kVectorTimer2CompA = 7;
+
+constexpr uint32_t kEepromBytes = 1024;
+
+// PINx / DDRx / PORTx of a port letter, 0 if the 328P has no such port.
+constexpr uint16_t pin_register(char port) { return port == 'B' ? kPINB : port == 'C' ? kPINC : port == 'D' ? kPIND : 0; }
+constexpr uint16_t ddr_register(char port) { return port == 'B' ? kDDRB : port == 'C' ? kDDRC : port == 'D' ? kDDRD : 0; }
+constexpr uint16_t port_register(char port) { return port == 'B' ? kPORTB : port == 'C' ? kPORTC : port == 'D' ? kPORTD : 0; }
+
+}  // namespace cart2d::m328p

@@ -1,0 +1,57 @@
+// The physical cart: two motors, the body, its bumper switches and its contacts with the walls.
+// Everything here is pure physics on a fixed step; the simavr parts feed it duties and read its
+// state, and tests drive it directly.
+#pragma once
+
+#include <vector>
+
+#include "body.hpp"
+#include "motor.hpp"
+#include "world.hpp"
+
+namespace cart2d {
+
+struct CartParams {
+  MotorParams motor;
+  BodyParams body;
+  RobotGeometry geometry;
+  double switch_travel_m = 0.001;  // a switch closes when its point is this close to a wall
+
+  static CartParams from_robot_params();
+};
+
+class Cart {
+ public:
+  explicit Cart(const CartParams& p);
+
+  // Teleports the cart (at rest).
+  void place(const Pose& pose);
+  // Advances by h seconds with the given signed duties (+ = forward, from the H-bridges).
+  void step(double h, double duty_l, double duty_r, const World& world);
+  // Moves with a prescribed twist instead of the dynamics (scripted motion for tests).
+  void step_kinematic(double h, const Twist& twist, const World& world);
+  // Recomputes the switches and probes at the current pose (after place()).
+  void sense(const World& world);
+
+  const Pose& pose() const { return body_.pose(); }
+  const Twist& twist() const { return body_.twist(); }
+  double wheel_speed_l_radps() const { return body_.wheel_speed_l_radps(); }
+  double wheel_speed_r_radps() const { return body_.wheel_speed_r_radps(); }
+  double current_l_a() const { return current_l_a_; }
+  double current_r_a() const { return current_r_a_; }
+  bool switch_left() const { return switch_l_; }
+  bool switch_right() const { return switch_r_; }
+  // The wall probes at the current pose (for contact statistics).
+  const std::vector<WallProbe>& probes() const { return probes_; }
+  const CartParams& params() const { return p_; }
+
+ private:
+  CartParams p_;
+  Body body_;
+  double current_l_a_ = 0.0, current_r_a_ = 0.0;
+  bool switch_l_ = false, switch_r_ = false;
+  std::vector<WallProbe> probes_;
+  std::vector<VelocityConstraint> constraints_;
+};
+
+}  // namespace cart2d

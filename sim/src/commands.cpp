@@ -1,0 +1,222 @@
+// The side channel's control messages: one JSON object per line with a "type" and an optional
+// "id", each answered by {"type":"ack","id":...,"ok":true|false[,"error":...][, results]}.
+// A rejected message changes nothing.
+#include <cmath>  // std::isfinite, std::fabs, std::llround
+
+#include "log.hpp"
+#include "robot_params.hpp"  // params::body
+#include "simulator.hpp"
+
+namespace cart2d {
+
+namespace {
+
+// A finite number member, or false.
+bool number_member(const json::Value& msg, const char* key, double* out) {
+  const json::Value* v = msg.find(key);
+  if (!v || !v->is_number() || !std::isfinite(v->number)) return false;
+  *out = v->number;
+  return true;
+}
+
+// [a, b] as two finite numbers, or false.
+bool pair_of(const json::Value& v, double* a, double* b) {
+  if (!v.is_array() || v.array.size() != 2 || !v.array[0].is_number() || !v.array[1].is_number()) return false;
+  *a = v.array[0].number;
+  *b = v.array[1].number;
+  return true;
+}
+
+}  // namespace
+
+void Simulator::handle_line(int client, const std::string& line) {
+  json::Value msg;
+  std::string error;
+  std::string extra;
+  std::string id = "null";
+  if (!json::parse(line, &msg, &error)) {
+    error = "bad JSON: " + error;
+  } else if (!msg.is_object()) {
+    error = "a message must be a JSON object";
+  } else {
+    if (const json::Value* v = msg.find("id")) id = json::dump(*v);
+    const json::Value* type = msg.find("type");
+    if (!type || !type->is_string()) error = "missing \"type\"";
+    else error = dispatch(client, type->string, msg, &extra);
+  }
+  json::Object ack;
+  ack.add("type", "ack").add_raw("id", id).add("ok", error.empty());
+  if (!error.empty()) ack.add("error", error);
+  std::string text = ack.str();
+  if (!extra.empty()) text.insert(text.size() - 1, "," + extra);
+  control_.send(client, text);
+  if (!error.empty()) LOG_DEBUG("control client %d: %s", client, error.c_str());
+}
+
+std::string Simulator::dispatch(int client, const std::string& type, const json::Value& msg, std::string* extra) {
+  if (type == "pause") {
+    paused_ = true;
+    return "";
+  }
+  if (type == "resume") {
+    paused_ = false;
+    pacer_.anchor(rig_.time_s(), wall_now_s());
+    return "";
+  }
+  if (type == "reset") {
+    rig_.reset_mcu();
+    mcu_dead_reported_ = false;
+    LOG_INFO("MCU reset at t = %.6f s", rig_.time_s());
+    return "";
+  }
+  if (type == "quit") {
+    quit_ = true;
+    return "";
+  }
+  if (type == "place") return cmd_place(msg);
+  if (type == "obstacles") {
+    const std::string error = cmd_obstacles(msg);
+    if (error.empty()) *extra = "\"count\":" + std::to_string(rig_.world().obstacles().size());
+    return error;
+  }
+  if (type == "faults") {
+    Faults next = rig_.faults();
+    std::string error;
+    if (!apply_faults(msg, &next, &error)) return error;
+    rig_.set_faults(next);
+    *extra = "\"faults\":" + faults_json(next);
+    return "";
+  }
+  if (type == "truth_rate") return cmd_truth_rate(client, msg);
+  if (type == "truth") {
+    *extra = "\"truth\":" + truth_json();
+    return "";
+  }
+  if (type == "speed") return cmd_speed(msg);
+  if (type == "stats") {
+    *extra = "\"stats\":" + stats_json();
+    if (const json::Value* r = msg.find("reset"); r && r->is_bool() && r->boolean) rig_.cpu().reset_total();
+    return "";
+  }
+  return "unknown message type '" + type + "'";
+}
+
+std::string Simulator::cmd_place(const json::Value& msg) {
+  Pose p;
+  if (!number_member(msg, "x", &p.x_m) || !number_member(msg, "y", &p.y_m)) return "place needs numbers x and y (m)";
+  if (msg.find("theta") && !number_member(msg, "theta", &p.theta_rad)) return "theta must be a number (rad)";
+  const World& w = rig_.world();
+  const double r = params::body::footprint_radius_m;
+  if (p.x_m - r < w.x_min() || p.x_m + r > w.x_max() || p.y_m - r < w.y_min() || p.y_m + r > w.y_max())
+    return "the footprint would cross a wall (walls at x, y in [" + json::number(w.x_min()) + ", " +
+           json::number(w.x_max()) + "])";
+  rig_.place(p);
+  return "";
+}
+
+std::string Simulator::cmd_obstacles(const json::Value& msg) {
+  const ArenaParams& arena = rig_.world().arena();
+  double step = arena.grid_step_m, ox = 0.0, oy = 0.0;
+  double size = arena.grid_nodes;
+  if (msg.find("step") && (!number_member(msg, "step", &step) || step <= 0.0 || step > 10.0))
+    return "step must be a positive number (m)";
+  if (const json::Value* o = msg.find("origin"); o && !pair_of(*o, &ox, &oy)) return "origin must be [x, y] (m)";
+  if (msg.find("size") && (!number_member(msg, "size", &size) || size < 1 || size > 1000 || size != std::floor(size)))
+    return "size must be a whole number of nodes per side";
+  std::vector<Obstacle> next;
+  if (const json::Value* cells = msg.find("cells")) {
+    if (!cells->is_array()) return "cells must be an array of [i, j] node indices";
+    for (const auto& c : cells->array) {
+      double i = 0, j = 0;
+      if (!pair_of(c, &i, &j) || i != std::floor(i) || j != std::floor(j) || i < 0 || j < 0 || i >= size || j >= size)
+        return "each cell must be [i, j] with whole i, j in [0, size)";
+      next.push_back({ox + i * step, oy + j * step, step / 2.0});
+    }
+  }
+  if (const json::Value* points = msg.find("points")) {
+    if (!points->is_array()) return "points must be an array of [x, y] cell centres (m)";
+    for (const auto& c : points->array) {
+      double x = 0, y = 0;
+      if (!pair_of(c, &x, &y) || std::fabs(x) > 1000 || std::fabs(y) > 1000) return "each point must be [x, y] (m)";
+      next.push_back({x, y, step / 2.0});
+    }
+  }
+  rig_.world().set_obstacles(std::move(next));
+  rig_.contacts().obstacles_changed();
+  return "";
+}
+
+std::string Simulator::cmd_speed(const json::Value& msg) {
+  const json::Value* f = msg.find("factor");
+  if (f && f->is_string() && f->string == "max") {
+    pacer_.set_factor(0.0);
+  } else if (f && f->is_number() && f->number > 0.0 && f->number <= 1e6) {
+    pacer_.set_factor(f->number);
+  } else {
+    return "factor must be a positive number or \"max\"";
+  }
+  pacer_.anchor(rig_.time_s(), wall_now_s());
+  return "";
+}
+
+std::string Simulator::cmd_truth_rate(int client, const json::Value& msg) {
+  double hz = 0.0;
+  if (!number_member(msg, "hz", &hz) || hz < 0.0 || hz > 4000.0) return "hz must be a rate in [0, 4000] (0 = off)";
+  ControlChannel::Client* c = control_.find(client);
+  if (!c) return "client gone";
+  c->truth_hz = hz;
+  c->next_truth_cycle = rig_.cycle();
+  return "";
+}
+
+std::string Simulator::stats_json() const {
+  auto cpu_json = [](const CpuMeter::Summary& s, uint64_t period) {
+    return json::Object()
+        .add("ticks", static_cast<unsigned long long>(s.ticks))
+        .add("mean", s.mean)
+        .add("max", s.max)
+        .add("max_cycles", static_cast<unsigned long long>(s.max_cycles))
+        .add("overruns", static_cast<unsigned long long>(s.overruns))
+        .add("period_cycles", static_cast<unsigned long long>(period))
+        .str();
+  };
+  const uint64_t period = rig_.mcu().frequency_hz() / static_cast<uint64_t>(params::control::tick_hz);
+  const UartLink::Stats& u = rig_.uart().stats();
+  json::Object o;
+  o.add("t", rig_.time_s())
+      .add("cycles", static_cast<unsigned long long>(rig_.cycle()))
+      .add("physics_steps", static_cast<unsigned long long>(rig_.physics_steps()))
+      .add("wall_s", wall_now_s() - wall_start_s_)
+      .add("rtf", pacer_.rtf());
+  if (pacer_.unlimited()) o.add("speed", "max");
+  else o.add("speed", pacer_.factor());
+  o.add("paused", paused_)
+      .add("mcu", rig_.mcu().state_name())
+      .add_raw("cpu", cpu_json(rig_.cpu().total(), period))
+      .add_raw("cpu_window", cpu_json(rig_.cpu().window(), period))
+      .add_raw("uart", json::Object()
+                           .add("rx_bytes", static_cast<unsigned long long>(u.rx_bytes))
+                           .add("rx_dropped", static_cast<unsigned long long>(u.rx_dropped))
+                           .add("rx_corrupted", static_cast<unsigned long long>(u.rx_corrupted))
+                           .add("tx_bytes", static_cast<unsigned long long>(u.tx_bytes))
+                           .add("tx_dropped", static_cast<unsigned long long>(u.tx_dropped))
+                           .add("tx_corrupted", static_cast<unsigned long long>(u.tx_corrupted))
+                           .add("host_overflow", static_cast<unsigned long long>(u.host_overflow))
+                           .str())
+      .add_raw("encoders", json::Object()
+                               .add("edges_l", static_cast<unsigned long long>(rig_.encoder_left().edges_emitted()))
+                               .add("edges_r", static_cast<unsigned long long>(rig_.encoder_right().edges_emitted()))
+                               .add("a_edges_l", static_cast<unsigned long long>(rig_.encoder_left().a_edges_emitted()))
+                               .add("a_edges_r", static_cast<unsigned long long>(rig_.encoder_right().a_edges_emitted()))
+                               .add("states_l", static_cast<long long>(rig_.encoder_left().state_count()))
+                               .add("states_r", static_cast<long long>(rig_.encoder_right().state_count()))
+                               .str())
+      .add("collisions", static_cast<long long>(rig_.contacts().collisions()))
+      .add("wall_contacts", static_cast<long long>(rig_.contacts().wall_contacts()))
+      .add("obstacles", static_cast<unsigned long long>(rig_.world().obstacles().size()))
+      .add_raw("faults", faults_json(rig_.faults()))
+      .add("eeprom", eeprom_.path());
+  return o.str();
+}
+
+}  // namespace cart2d

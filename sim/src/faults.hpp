@@ -1,0 +1,36 @@
+// Errors on demand. All off by default; random ones draw from seeded streams (rng.hpp), so a
+// given seed and input reproduce the same run.
+#pragma once
+
+#include <string>
+
+#include "json.hpp"
+
+namespace cart2d {
+
+struct Faults {
+  // Measuring wheels (odometry errors the firmware cannot see directly).
+  double enc_radius_scale_l = 1.0;  // actual / nominal left measuring-wheel radius
+  double enc_radius_scale_r = 1.0;  // actual / nominal right measuring-wheel radius
+  double enc_track_error_m = 0.0;   // actual − nominal distance between the measuring wheels
+  double enc_slip_l = 0.0;          // fraction of the rolled distance the left wheel fails to turn
+  double enc_slip_r = 0.0;          // same, right
+  double enc_miss_prob = 0.0;       // probability that a channel-A pulse is lost (both its edges)
+  double enc_noise_hz = 0.0;        // spurious channel-A spikes per second, per encoder
+  // UART, per byte; rx = towards the MCU, tx = from the MCU.
+  double uart_rx_drop = 0.0;
+  double uart_rx_corrupt = 0.0;  // one random bit flipped
+  double uart_tx_drop = 0.0;
+  double uart_tx_corrupt = 0.0;
+
+  bool any_encoder_noise() const { return enc_miss_prob > 0.0 || enc_noise_hz > 0.0; }
+};
+
+// Applies the members of a "faults" control message. All-or-nothing: an unknown key or a value
+// outside its range leaves *faults unchanged and says why. {"clear": true} first restores defaults.
+bool apply_faults(const json::Value& msg, Faults* faults, std::string* error);
+
+// The current faults as a JSON object.
+std::string faults_json(const Faults& faults);
+
+}  // namespace cart2d

@@ -1,0 +1,41 @@
+// The two LMD18200 H-bridges as the MCU drives them: PWM from Timer1's OC1A/OC1B pins and the
+// DIRECTION pins (LOW = forward). Read from the registers at each physics step: simulating every
+// 50 kHz edge would cost far more than it tells (the motor filters the PWM, see motor.hpp).
+#pragma once
+
+#include <cstdint>
+
+#include "pin.hpp"
+
+struct avr_t;
+
+namespace cart2d {
+
+// What the Timer1 output pin does in PWM mode 8 (phase and frequency correct, TOP = ICR1;
+// datasheet §15.9.5 and Table 15-4). Non-inverting (COM1x = 2): cleared on the up-counting
+// compare match and set on the down-counting one, so the pin is high for OCR1x/TOP of the period
+// (OCR = 0 → always low, OCR ≥ TOP → always high). Inverting (COM1x = 3) is the complement.
+// COM1x = 0 or 1 leaves the pin to PORTx (plain GPIO). Without its DDR bit the pin is an input
+// and the board's pull-down holds the bridge input low. Returns the high-time fraction in [0, 1].
+double oc1_duty(unsigned com_bits, uint16_t ocr, uint16_t top, bool port_bit, bool ddr_bit);
+
+struct MotorDuties {
+  double left = 0.0;   // signed: + forward
+  double right = 0.0;
+};
+
+class HBridgePart {
+ public:
+  HBridgePart(avr_t* avr, PinRef left_dir, PinRef right_dir, PinRef left_pwm, PinRef right_pwm);
+  // Current signed duties of both bridges.
+  MotorDuties sample();
+
+ private:
+  bool output_level(PinRef pin) const;  // level of a GPIO pin (input → pulled down → low)
+
+  avr_t* avr_;
+  PinRef left_dir_, right_dir_, left_pwm_, right_pwm_;
+  bool warned_mode_ = false;
+};
+
+}  // namespace cart2d

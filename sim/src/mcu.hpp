@@ -1,0 +1,52 @@
+// The simulated ATmega328P: loads the firmware ELF into simavr, replaces simavr's wall-clock
+// sleep with a pure cycle skip (we pace in pacer.cpp), routes simavr's log to stderr and runs
+// the core in slices of simulated time.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+
+struct avr_t;
+
+namespace cart2d {
+
+class Mcu {
+ public:
+  Mcu() = default;
+  ~Mcu();
+  Mcu(const Mcu&) = delete;
+  Mcu& operator=(const Mcu&) = delete;
+
+  // Reads the ELF, builds an atmega328p at f_cpu_hz and loads flash (and the ELF's .eeprom).
+  bool load(const std::string& elf_path, uint32_t f_cpu_hz, std::string* error);
+
+  avr_t* avr() const { return avr_; }
+  uint64_t cycle() const;
+  uint32_t frequency_hz() const { return f_cpu_hz_; }
+  double time_s() const { return static_cast<double>(cycle()) / f_cpu_hz_; }
+
+  // Runs the core until its cycle counter reaches target; false if the core has stopped
+  // (crashed, or slept with interrupts off) and will not advance any more.
+  bool run_until(uint64_t target_cycle);
+  bool alive() const;
+  // "running", "sleeping", "done" (slept with interrupts disabled), "crashed", ...
+  const char* state_name() const;
+
+  // Like pressing the reset button: registers and cycle timers cleared, EXTRF set in MCUSR,
+  // EEPROM and flash kept. Parts must re-arm their timers afterwards.
+  void reset();
+
+  // Called each time the core goes to sleep (SLEEP instruction), with the current cycle.
+  void set_sleep_hook(std::function<void(uint64_t)> hook) { sleep_hook_ = std::move(hook); }
+
+ private:
+  static void sleep_callback(avr_t* avr, uint64_t how_long);
+
+  avr_t* avr_ = nullptr;
+  uint32_t f_cpu_hz_ = 16000000;
+  std::function<void(uint64_t)> sleep_hook_;
+  bool was_sleeping_ = false;
+};
+
+}  // namespace cart2d

@@ -1,0 +1,119 @@
+#include "options.hpp"
+
+#include <cerrno>   // errno
+#include <cmath>    // std::isfinite
+#include <cstdlib>  // strtod, strtoull
+#include <cstring>  // strcmp
+
+namespace cart2d {
+
+std::string usage() {
+  return "usage: cart2d-sim --firmware ELF [options]\n"
+         "  --firmware FILE       firmware ELF for the ATmega328P (required)\n"
+         "  --speed F|max         simulated seconds per wall second (default 1 = real time)\n"
+         "  --seed N              seed of every random fault (default 0)\n"
+         "  --eeprom FILE         EEPROM image kept across runs\n"
+         "                        (default $XDG_DATA_HOME/cart2d/sim-eeprom.bin)\n"
+         "  --truth-hz HZ         ground-truth messages per simulated second (default 50)\n"
+         "  --start X,Y,THETA     initial pose in m, m, rad (default 0,0,0)\n"
+         "  --arena-margin M      walls this far outside the node grid (default 0.25 m)\n"
+         "  --control-port P      TCP port of the side channel on 127.0.0.1 (default: any free)\n"
+         "  --verbose | --quiet   more / less logging on stderr\n";
+}
+
+static bool parse_double(const char* s, double* out) {
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(s, &end);
+  if (errno || end == s || *end || !std::isfinite(v)) return false;
+  *out = v;
+  return true;
+}
+
+bool parse_options(int argc, char** argv, Options* opts, bool* help, std::string* error) {
+  *help = false;
+  for (int i = 1; i < argc; ++i) {
+    const char* arg = argv[i];
+    auto value = [&](const char** out) {
+      if (i + 1 >= argc) {
+        *error = std::string(arg) + " needs a value";
+        return false;
+      }
+      *out = argv[++i];
+      return true;
+    };
+    const char* v = nullptr;
+    if (!std::strcmp(arg, "--help") || !std::strcmp(arg, "-h")) {
+      *help = true;
+      return true;
+    } else if (!std::strcmp(arg, "--verbose") || !std::strcmp(arg, "-v")) {
+      opts->verbose = true;
+    } else if (!std::strcmp(arg, "--quiet") || !std::strcmp(arg, "-q")) {
+      opts->quiet = true;
+    } else if (!std::strcmp(arg, "--firmware")) {
+      if (!value(&v)) return false;
+      opts->firmware = v;
+    } else if (!std::strcmp(arg, "--speed")) {
+      if (!value(&v)) return false;
+      if (!std::strcmp(v, "max")) {
+        opts->speed = 0.0;
+      } else if (!parse_double(v, &opts->speed) || opts->speed <= 0.0) {
+        *error = "--speed takes a positive factor or 'max'";
+        return false;
+      }
+    } else if (!std::strcmp(arg, "--seed")) {
+      if (!value(&v)) return false;
+      char* end = nullptr;
+      errno = 0;
+      opts->seed = std::strtoull(v, &end, 0);
+      if (errno || end == v || *end) {
+        *error = "--seed takes an unsigned integer";
+        return false;
+      }
+    } else if (!std::strcmp(arg, "--eeprom")) {
+      if (!value(&v)) return false;
+      opts->eeprom = v;
+    } else if (!std::strcmp(arg, "--truth-hz")) {
+      if (!value(&v)) return false;
+      if (!parse_double(v, &opts->truth_hz) || opts->truth_hz < 0.0 || opts->truth_hz > 4000.0) {
+        *error = "--truth-hz takes a rate in [0, 4000]";
+        return false;
+      }
+    } else if (!std::strcmp(arg, "--start")) {
+      if (!value(&v)) return false;
+      const std::string s = v;
+      const size_t a = s.find(','), b = s.find(',', a == std::string::npos ? a : a + 1);
+      if (a == std::string::npos || b == std::string::npos ||
+          !parse_double(s.substr(0, a).c_str(), &opts->start.x_m) ||
+          !parse_double(s.substr(a + 1, b - a - 1).c_str(), &opts->start.y_m) ||
+          !parse_double(s.substr(b + 1).c_str(), &opts->start.theta_rad)) {
+        *error = "--start takes x,y,theta (m, m, rad)";
+        return false;
+      }
+    } else if (!std::strcmp(arg, "--arena-margin")) {
+      if (!value(&v)) return false;
+      if (!parse_double(v, &opts->arena_margin_m) || opts->arena_margin_m < 0.0 || opts->arena_margin_m > 100.0) {
+        *error = "--arena-margin takes a distance in [0, 100] m";
+        return false;
+      }
+    } else if (!std::strcmp(arg, "--control-port")) {
+      if (!value(&v)) return false;
+      double port = 0;
+      if (!parse_double(v, &port) || port < 0 || port > 65535 || port != static_cast<int>(port)) {
+        *error = "--control-port takes a port number";
+        return false;
+      }
+      opts->control_port = static_cast<int>(port);
+    } else {
+      *error = std::string("unknown option ") + arg;
+      return false;
+    }
+  }
+  if (opts->firmware.empty()) {
+    *error = "--firmware is required";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace cart2d

@@ -1,0 +1,30 @@
+// Command line of cart2d-sim.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "body.hpp"          // Pose
+#include "robot_params.hpp"  // params::sim defaults
+
+namespace cart2d {
+
+struct Options {
+  std::string firmware;
+  double speed = 1.0;  // ≤ 0: as fast as possible
+  uint64_t seed = 0;
+  std::string eeprom;  // empty: EepromStore::default_path()
+  double truth_hz = params::sim::truth_hz;
+  Pose start;
+  double arena_margin_m = params::sim::arena_margin_m;
+  int control_port = 0;  // 0: ephemeral
+  bool verbose = false;
+  bool quiet = false;
+};
+
+// Fills *opts (pre-set with defaults) from argv. False with a message on a bad command line;
+// *help is set when --help was asked for.
+bool parse_options(int argc, char** argv, Options* opts, bool* help, std::string* error);
+std::string usage();
+
+}  // namespace cart2d

@@ -1,0 +1,110 @@
+// The simulated robot, assembled: the firmware in simavr, the parts wired to its pins, and the
+// physical cart in its arena, advanced together by ONE periodic cycle timer (the physics step).
+// Everything here runs in simulated time only; the application around it (simulator.cpp) adds
+// pacing, the pseudo-terminal and the side channel. Tests drive a Rig directly.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "cart.hpp"
+#include "cpu_meter.hpp"
+#include "encoder_part.hpp"
+#include "faults.hpp"
+#include "hbridge_part.hpp"
+#include "mcu.hpp"
+#include "measuring_wheels.hpp"
+#include "pin_driver.hpp"
+#include "switch_part.hpp"
+#include "uart_link.hpp"
+#include "world.hpp"
+
+namespace cart2d {
+
+struct RigConfig {
+  std::string firmware;
+  uint64_t seed = 0;
+  Pose start;
+  double arena_margin_m = 0.25;
+  bool open_pty = true;
+};
+
+class Rig {
+ public:
+  Rig();
+  ~Rig();
+  Rig(const Rig&) = delete;
+  Rig& operator=(const Rig&) = delete;
+
+  bool init(const RigConfig& config, std::string* error);
+
+  // Runs the MCU (and with it the physics) for n more cycles; false if the MCU has stopped.
+  bool run_cycles(uint64_t n);
+  double time_s() const { return mcu_.time_s(); }
+  uint64_t cycle() const { return mcu_.cycle(); }
+
+  // Pushes the reset button: the MCU restarts, the cart stays where it is, EEPROM is kept.
+  void reset_mcu();
+  // Teleports the cart (at rest); the wheels do not turn, so no encoder edges.
+  void place(const Pose& pose);
+  void set_faults(const Faults& faults);
+  const Faults& faults() const { return faults_; }
+  // Replaces the dynamics by a prescribed twist (tests); nullopt restores the dynamics.
+  void set_scripted_twist(std::optional<Twist> twist) { scripted_ = twist; }
+
+  // Called after every physics step with the cycle the step ended at.
+  void set_step_hook(std::function<void(uint64_t)> hook) { step_hook_ = std::move(hook); }
+
+  Mcu& mcu() { return mcu_; }
+  const Mcu& mcu() const { return mcu_; }
+  UartLink& uart() { return uart_; }
+  const UartLink& uart() const { return uart_; }
+  const Cart& cart() const { return *cart_; }
+  World& world() { return world_; }
+  const World& world() const { return world_; }
+  ContactMonitor& contacts() { return contacts_; }
+  const ContactMonitor& contacts() const { return contacts_; }
+  const CpuMeter& cpu() const { return *cpu_; }
+  CpuMeter& cpu() { return *cpu_; }
+  const MotorDuties& duties() const { return duties_; }
+  const EncoderPart& encoder_left() const { return *enc_l_; }
+  const EncoderPart& encoder_right() const { return *enc_r_; }
+  double enc_dist_l_m() const { return enc_dist_l_m_; }
+  double enc_dist_r_m() const { return enc_dist_r_m_; }
+  uint64_t physics_steps() const { return physics_steps_; }
+  uint64_t step_cycles() const { return step_cycles_; }
+  double step_s() const { return step_s_; }
+
+ private:
+  static uint64_t physics_timer(avr_t* avr, uint64_t when, void* param);
+  uint64_t physics_step(uint64_t when);
+  void arm_physics();
+
+  Mcu mcu_;
+  World world_;
+  std::unique_ptr<Cart> cart_;
+  ContactMonitor contacts_;
+  MeasuringWheelParams wheels_;
+  Faults faults_;
+  QuadratureFaults qfaults_;
+  std::unique_ptr<PinDriver> pins_;
+  std::unique_ptr<HBridgePart> hbridge_;
+  std::unique_ptr<SwitchPart> switches_;
+  std::unique_ptr<EncoderPart> enc_l_, enc_r_;
+  UartLink uart_;
+  std::unique_ptr<CpuMeter> cpu_;
+  MotorDuties duties_;
+  std::optional<Twist> scripted_;
+  std::function<void(uint64_t)> step_hook_;
+
+  double step_s_ = 0.00025;
+  uint64_t step_cycles_ = 4000;
+  uint64_t next_step_cycle_ = 0;
+  uint64_t physics_steps_ = 0;
+  double enc_dist_l_m_ = 0.0, enc_dist_r_m_ = 0.0;
+};
+
+}  // namespace cart2d

@@ -1,0 +1,157 @@
+#include "simulator.hpp"
+
+#include <cerrno>   // errno
+#include <climits>  // PATH_MAX
+#include <cstdlib>  // realpath
+#include <poll.h>   // ppoll
+#include <vector>
+
+#include "log.hpp"
+#include "robot_params.hpp"  // params::body
+
+namespace cart2d {
+
+constexpr double kSliceS = 0.001;          // simulated time between two looks at the sockets
+constexpr double kEepromCheckS = 0.25;     // wall time between two EEPROM change checks
+
+Simulator::Simulator(const Options& opts)
+    : opts_(opts), eeprom_(opts.eeprom.empty() ? EepromStore::default_path() : opts.eeprom) {
+  pacer_.set_factor(opts.speed);
+}
+
+bool Simulator::init(std::string* error) {
+  char resolved[PATH_MAX];
+  firmware_path_ = realpath(opts_.firmware.c_str(), resolved) ? resolved : opts_.firmware;
+
+  RigConfig rc;
+  rc.firmware = opts_.firmware;
+  rc.seed = opts_.seed;
+  rc.start = opts_.start;
+  rc.arena_margin_m = opts_.arena_margin_m;
+  if (!rig_.init(rc, error)) return false;
+
+  const World& w = rig_.world();
+  const double r = params::body::footprint_radius_m;
+  const Pose& s = opts_.start;
+  if (s.x_m - r < w.x_min() || s.x_m + r > w.x_max() || s.y_m - r < w.y_min() || s.y_m + r > w.y_max()) {
+    *error = "--start puts the cart's footprint outside the walls";
+    return false;
+  }
+  if (opts_.arena_margin_m < r)
+    LOG_WARN("arena margin %.3f m is below the footprint radius %.3f m: edge nodes are unreachable", opts_.arena_margin_m, r);
+
+  // EEPROM after the ELF: loading the ELF wrote its .eeprom section.
+  if (eeprom_.load(rig_.mcu().avr())) LOG_INFO("EEPROM restored from %s", eeprom_.path().c_str());
+  else LOG_INFO("no EEPROM file yet at %s: starting from the firmware's image", eeprom_.path().c_str());
+
+  if (!control_.listen(static_cast<uint16_t>(opts_.control_port), error)) return false;
+  rig_.set_step_hook([this](uint64_t end) { on_physics_step(end); });
+  return true;
+}
+
+std::string Simulator::ready_line() const {
+  return json::Object()
+      .add("event", "ready")
+      .add("pty", rig_.uart().pty_path())
+      .add("control", "127.0.0.1:" + std::to_string(control_.port()))
+      .add("firmware", firmware_path_)
+      .add("eeprom", eeprom_.path())
+      .str();
+}
+
+void Simulator::on_physics_step(uint64_t end_cycle) {
+  // Ground truth is sampled here, on the physics grid in simulated time, so its content does not
+  // depend on how fast the host runs.
+  std::string line;
+  const uint32_t f = rig_.mcu().frequency_hz();
+  for (auto& c : control_.clients()) {
+    if (c.dead || c.truth_hz <= 0.0 || c.next_truth_cycle > end_cycle) continue;
+    if (line.empty()) line = truth_json();
+    control_.send(c.id, line, true);
+    const uint64_t period = static_cast<uint64_t>(f / c.truth_hz);
+    c.next_truth_cycle += period > 0 ? period : 1;
+    if (c.next_truth_cycle <= end_cycle) c.next_truth_cycle = end_cycle + period;  // fell behind: skip
+  }
+}
+
+void Simulator::publish_events() {
+  for (const auto& e : rig_.contacts().take_events()) {
+    control_.broadcast(json::Object()
+                           .add("type", "event")
+                           .add("event", e.kind)
+                           .add("t", e.t_s)
+                           .add("x", e.x_m)
+                           .add("y", e.y_m)
+                           .str());
+  }
+  if (!rig_.mcu().alive() && !mcu_dead_reported_) {
+    mcu_dead_reported_ = true;
+    LOG_WARN("the MCU stopped (%s) at t = %.6f s; send {\"type\":\"reset\"} to restart it", rig_.mcu().state_name(),
+             rig_.time_s());
+    control_.broadcast(json::Object()
+                           .add("type", "event")
+                           .add("event", "mcu_stopped")
+                           .add("t", rig_.time_s())
+                           .add("state", rig_.mcu().state_name())
+                           .str());
+  }
+}
+
+void Simulator::save_eeprom(const char* why) {
+  std::string error;
+  if (eeprom_.save(rig_.mcu().avr(), &error)) LOG_DEBUG("EEPROM saved (%s)", why);
+  else LOG_WARN("EEPROM not saved: %s", error.c_str());
+}
+
+void Simulator::wait_for_io(double timeout_s) {
+  std::vector<pollfd> fds;
+  control_.add_poll_fds(&fds);
+  if (rig_.uart().host_fd() >= 0)
+    fds.push_back({rig_.uart().host_fd(), static_cast<short>(POLLIN | (rig_.uart().host_output_pending() ? POLLOUT : 0)), 0});
+  timespec ts;
+  ts.tv_sec = static_cast<time_t>(timeout_s);
+  ts.tv_nsec = static_cast<long>((timeout_s - static_cast<double>(ts.tv_sec)) * 1e9);
+  ppoll(fds.data(), fds.size(), &ts, nullptr);
+}
+
+int Simulator::run(volatile std::sig_atomic_t* stop) {
+  const uint64_t slice = static_cast<uint64_t>(kSliceS * rig_.mcu().frequency_hz());
+  wall_start_s_ = wall_now_s();
+  pacer_.anchor(rig_.time_s(), wall_start_s_);
+  next_eeprom_check_s_ = wall_start_s_ + kEepromCheckS;
+
+  while (!quit_ && !*stop) {
+    rig_.uart().read_host();
+    control_.poll_input(opts_.truth_hz, [this](int client, const std::string& line) { handle_line(client, line); });
+    if (quit_) break;
+
+    const bool running = !paused_ && rig_.mcu().alive();
+    if (running) rig_.run_cycles(slice);
+    rig_.uart().write_host(rig_.cycle());
+    publish_events();
+    control_.flush();
+
+    const double now = wall_now_s();
+    if (now >= next_eeprom_check_s_) {
+      next_eeprom_check_s_ = now + kEepromCheckS;
+      if (eeprom_.changed(rig_.mcu().avr())) save_eeprom("changed");
+    }
+    if (!running) {
+      wait_for_io(0.02);
+      pacer_.anchor(rig_.time_s(), wall_now_s());
+      continue;
+    }
+    pacer_.sample(rig_.time_s(), now);
+    const double delay = pacer_.delay_s(rig_.time_s(), now);
+    if (delay > 0.0) wait_for_io(delay);
+  }
+  control_.flush();
+  save_eeprom("exit");
+  const CpuMeter::Summary cpu = rig_.cpu().total();
+  LOG_INFO("stopped at t = %.3f s simulated after %.3f s wall; CPU per tick mean %.2f %% max %.2f %% over %llu ticks",
+           rig_.time_s(), wall_now_s() - wall_start_s_, 100.0 * cpu.mean, 100.0 * cpu.max,
+           static_cast<unsigned long long>(cpu.ticks));
+  return 0;
+}
+
+}  // namespace cart2d
