@@ -11,8 +11,10 @@ include firmware/avr.mk
 HOST_BUILD := build/host
 SIM_BUILD := build/sim
 SIM_BIN := $(SIM_BUILD)/cart2d-sim
+VENV := build/venv
+PY := $(VENV)/bin/python
 
-.PHONY: help deps firmware flash host-tests fuzz fuzz-quick sim sim-tests test bench-firmware run clean
+.PHONY: help deps firmware flash host-tests fuzz fuzz-quick sim sim-tests python-env python-checks python-tests test bench-firmware bench-sim profile-firmware run clean
 
 help:
 	@echo "make run             install what is missing, build, start cart2d"
@@ -20,7 +22,9 @@ help:
 	@echo "make firmware        build $(AVR_HEX) and print its size"
 	@echo "make sim             build the simulator ($(SIM_BIN))"
 	@echo "make flash PORT=...  flash the Nano with avrdude"
-	@echo "make bench-firmware  print flash and RAM use against the budgets"
+	@echo "make bench-firmware  flash, RAM and CPU per control tick against the budgets"
+	@echo "make bench-sim       the same, with the simulator's real-time factor"
+	@echo "make profile-firmware  cycles per control tick by function (simavr)"
 	@echo "make fuzz            fuzz the packet parser and dispatcher for $(FUZZ_SECONDS) s"
 
 deps:
@@ -49,6 +53,22 @@ sim: $(SIM_BUILD)/build.ninja
 sim-tests: sim firmware
 	ctest --test-dir $(SIM_BUILD) --output-on-failure
 
+$(VENV)/.installed: pyproject.toml
+	python3 -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[dev]'
+	touch $@
+
+python-env: $(VENV)/.installed
+
+python-checks: python-env
+	$(VENV)/bin/ruff check cart2d tests bench
+	$(VENV)/bin/ruff format --check cart2d tests bench
+	$(VENV)/bin/mypy
+
+python-tests: python-env firmware sim
+	$(PY) -m pytest -q
+
 fuzz-quick: host-tests
 	tools/run-fuzz.sh $(HOST_BUILD)/fuzz_packets 30
 
@@ -57,8 +77,14 @@ fuzz: host-tests
 
 test: deps firmware host-tests sim-tests fuzz-quick bench-firmware
 
-bench-firmware: $(AVR_ELF)
+bench-firmware: $(AVR_ELF) sim python-env
 	@python3 tools/firmware_size.py $(AVR_ELF)
+	@$(PY) -m bench.sim_bench
+
+bench-sim: bench-firmware
+
+profile-firmware: $(AVR_ELF) sim python-env
+	@$(PY) -m bench.firmware_profile
 
 run: deps firmware
 	@echo "cart2d so far: the Nano firmware is built ($(AVR_HEX))."

@@ -48,12 +48,22 @@ def dictionary_hash(commands: list[list[str]]) -> int:
     return crc16_mcrf4xx(canonical.encode())
 
 
+NO_ARGS = "\u2013"  # the spec's table writes an en dash for "none"
+
+
 @dataclass(frozen=True)
 class Command:
     code: int
     name: str
     args: str
     results: str
+
+    @property
+    def arg_count(self) -> int | None:
+        """Number of arguments, from the spec's "args in" column; None when it varies."""
+        if "…" in self.args:
+            return None
+        return 0 if self.args in (NO_ARGS, "") else len(self.args.split(","))
 
 
 @dataclass(frozen=True)

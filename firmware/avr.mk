@@ -13,7 +13,7 @@ AVR_HEADERS  := $(AVR_GEN)/robot_params.hpp $(AVR_GEN)/protocol_table.hpp
 
 AVR_CXXFLAGS := -mmcu=$(AVR_MCU) -DF_CPU=$(AVR_F_CPU) -std=gnu++14 -Os -g \
                 -Wall -Wextra -Werror -fno-exceptions -fno-rtti -fno-threadsafe-statics \
-                -ffunction-sections -fdata-sections -flto -mcall-prologues -mrelax -fno-split-wide-types \
+                -ffunction-sections -fdata-sections -flto -mcall-prologues -mrelax -fno-split-wide-types -fno-move-loop-invariants -mstrict-X \
                 '-DCORE_FLASH=__attribute__((__progmem__))' \
                 -Ifirmware -Ifirmware/core -I$(AVR_GEN) -MMD -MP
 AVR_LDFLAGS  := -mmcu=$(AVR_MCU) -Os -flto -mrelax -Wl,--gc-sections -Wl,-Map,$(AVR_BUILD)/cart2d-nano.map

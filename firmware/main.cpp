@@ -26,7 +26,8 @@ core::SettingsStore store(eeprom::kPort);
 core::Path path;
 core::Cart cart(settings, path);
 core::Health health;
-core::Dispatcher dispatcher(cart, settings, store, health);
+core::ReplyBuffer reply;
+core::Dispatcher dispatcher(cart, settings, store, health, reply);
 core::PacketReceiver receiver;
 
 uint8_t telemetry_countdown = 1;
@@ -39,10 +40,15 @@ bool measuring_tick = false;    // a tick ran since the loop last went to sleep
 // A partial packet older than this is given up (2 ticks = 16 ms = ~180 byte times).
 constexpr uint8_t kPacketExpiryTicks = 2;
 
+// The rate is looked up once per frame (it costs a division), not at every tick; with
+// telemetry off it is looked up again every kTelemetryRecheckTicks.
+constexpr uint8_t kTelemetryRecheckTicks = 25;
+
 void send_telemetry() {
+  if (--telemetry_countdown > 0) return;
   const uint8_t divider = core::telemetry_divider(settings.get(params::settings::telemetry_hz));
-  if (divider == 0 || --telemetry_countdown > 0) return;
-  telemetry_countdown = divider;
+  telemetry_countdown = divider == 0 ? kTelemetryRecheckTicks : divider;
+  if (divider == 0) return;
   // Telemetry is lossy by design: skip a frame rather than delay a reply.
   if (uart::tx_free() < core::wire::kTelemetrySize + core::wire::kMaxReply) return;
   uint8_t frame[core::wire::kTelemetrySize];
@@ -57,9 +63,12 @@ void account_busy_time() {
   busy_counts_sum += counts;
   if (counts > busy_counts_max) busy_counts_max = counts;
   if (++ticks_in_second < params::control::tick_hz) return;
-  // Shares of the second and of one tick, in percent (once a second: the division is cheap).
-  health.cpu_load_pct = static_cast<uint8_t>(busy_counts_sum * 100UL / (tick_timer::kCountsPerTick * params::control::tick_hz));
-  health.cpu_max_pct = static_cast<uint8_t>(busy_counts_max * 100U / tick_timer::kCountsPerTick);
+  // Shares of the second and of one tick, in percent. Float multiplies: the float routines are
+  // linked anyway, integer division would add ~110 B of library code for this alone.
+  constexpr float kPctPerCountSecond = 100.0f / (tick_timer::kCountsPerTick * params::control::tick_hz);
+  constexpr float kPctPerCountTick = 100.0f / tick_timer::kCountsPerTick;
+  health.cpu_load_pct = static_cast<uint8_t>(busy_counts_sum * kPctPerCountSecond + 0.5f);
+  health.cpu_max_pct = static_cast<uint8_t>(busy_counts_max * kPctPerCountTick + 0.5f);
   busy_counts_sum = 0;
   busy_counts_max = 0;
   ticks_in_second = 0;

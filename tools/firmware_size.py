@@ -6,8 +6,8 @@ from __future__ import annotations
 import subprocess
 import sys
 
-FLASH_BUDGET = 16 * 1024   # half of the 32 KiB: room to grow, and for the bootloader
-RAM_BUDGET = 1024          # data + bss; the other 1 KiB of the 2 KiB is for the stack
+FLASH_BUDGET = 16 * 1024  # half of the 32 KiB: room to grow, and for the bootloader
+RAM_BUDGET = 1024  # data + bss; the other 1 KiB of the 2 KiB is for the stack
 RAM_TOTAL = 2048
 
 
@@ -26,9 +26,12 @@ def main() -> int:
     flash = s.get(".text", 0) + s.get(".data", 0)
     ram = s.get(".data", 0) + s.get(".bss", 0)
     ok = flash <= FLASH_BUDGET and ram <= RAM_BUDGET
-    print(f"firmware flash: {flash} B of {FLASH_BUDGET} B budget ({100 * flash / FLASH_BUDGET:.0f} %), 32768 B chip")
-    print(f"firmware RAM:   {ram} B static (data {s.get('.data', 0)} + bss {s.get('.bss', 0)}) of "
-          f"{RAM_BUDGET} B budget ({100 * ram / RAM_BUDGET:.0f} %); {RAM_TOTAL - ram} B left for the stack")
+    share = 100 * flash / FLASH_BUDGET
+    print(f"firmware flash: {flash} B of {FLASH_BUDGET} B budget ({share:.0f} %), 32768 B chip")
+    print(
+        f"firmware RAM:   {ram} B static (data {s.get('.data', 0)} + bss {s.get('.bss', 0)}) of "
+        f"{RAM_BUDGET} B budget ({100 * ram / RAM_BUDGET:.0f} %); {RAM_TOTAL - ram} B left for the stack"
+    )
     print("budgets:", "met" if ok else "EXCEEDED")
     return 0 if ok else 1
 

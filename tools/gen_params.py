@@ -14,7 +14,7 @@ import tomllib
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from cart2d.spec import crc16_mcrf4xx  # noqa: E402  (one CRC implementation in Python)
+from cart2d.spec import crc16_mcrf4xx
 
 SETTING_FIELDS = ("id", "name", "unit", "min", "max", "default", "doc")
 
@@ -88,8 +88,9 @@ def emit_settings(settings: list[dict]) -> list[str]:
     out.append("}  // namespace settings\n")
     out.append("// X(id, name, min, max, default) for every setting, to build tables where they are used.")
     out.append("#define CART2D_SETTINGS(X) \\")
-    out += [f"  X({s['id']}, {s['name']}, {float(s['min'])!r}f, {float(s['max'])!r}f, {float(s['default'])!r}f) \\"
-            for s in settings]
+    for s in settings:
+        numbers = ", ".join(f"{float(s[k])!r}f" for k in ("min", "max", "default"))
+        out.append(f"  X({s['id']}, {s['name']}, {numbers}) \\")
     out.append("")
     return out
 

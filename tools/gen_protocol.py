@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from cart2d.spec import parse_spec  # noqa: E402  (the same parser the gateway uses)
+from cart2d.spec import parse_spec
 
 
 def enum(name: str, base: str, items: list[tuple[str, int]], prefix: str = "") -> list[str]:
@@ -34,6 +34,10 @@ def generate(text: str, source: str) -> str:
         f"constexpr unsigned char kCommandCount = {len(spec.commands)};\n",
     ]
     lines += enum("Command", "unsigned char", [(c.name, c.code) for c in spec.commands.values()])
+    counts = [c.arg_count if c.arg_count is not None else 255 for c in spec.commands.values()]
+    lines.append("constexpr unsigned char kVariadic = 255;")
+    lines.append('// Arguments per command code (the spec\'s "args in" column), kVariadic when it varies.')
+    lines.append("#define CART2D_ARG_COUNTS {" + ", ".join(str(n) for n in counts) + "}")
     lines += enum("Reason", "unsigned char", [(n, c) for c, n in spec.reasons.items()], "REASON_")
     lines += enum("Mode", "unsigned char", [(n, c) for c, n in spec.modes.items()], "MODE_")
     lines += enum("Flag", "unsigned", list(spec.flags.items()), "FLAG_")

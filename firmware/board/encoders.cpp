@@ -37,8 +37,8 @@ void take_counts(int16_t& left, int16_t& right) {
 
 // After an edge of A: forwards when (A == B) matches the mounting's "B high on A's rising edge
 // is forwards" (robot.toml); on a falling edge B is the opposite for the same direction.
-static inline int8_t step(bool a, bool b, bool b_high_on_rise_is_forward) {
-  return ((a == b) == b_high_on_rise_is_forward) ? 1 : -1;
+static inline bool forwards(bool a, bool b, bool b_high_on_rise_is_forward) {
+  return (a == b) == b_high_on_rise_is_forward;
 }
 
 }  // namespace encoders
@@ -46,12 +46,19 @@ static inline int8_t step(bool a, bool b, bool b_high_on_rise_is_forward) {
 
 using namespace board;
 
+// Kept minimal (an increment or a decrement): at 1 m/s each fires ~15 000 times a second.
 ISR(INT0_vect) {
-  encoders::left_counts += encoders::step(read_pin(encoders::pins::left_enc_a), read_pin(encoders::pins::left_enc_b),
-                                          encoders::enc::left_b_high_on_rise_is_forward);
+  if (encoders::forwards(read_pin(encoders::pins::left_enc_a), read_pin(encoders::pins::left_enc_b),
+                         encoders::enc::left_b_high_on_rise_is_forward))
+    ++encoders::left_counts;
+  else
+    --encoders::left_counts;
 }
 
 ISR(INT1_vect) {
-  encoders::right_counts += encoders::step(read_pin(encoders::pins::right_enc_a), read_pin(encoders::pins::right_enc_b),
-                                           encoders::enc::right_b_high_on_rise_is_forward);
+  if (encoders::forwards(read_pin(encoders::pins::right_enc_a), read_pin(encoders::pins::right_enc_b),
+                         encoders::enc::right_b_high_on_rise_is_forward))
+    ++encoders::right_counts;
+  else
+    --encoders::right_counts;
 }

@@ -7,21 +7,35 @@ namespace core {
 using namespace params::settings;  // setting ids
 
 constexpr float kOvershootPassFactor = 4.0f;
+constexpr uint8_t kStallTicks = params::control::tick_hz;  // 1 s
+constexpr int16_t kStallPwm = params::control::pwm_max * 9 / 10;
+constexpr float kStallSpeed_mps = 0.01f;
+
+static bool is_stalled(int16_t pwm, float speed_mps) {
+  return (pwm >= kStallPwm || pwm <= -kStallPwm) && fabsf(speed_mps) < kStallSpeed_mps;
+}
 
 static uint16_t seconds_to_ticks(float seconds) {
   const float ticks = seconds * params::control::tick_hz + 0.5f;
   return ticks > 65535.0f ? 65535 : static_cast<uint16_t>(ticks);
 }
 
-WheelGeometry Cart::geometry() const {
-  return WheelGeometry{setting(enc_radius_left_m), setting(enc_radius_right_m), setting(enc_track_m),
-                       kCountsPerRev};
+// Recomputed only when a setting changed (e.g. a calibration), not at every tick.
+const OdometryScale& Cart::scale() {
+  if (!scale_valid_ || scale_version_ != settings_.version()) {
+    const WheelGeometry geometry{setting(enc_radius_left_m), setting(enc_radius_right_m), setting(enc_track_m),
+                                 kCountsPerRev};
+    scale_ = OdometryScale(geometry, kTickPeriod_s);
+    scale_version_ = settings_.version();
+    scale_valid_ = true;
+  }
+  return scale_;
 }
 
 MotorOutput Cart::tick(const TickInput& in) {
   switch_left_ = in.switch_left;
   switch_right_ = in.switch_right;
-  odometry_.update(in.counts_left, in.counts_right, geometry(), kTickPeriod_s);
+  odometry_.update(in.counts_left, in.counts_right, scale());
 
   float v_mps = 0.0f;
   float omega_radps = 0.0f;
@@ -31,7 +45,15 @@ MotorOutput Cart::tick(const TickInput& in) {
     case proto::MODE_HOLD:
       break;
     case proto::MODE_PATH:
-      if (!follow_path(v_mps, omega_radps)) return output_;
+      // The position loop runs every kPositionDivider ticks; in between, its last output
+      // stands (the speed loop below still runs every tick).
+      if (position_countdown_ == 0) {
+        position_countdown_ = kPositionDivider;
+        if (!follow_path(path_v_mps_, path_omega_radps_)) return output_;
+      }
+      --position_countdown_;
+      v_mps = path_v_mps_;
+      omega_radps = path_omega_radps_;
       break;
     case proto::MODE_MANUAL:
       if (manual_ticks_left_ == 0) {
@@ -51,15 +73,13 @@ MotorOutput Cart::tick(const TickInput& in) {
   v_ref_mps_ = step_toward(v_ref_mps_, v_mps, setting(a_max_mps2) * kTickPeriod_s);
   omega_ref_radps_ = step_toward(omega_ref_radps_, omega_radps, setting(alpha_max_radps2) * kTickPeriod_s);
   wheel_targets_ = wheel_speeds(v_ref_mps_, omega_ref_radps_, setting(enc_track_m));
-  const WheelSpeeds measured{odometry_.v_left_mps(), odometry_.v_right_mps()};
-  const PiGains gains{setting(speed_kp), setting(speed_ki)};
-  output_.pwm = speed_.update(wheel_targets_, measured, gains, kTickPeriod_s, params::control::pwm_max);
-  output_.enabled = true;
+  drive_wheels(WheelSpeeds{odometry_.v_left_mps(), odometry_.v_right_mps()});
   return output_;
 }
 
 // Computes the speeds that drive the path; false when the cart has just stopped on the end.
-bool Cart::follow_path(float& v_mps, float& omega_radps) {
+__attribute__((noinline)) bool Cart::follow_path(float& v_mps, float& omega_radps) {
+  v_mps = omega_radps = 0.0f;
   if (path_.upload_open()) return true;  // brake (zero targets) until the rest has arrived
   if (!path_.active()) {
     safe_stop(0);
@@ -68,14 +88,17 @@ bool Cart::follow_path(float& v_mps, float& omega_radps) {
   const PolarGains gains{setting(pos_rho_kp), setting(pos_phase_kp)};
   const MotionLimits limits{setting(v_max_mps), setting(w_max_radps), setting(a_max_mps2)};
   const Pose& pose = odometry_.pose();
-  PolarOutput cmd = polar_control(pose, path_.approach(limits.v_max_mps), gains, limits);
+  const Heading heading{odometry_.cos_theta(), odometry_.sin_theta()};
   // Intermediate waypoints are passed at the coarser tolerance, without slowing down; one
   // overshot a little (beyond it along its segment) counts as passed rather than being chased.
   const float tol_pass = setting(tol_pass_m);
-  while (!path_.at_last() && (fabsf(cmd.rho_m) < tol_pass ||
-                              (fabsf(cmd.rho_m) < kOvershootPassFactor * tol_pass && path_.passed(pose)))) {
+  PolarOutput cmd;
+  for (;;) {
+    cmd = polar_control(pose, heading, path_.approach(limits.v_max_mps), gains, limits);
+    const float distance_m = fabsf(cmd.rho_m);
+    const bool passed = distance_m < tol_pass || (distance_m < kOvershootPassFactor * tol_pass && path_.passed(pose));
+    if (path_.at_last() || !passed) break;
     path_.advance();
-    cmd = polar_control(pose, path_.approach(limits.v_max_mps), gains, limits);
   }
   distance_to_waypoint_m_ = fabsf(cmd.rho_m);
   // Arrival is judged on the distance between robot and waypoint (the seed compared
@@ -103,13 +126,24 @@ void Cart::run_reset_routine(const TickInput& in) {
     return;
   }
   wheel_targets_ = creep;
-  const WheelSpeeds measured{odometry_.v_left_mps(), odometry_.v_right_mps()};
-  const PiGains gains{setting(speed_kp), setting(speed_ki)};
+  drive_wheels(WheelSpeeds{odometry_.v_left_mps(), odometry_.v_right_mps()});
+}
+
+// Speed control towards wheel_targets_, and the stall guard: a wheel held at (nearly) full
+// PWM that does not turn for kStallTicks is blocked (a wall, a jam); keeping the current up
+// would only heat the motor, so the cart stops and says why.
+void Cart::drive_wheels(const WheelSpeeds& measured) {
+  const SpeedGains gains{{setting(speed_kp), setting(speed_ki)}, setting(speed_kff)};
   output_.pwm = speed_.update(wheel_targets_, measured, gains, kTickPeriod_s, params::control::pwm_max);
   output_.enabled = true;
+  const bool left_stuck = is_stalled(output_.pwm.left, measured.left_mps);
+  const bool right_stuck = is_stalled(output_.pwm.right, measured.right_mps);
+  stall_ticks_ = (left_stuck || right_stuck) ? stall_ticks_ + 1 : 0;
+  if (stall_ticks_ >= kStallTicks) safe_stop(proto::FLAG_STALLED);
 }
 
 void Cart::enter(proto::Mode mode) {
+  position_countdown_ = 0;  // a new target: run the position loop at the next tick
   if (mode_ == proto::MODE_IDLE) {
     speed_.reset();  // a fresh start: no stale integrator, speeds ramp up from zero
     v_ref_mps_ = omega_ref_radps_ = 0.0f;
@@ -120,6 +154,7 @@ void Cart::enter(proto::Mode mode) {
 
 void Cart::safe_stop(uint16_t reason_flag) {
   mode_ = proto::MODE_IDLE;
+  stall_ticks_ = 0;
   sticky_flags_ |= reason_flag;
   speed_.reset();
   v_ref_mps_ = omega_ref_radps_ = 0.0f;

@@ -16,6 +16,10 @@
 namespace core {
 
 constexpr float kTickPeriod_s = 1.0f / params::control::tick_hz;
+// The position loop runs at 125 / 2 = 62.5 Hz, the wheel-speed loop and odometry at 125 Hz: the
+// position loop's time constants (>= 0.25 s with the default gains) are ~30 of its periods,
+// and its float work (~7000 cycles) every tick would take the tick over its CPU budget.
+constexpr uint8_t kPositionDivider = 2;
 constexpr float kCountsPerRev =
     static_cast<float>(params::encoders::pulses_per_rev * params::encoders::edges_per_pulse);
 
@@ -66,11 +70,15 @@ class Cart {
   void safe_stop(uint16_t reason_flag);
   bool follow_path(float& v_mps, float& omega_radps);
   void run_reset_routine(const TickInput& in);
-  WheelGeometry geometry() const;
+  void drive_wheels(const WheelSpeeds& measured);
+  const OdometryScale& scale();
   float setting(uint8_t id) const { return settings_.get(id); }
 
   const Settings& settings_;
   Odometry odometry_;
+  OdometryScale scale_;
+  uint8_t scale_version_ = 0;
+  bool scale_valid_ = false;
   SpeedController speed_;
   Path& path_;
   ResetRoutine routine_;
@@ -81,6 +89,10 @@ class Cart {
   float manual_v_mps_ = 0.0f;
   float manual_omega_radps_ = 0.0f;
   uint16_t manual_ticks_left_ = 0;
+  uint8_t stall_ticks_ = 0;
+  uint8_t position_countdown_ = 0;  // ticks until the position loop runs again
+  float path_v_mps_ = 0.0f;         // the position loop's last output
+  float path_omega_radps_ = 0.0f;
   float v_ref_mps_ = 0.0f;       // after the acceleration limiter
   float omega_ref_radps_ = 0.0f;
   float distance_to_waypoint_m_ = 0.0f;

@@ -1,5 +1,6 @@
 #include "dispatcher.hpp"
 
+#include "flash.hpp"           // CORE_FLASH, flash_read_byte
 #include "num.hpp"             // is_finite, normalize_angle
 #include "protocol_table.hpp"  // proto::Command, proto::Reason
 
@@ -7,18 +8,11 @@ namespace core {
 
 using namespace params::settings;  // setting ids
 
+static const uint8_t kArgCount[proto::kCommandCount] CORE_FLASH = CART2D_ARG_COUNTS;
+
 static const uint8_t kKpidIds[] = {pos_rho_kp, pos_phase_kp, speed_kp, speed_ki};
 static const uint8_t kTolIds[] = {tol_final_m};
 static const uint8_t kMaxSpeedIds[] = {v_max_mps, w_max_radps};
-
-// Coordinates beyond this are refused: squared distances would overflow a float.
-constexpr float kMaxCoordinate_m = 1000.0f;
-
-static bool coordinates_ok(const float* xy, uint8_t n) {
-  for (uint8_t i = 0; i < n; ++i)
-    if (xy[i] > kMaxCoordinate_m || xy[i] < -kMaxCoordinate_m) return false;
-  return true;
-}
 
 static bool is_whole(float v, float lo, float hi) {
   return v >= lo && v <= hi && v == static_cast<float>(static_cast<int16_t>(v));
@@ -55,7 +49,8 @@ void Dispatcher::handle(const PacketView& packet) {
     reason = 0;
     for (uint8_t i = 0; i < request.argc; ++i) {
       request.args[i] = get_f32(packet.body + wire::kRequestHeader + 4 * i);
-      if (!is_finite(request.args[i])) reason = proto::REASON_NOT_FINITE;
+      if (!is_moderate(request.args[i]) && reason == 0)
+        reason = is_finite(request.args[i]) ? proto::REASON_OUT_OF_RANGE : proto::REASON_NOT_FINITE;
     }
     if (reason == 0) reason = execute(request, results);
   }
@@ -70,15 +65,17 @@ void Dispatcher::handle(const PacketView& packet) {
     results.count = 0;
     results.add(reason);
   }
-  reply_length_ = encode_reply(reply_, packet.seq, status, request.cmd, results.value, results.count);
+  reply_length_ = encode_reply(reply_.bytes, packet.seq, status, request.cmd, results.value, results.count);
   last_seq_ = packet.seq;
   last_crc_ = packet.crc;
   last_age_ticks_ = 0;
 }
 
-// Every command checks its argument count first: ARG_COUNT, and nothing changes.
+// The argument count is checked first, against the spec's table: ARG_COUNT, and nothing changes.
 uint8_t Dispatcher::execute(const Request& r, Results& results) {
   if (r.cmd <= proto::CONTROL_INVALID_COM || r.cmd >= proto::kCommandCount) return kUnknownCommand;
+  const uint8_t expected = flash_read_byte(&kArgCount[r.cmd]);
+  if (expected != proto::kVariadic && r.argc != expected) return proto::REASON_ARG_COUNT;
   uint8_t reason = execute_motion(r, results);
   if (reason == kUnknownCommand) reason = execute_settings(r, results);
   if (reason == kUnknownCommand) reason = execute_system(r, results);
@@ -89,16 +86,13 @@ uint8_t Dispatcher::execute_motion(const Request& r, Results& results) {
   const float* a = r.args;
   switch (r.cmd) {
     case proto::COMMAND_RESET:
-      if (r.argc != 0) return proto::REASON_ARG_COUNT;
       cart_.set_pose(Pose());
       return 0;
     case proto::COMMAND_SET_POSE:
-      if (r.argc != 3) return proto::REASON_ARG_COUNT;
-      if (!coordinates_ok(a, 2)) return proto::REASON_OUT_OF_RANGE;
+      if (fabsf(a[2]) > kMaxAngle_rad) return proto::REASON_OUT_OF_RANGE;
       cart_.set_pose(Pose{a[0], a[1], normalize_angle(a[2])});
       return 0;
     case proto::COMMAND_POSE: {
-      if (r.argc != 0) return proto::REASON_ARG_COUNT;
       const Pose& p = cart_.odometry().pose();
       results.add(p.x_m);
       results.add(p.y_m);
@@ -106,34 +100,26 @@ uint8_t Dispatcher::execute_motion(const Request& r, Results& results) {
       return 0;
     }
     case proto::COMMAND_GOTO:
-      if (r.argc != 2) return proto::REASON_ARG_COUNT;
-      if (!coordinates_ok(a, 2)) return proto::REASON_OUT_OF_RANGE;
       cart_.go_to(Point{a[0], a[1]});
       return 0;
     case proto::COMMAND_WAIT_XY_ARRAY:
       if (r.argc % 2 == 0) return proto::REASON_ARG_COUNT;  // count + whole (x, y) pairs
-      if (!coordinates_ok(a + 1, r.argc - 1)) return proto::REASON_OUT_OF_RANGE;
       return cart_.begin_path(a[0], a + 1, (r.argc - 1) / 2);
     case proto::COMMAND_XY_APPEND: {
       if (r.argc < 3 || r.argc % 2 == 0) return proto::REASON_ARG_COUNT;
-      if (!coordinates_ok(a + 1, r.argc - 1)) return proto::REASON_OUT_OF_RANGE;
       const uint8_t reason = cart_.append_path(a[0], a + 1, (r.argc - 1) / 2);
       if (reason == 0) results.add(cart_.path().received());
       return reason;
     }
     case proto::COMMAND_START:
-      if (r.argc != 0) return proto::REASON_ARG_COUNT;
       cart_.start();
       return 0;
     case proto::COMMAND_STOP:
-      if (r.argc != 0) return proto::REASON_ARG_COUNT;
       cart_.stop();
       return 0;
     case proto::COMMAND_VELOCITY:
-      if (r.argc != 2) return proto::REASON_ARG_COUNT;
       return cart_.drive(a[0], a[1]);
     case proto::COMMAND_RESET_ROUTINE:
-      if (r.argc != 0) return proto::REASON_ARG_COUNT;
       cart_.start_reset_routine();
       return 0;
     default:
@@ -165,18 +151,15 @@ uint8_t Dispatcher::execute_settings(const Request& r, Results& results) {
   // The seed's GET/SET pairs: SET = GET + 1, all values or none.
   for (const Group& g : kGroups) {
     if (r.cmd == g.get_cmd) {
-      if (r.argc != 0) return proto::REASON_ARG_COUNT;
       get_all(g.ids, g.n, results);
       return 0;
     }
     if (r.cmd == g.get_cmd + 1) {
-      if (r.argc != g.n) return proto::REASON_ARG_COUNT;
       return set_all(g.ids, r.args, g.n, results);
     }
   }
   switch (r.cmd) {
     case proto::COMMAND_PARAM_GET: {
-      if (r.argc != 1) return proto::REASON_ARG_COUNT;
       if (!is_whole(r.args[0], 0, kCount - 1)) return proto::REASON_OUT_OF_RANGE;
       const uint8_t id = static_cast<uint8_t>(r.args[0]);
       results.add(id);
@@ -186,25 +169,21 @@ uint8_t Dispatcher::execute_settings(const Request& r, Results& results) {
       return 0;
     }
     case proto::COMMAND_PARAM_SET: {
-      if (r.argc != 2) return proto::REASON_ARG_COUNT;
       if (!is_whole(r.args[0], 0, kCount - 1)) return proto::REASON_OUT_OF_RANGE;
       const uint8_t id = static_cast<uint8_t>(r.args[0]);
       results.add(id);
       return set_all(&id, r.args + 1, 1, results);
     }
     case proto::COMMAND_TELEMETRY: {
-      if (r.argc != 1) return proto::REASON_ARG_COUNT;
       const uint8_t id = telemetry_hz;
       const uint8_t reason = settings_.set(id, r.args[0]);
       if (reason == 0) results.add(telemetry_rate_hz(settings_.get(id)));
       return reason;
     }
     case proto::COMMAND_SAVE:
-      if (r.argc != 0) return proto::REASON_ARG_COUNT;
       store_.save(settings_);
       return 0;
     case proto::COMMAND_LOAD:
-      if (r.argc != 0) return proto::REASON_ARG_COUNT;
       if (store_.load(settings_) != record::Verdict::kValid) return proto::REASON_EEPROM_INVALID;
       set_settings_source(record::Verdict::kValid);
       return 0;
@@ -213,8 +192,7 @@ uint8_t Dispatcher::execute_settings(const Request& r, Results& results) {
   }
 }
 
-uint8_t Dispatcher::execute_system(const Request& r, Results& results) {
-  if (r.argc != 0) return proto::REASON_ARG_COUNT;  // none of these takes arguments
+uint8_t Dispatcher::execute_system(const Request& r, Results& results) {  // none of these takes arguments
   switch (r.cmd) {
     case proto::COMMAND_VERSION:
       results.add(proto::kVersion);
@@ -239,16 +217,12 @@ uint8_t Dispatcher::execute_system(const Request& r, Results& results) {
 }
 
 void Dispatcher::status(Results& results) const {
-  results.add(cart_.mode());
-  results.add(cart_.flags());
-  results.add(cart_.path().index());
-  results.add(cart_.path().count());
-  results.add(health_.loop_overruns);
-  results.add(health_.cpu_load_pct);
-  results.add(health_.cpu_max_pct);
-  results.add(health_.rx_errors);
-  results.add(settings_source_);
-  results.add(store_.busy() ? 1.0f : 0.0f);
+  // Whole numbers first, converted in one loop (12 separate conversions cost ~150 B of flash).
+  const uint16_t counts[] = {cart_.mode(),          cart_.flags(),          cart_.path().index(),
+                             cart_.path().count(),  health_.loop_overruns,  health_.cpu_load_pct,
+                             health_.cpu_max_pct,   health_.rx_errors,      settings_source_,
+                             store_.busy()};
+  for (uint16_t n : counts) results.add(n);
   results.add(health_.ticks * kTickPeriod_s);
   results.add(last_error_);
 }

@@ -13,17 +13,24 @@
 
 namespace core {
 
+// The last reply, kept for retransmissions. A separate object so that on the AVR it sits in
+// .bss (zero-filled) and not in the dispatcher's .data image (copied from flash).
+struct ReplyBuffer {
+  uint8_t bytes[wire::kMaxReply];
+};
+
 class Dispatcher {
  public:
-  constexpr Dispatcher(Cart& cart, Settings& settings, SettingsStore& store, const Health& health)
-      : cart_(cart), settings_(settings), store_(store), health_(health) {}
+  constexpr Dispatcher(Cart& cart, Settings& settings, SettingsStore& store, const Health& health,
+                       ReplyBuffer& reply)
+      : cart_(cart), settings_(settings), store_(store), health_(health), reply_(reply) {}
 
   // Where the settings in use came from at boot (COMMAND_STATUS reports it).
   void set_settings_source(record::Verdict verdict);
 
   // Executes `packet`; the reply is then in reply()/reply_length().
   void handle(const PacketView& packet);
-  const uint8_t* reply() const { return reply_; }
+  const uint8_t* reply() const { return reply_.bytes; }
   uint8_t reply_length() const { return reply_length_; }
 
   // One control tick: ages the memory of the last request.
@@ -58,7 +65,7 @@ class Dispatcher {
   Settings& settings_;
   SettingsStore& store_;
   const Health& health_;
-  uint8_t reply_[wire::kMaxReply] = {};
+  ReplyBuffer& reply_;
   uint8_t reply_length_ = 0;
   uint8_t last_seq_ = 0;
   uint16_t last_crc_ = 0;

@@ -10,5 +10,6 @@
 namespace core {
 
 float flash_read_float(const float* address);
+unsigned char flash_read_byte(const unsigned char* address);
 
 }  // namespace core

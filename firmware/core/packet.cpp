@@ -114,11 +114,15 @@ uint8_t encode_reply(uint8_t* out, uint8_t seq, uint8_t status, uint8_t cmd, con
 }
 
 void encode_telemetry(uint8_t* out, const float* channels, uint16_t tick) {
+  for (uint8_t i = 0; i < kTelemetryChannels; ++i) put_f32(out + 3 + 4 * i, channels[i]);
+  finish_telemetry(out, tick);
+}
+
+void finish_telemetry(uint8_t* out, uint16_t tick) {
   out[0] = kTelemetrySync0;
   out[1] = kTelemetrySync1;
   out[2] = kTelemetryPayload;
   uint8_t* payload = out + 3;
-  for (uint8_t i = 0; i < kTelemetryChannels; ++i) put_f32(payload + 4 * i, channels[i]);
   payload[4 * kTelemetryChannels] = tick & 0xFF;
   payload[4 * kTelemetryChannels + 1] = tick >> 8;
   const uint16_t crc = crc16_mcrf4xx(payload, 4 * kTelemetryChannels + 2);

@@ -63,5 +63,7 @@ uint8_t encode_reply(uint8_t* out, uint8_t seq, uint8_t status, uint8_t cmd, con
                      uint8_t count);
 // A SerialPlot-compatible telemetry frame into out[kTelemetrySize].
 void encode_telemetry(uint8_t* out, const float* channels, uint16_t tick);
+// Completes a frame whose channels are already in place: header, TICK, CRC and SUM8.
+void finish_telemetry(uint8_t* out, uint16_t tick);
 
 }  // namespace core

@@ -49,12 +49,12 @@ class Path {
   Approach approach(float v_max_mps) const;
 
  private:
-  void update_after();
+  void update_exit_factor();
   const Point& previous() const { return index_ > 0 ? points_[index_ - 1] : start_; }
 
   Point points_[kWaypointCapacity] = {};
   Point start_ = {0.0f, 0.0f};
-  float after_m_ = 0.0f;  // length of the path beyond the current waypoint
+  float exit_factor_ = 0.0f;    // exit speed at the current waypoint / v_max (corner angle)
   uint8_t count_ = 0;
   uint8_t received_ = 0;
   uint8_t index_ = 0;

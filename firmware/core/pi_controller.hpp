@@ -11,8 +11,9 @@ struct PiGains {
 
 class PiController {
  public:
-  // One step of h_s seconds on `error`; the result is clamped to [-limit, limit].
-  float update(float error, const PiGains& gains, float h_s, float limit);
+  // One step of h_s seconds on `error`; the result (feedforward included) is clamped to
+  // [-limit, limit], and the integrator does not wind up against that clamp.
+  float update(float error, const PiGains& gains, float h_s, float limit, float feedforward = 0.0f);
   void reset() { integrator_ = 0.0f; }
   float integrator() const { return integrator_; }
 

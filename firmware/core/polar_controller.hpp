@@ -1,6 +1,7 @@
-// The seed's polar position controller, extended so that a path is driven at speed:
-// speed follows the distance left along the path, capped so the cart can brake in time for
-// the next corner (or the final stop) with the acceleration limit.
+// The seed's polar position controller, extended so that a path is driven at speed: towards an
+// intermediate waypoint the speed is only capped so that the cart can brake to the corner's
+// exit speed in time (with the acceleration limit); the seed's P law on the distance is kept
+// for the final waypoint, where the cart must stop.
 #pragma once
 
 #include "odometry.hpp"  // Pose
@@ -22,7 +23,6 @@ struct MotionLimits {
 struct Approach {
   float x_m;
   float y_m;
-  float after_m;           // path length beyond this waypoint (0 for the last one)
   float exit_speed_mps;    // speed at which the cart may pass it (0 for the last one)
   bool final;              // the last waypoint: stop on it
 };
@@ -39,6 +39,15 @@ struct PolarOutput {
 // 45 deg of the heading line; further off to the side the cart must still turn towards it).
 constexpr float kFinalApproachRadius_m = 0.02f;
 
+// cos and sin of pose.theta_rad (the odometry keeps them: no trigonometry needed here).
+struct Heading {
+  float cos_theta;
+  float sin_theta;
+};
+
+PolarOutput polar_control(const Pose& pose, const Heading& heading, const Approach& target,
+                          const PolarGains& gains, const MotionLimits& limits);
+// The same, computing the heading's cos and sin itself.
 PolarOutput polar_control(const Pose& pose, const Approach& target, const PolarGains& gains,
                           const MotionLimits& limits);
 

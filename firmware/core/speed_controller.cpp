@@ -4,11 +4,16 @@ namespace core {
 
 static int16_t round_pwm(float pwm) { return static_cast<int16_t>(pwm < 0.0f ? pwm - 0.5f : pwm + 0.5f); }
 
+// Feedforward gives most of the PWM at once, so the measured speed follows the (acceleration
+// limited) reference closely and braking for a corner happens where it was planned; the PI
+// only corrects what the open-loop guess gets wrong.
 MotorCommand SpeedController::update(const WheelSpeeds& target, const WheelSpeeds& measured,
-                                     const PiGains& gains, float h_s, float pwm_max) {
+                                     const SpeedGains& gains, float h_s, float pwm_max) {
   MotorCommand out;
-  out.left = round_pwm(left_.update(target.left_mps - measured.left_mps, gains, h_s, pwm_max));
-  out.right = round_pwm(right_.update(target.right_mps - measured.right_mps, gains, h_s, pwm_max));
+  out.left = round_pwm(left_.update(target.left_mps - measured.left_mps, gains.pi, h_s, pwm_max,
+                                    gains.kff * target.left_mps));
+  out.right = round_pwm(right_.update(target.right_mps - measured.right_mps, gains.pi, h_s, pwm_max,
+                                      gains.kff * target.right_mps));
   return out;
 }
 

@@ -12,6 +12,11 @@ struct WheelSpeeds {
   float right_mps = 0.0f;
 };
 
+struct SpeedGains {
+  PiGains pi;
+  float kff;  // PWM per m/s of target: the open-loop part
+};
+
 struct MotorCommand {
   int16_t left = 0;   // signed PWM in [-pwm_max, pwm_max]; positive drives forwards
   int16_t right = 0;
@@ -28,7 +33,7 @@ inline WheelSpeeds wheel_speeds(float v_mps, float omega_radps, float track_m) {
 
 class SpeedController {
  public:
-  MotorCommand update(const WheelSpeeds& target, const WheelSpeeds& measured, const PiGains& gains,
+  MotorCommand update(const WheelSpeeds& target, const WheelSpeeds& measured, const SpeedGains& gains,
                       float h_s, float pwm_max);
   void reset();
 

@@ -4,5 +4,6 @@
 namespace core {
 
 float flash_read_float(const float* address) { return *address; }
+unsigned char flash_read_byte(const unsigned char* address) { return *address; }
 
 }  // namespace core

@@ -44,7 +44,8 @@ struct Firmware {
   core::Cart cart{settings, path};
   core::Health health;
   core::SettingsStore store{RamEeprom::port};
-  core::Dispatcher dispatcher{cart, settings, store, health};
+  core::ReplyBuffer reply;
+  core::Dispatcher dispatcher{cart, settings, store, health, reply};
   core::PacketReceiver receiver;
 
   Firmware() { boot(); }

@@ -312,8 +312,9 @@ TEST(CartLoop, RollingThroughTheFinalToleranceIsNotArrival) {
   EXPECT_LT(rig.odo_distance_to(1.0, 0.0), rig.settings.get(id::tol_final_m));
   EXPECT_EQ(rig.cart.mode(), proto::MODE_PATH);
   EXPECT_FALSE(rig.flag(proto::FLAG_ARRIVED));
-  // Next tick no counts: standing inside the tolerance -> arrived.
-  rig.cart.tick(core::TickInput());
+  // Then no counts: standing inside the tolerance -> arrived at the next run of the position
+  // loop (it runs every kPositionDivider ticks).
+  for (int i = 0; i < core::kPositionDivider; ++i) rig.cart.tick(core::TickInput());
   EXPECT_EQ(rig.cart.mode(), proto::MODE_IDLE);
   EXPECT_TRUE(rig.flag(proto::FLAG_ARRIVED));
 }

@@ -176,7 +176,6 @@ TEST(PathBuffer, SetSingleReplacesThePath) {
   EXPECT_TRUE(path.at_last());
   const core::Approach a = path.approach(kVmax);
   EXPECT_TRUE(a.final);
-  EXPECT_EQ(a.after_m, 0.0f);
   EXPECT_EQ(a.exit_speed_mps, 0.0f);
   expect_points(drain(path), {{-1.0f, 2.0f}});
 }
@@ -189,17 +188,16 @@ TEST(PathBuffer, ClearEmptiesThePath) {
   EXPECT_EQ(path.count(), 0);
 }
 
-TEST(PathBuffer, ApproachReportsTheRemainingLength) {
-  // Start (0,0) -> (1,0) -> (1,1) -> (4,5) -> (4,6): segment lengths beyond each waypoint:
-  // at (1,0): 1 + 5 + 1 = 7;  at (1,1): 5 + 1 = 6;  at (4,5): 1;  at (4,6): 0.
+TEST(PathBuffer, ApproachWalksThePointsAndFlagsOnlyTheLastAsFinal) {
   core::Path path;
-  upload(path, {{1.0f, 0.0f}, {1.0f, 1.0f}, {4.0f, 5.0f}, {4.0f, 6.0f}});
+  const std::vector<core::Point> points = {{1.0f, 0.0f}, {1.0f, 1.0f}, {4.0f, 5.0f}, {4.0f, 6.0f}};
+  upload(path, points);
   path.start_from(core::Pose{});
-  const float expected_after[] = {7.0f, 6.0f, 1.0f, 0.0f};
   for (int i = 0; i < 4; ++i) {
     ASSERT_TRUE(path.active());
     const core::Approach a = path.approach(kVmax);
-    EXPECT_NEAR(a.after_m, expected_after[i], 1e-5f) << i;
+    EXPECT_EQ(a.x_m, points[i].x_m) << i;
+    EXPECT_EQ(a.y_m, points[i].y_m) << i;
     EXPECT_EQ(a.final, i == 3) << i;
     EXPECT_EQ(path.at_last(), i == 3) << i;
     path.advance();
@@ -248,7 +246,6 @@ TEST(PathBuffer, ExitSpeedUsesThePreviousWaypointAfterAdvancing) {
   const core::Approach last = path.approach(kVmax);
   EXPECT_TRUE(last.final);
   EXPECT_EQ(last.exit_speed_mps, 0.0f);
-  EXPECT_EQ(last.after_m, 0.0f);
 }
 
 TEST(PathBuffer, FirstCornerIsMeasuredFromTheStartPose) {

@@ -17,9 +17,13 @@ const core::PolarGains kGains{1.0f, 4.0f};
 const core::MotionLimits kLimits{0.5f, 3.14159265f, 1.0f};
 const core::Pose kOrigin{};
 
-core::Approach final_point(float x, float y) { return core::Approach{x, y, 0.0f, 0.0f, true}; }
-core::Approach via_point(float x, float y, float after_m, float exit_mps) {
-  return core::Approach{x, y, after_m, exit_mps, false};
+// The heading error comes from an arctangent approximation good to 2e-5 rad (num.hpp), so
+// omega = phase_kp * error is exact to phase_kp * 2e-5.
+constexpr double kOmegaTolerance = 4.0 * 2e-5;
+
+core::Approach final_point(float x, float y) { return core::Approach{x, y, 0.0f, true}; }
+core::Approach via_point(float x, float y, float exit_mps) {
+  return core::Approach{x, y, exit_mps, false};
 }
 
 TEST(PolarController, TargetAheadDrivesForwardWithoutTurning) {
@@ -35,7 +39,7 @@ TEST(PolarController, TargetLeftTurnsLeftAndRightTurnsRight) {
   // Bearing atan2(0.2, 1) = 0.19740 rad -> omega = 4 * 0.19740 = 0.78961 rad/s (below w_max).
   const core::PolarOutput left = core::polar_control(kOrigin, final_point(1.0f, 0.2f), kGains, kLimits);
   EXPECT_GT(left.omega_radps, 0.0f);
-  EXPECT_NEAR(left.omega_radps, 4.0 * std::atan2(0.2, 1.0), 1e-4);
+  EXPECT_NEAR(left.omega_radps, 4.0 * std::atan2(0.2, 1.0), kOmegaTolerance);
   EXPECT_GT(left.v_mps, 0.0f);
   const core::PolarOutput right = core::polar_control(kOrigin, final_point(1.0f, -0.2f), kGains, kLimits);
   EXPECT_LT(right.omega_radps, 0.0f);
@@ -51,7 +55,7 @@ TEST(PolarController, HeadingErrorIsRelativeToThePose) {
   // Target to its left is -x in the world: (0.8, 1.3) -> bearing 123.7 deg, heading error
   // +33.7 deg = 0.58800 rad -> omega = 2.352 rad/s.
   const core::PolarOutput left = core::polar_control(pose, final_point(0.8f, 1.3f), kGains, kLimits);
-  EXPECT_NEAR(left.omega_radps, 4.0 * std::atan2(0.2, 0.3), 1e-4);
+  EXPECT_NEAR(left.omega_radps, 4.0 * std::atan2(0.2, 0.3), kOmegaTolerance);
 }
 
 TEST(PolarController, TargetExactlyBehindIsApproachedBackwards) {
@@ -71,7 +75,7 @@ TEST(PolarController, TargetBehindToTheLeftSwingsTheTailLeft) {
   EXPECT_TRUE(out.behind);
   EXPECT_LT(out.v_mps, 0.0f);
   EXPECT_NEAR(out.rho_m, -std::hypot(1.0, 0.2), 1e-5);
-  EXPECT_NEAR(out.omega_radps, -4.0 * std::atan2(0.2, 1.0), 1e-4);
+  EXPECT_NEAR(out.omega_radps, -4.0 * std::atan2(0.2, 1.0), kOmegaTolerance);
 }
 
 TEST(PolarController, FoldingWorksAcrossThePiBoundary) {
@@ -114,13 +118,13 @@ TEST(PolarController, BrakingCapLetsTheCartSlowToTheExitSpeedInTime) {
     float exit_mps;
     float a_max;
   };
-  // A via point with a long path behind it (kp * to_go >> v_max), so only the cap can bind:
+  // A via point: no P law on its distance, so only the cap (or v_max) can bind:
   // v <= sqrt(exit^2 + 2 a d), e.g. d = 0.05, exit 0.1, a 1: sqrt(0.01 + 0.1) = 0.33166 m/s.
   for (const Case c : {Case{0.05f, 0.1f, 1.0f}, Case{0.02f, 0.0f, 1.0f}, Case{0.1f, 0.2f, 0.5f},
                        Case{0.3f, 0.0f, 0.2f}, Case{1.0f, 0.0f, 1.0f}}) {
     const core::MotionLimits limits{0.5f, 3.14159265f, c.a_max};
     const core::PolarOutput out =
-        core::polar_control(kOrigin, via_point(c.distance_m, 0.0f, 5.0f, c.exit_mps), kGains, limits);
+        core::polar_control(kOrigin, via_point(c.distance_m, 0.0f, c.exit_mps), kGains, limits);
     const double cap = std::sqrt(c.exit_mps * c.exit_mps + 2.0 * c.a_max * c.distance_m);
     SCOPED_TRACE(testing::Message() << "d=" << c.distance_m << " exit=" << c.exit_mps << " a=" << c.a_max);
     EXPECT_LE(out.v_mps, cap + 1e-5);
@@ -129,9 +133,9 @@ TEST(PolarController, BrakingCapLetsTheCartSlowToTheExitSpeedInTime) {
 }
 
 TEST(PolarController, ViaPointIsPassedAtSpeedWhenThePathGoesOn) {
-  // 0.05 m from a straight-on via point (exit = v_max) with 1 m beyond it:
-  // kp * (0.05 + 1) = 1.05 -> v_max; cap sqrt(0.25 + 0.1) = 0.59 -> v = 0.5.
-  const core::PolarOutput out = core::polar_control(kOrigin, via_point(0.05f, 0.0f, 1.0f, 0.5f), kGains, kLimits);
+  // 0.05 m from a straight-on via point (exit = v_max): no P law, cap sqrt(0.25 + 0.1) = 0.59
+  // -> v = v_max = 0.5.
+  const core::PolarOutput out = core::polar_control(kOrigin, via_point(0.05f, 0.0f, 0.5f), kGains, kLimits);
   EXPECT_NEAR(out.v_mps, 0.5f, 1e-5f);
   // The same point as the FINAL one: min(kp * 0.05, sqrt(0.1)) = 0.05.
   const core::PolarOutput stop = core::polar_control(kOrigin, final_point(0.05f, 0.0f), kGains, kLimits);
@@ -182,8 +186,8 @@ TEST(PolarController, FinalWaypointCloseButAbeamIsStillTurnedTowards) {
 TEST(PolarController, ViaPointNearbyStillSteers) {
   // The final-approach rule is only for the last waypoint: a via point 0.011 m away at
   // 26.6 deg is still steered for: omega = 4 * atan2(0.005, 0.01) = 1.8546 rad/s.
-  const core::PolarOutput out = core::polar_control(kOrigin, via_point(0.01f, 0.005f, 1.0f, 0.5f), kGains, kLimits);
-  EXPECT_NEAR(out.omega_radps, 4.0 * std::atan2(0.005, 0.01), 1e-4);
+  const core::PolarOutput out = core::polar_control(kOrigin, via_point(0.01f, 0.005f, 0.5f), kGains, kLimits);
+  EXPECT_NEAR(out.omega_radps, 4.0 * std::atan2(0.005, 0.01), kOmegaTolerance);
 }
 
 TEST(PolarController, SpeedShrinksWithTheCosineOfTheHeadingError) {

@@ -93,12 +93,36 @@ std::string Simulator::dispatch(int client, const std::string& type, const json:
     return "";
   }
   if (type == "speed") return cmd_speed(msg);
+  if (type == "profile") return cmd_profile(msg, extra);
   if (type == "stats") {
     *extra = "\"stats\":" + stats_json();
     if (const json::Value* r = msg.find("reset"); r && r->is_bool() && r->boolean) rig_.cpu().reset_total();
     return "";
   }
   return "unknown message type '" + type + "'";
+}
+
+// {"type":"profile","enable":true} starts counting the cycles of each instruction executed
+// inside control-tick windows (as the CPU meter measures them) from zero; "enable":false stops.
+// Every ack carries "profile": [[byte address, cycles], ...] for the addresses that used any.
+std::string Simulator::cmd_profile(const json::Value& msg, std::string* extra) {
+  const json::Value* enable = msg.find("enable");
+  if (enable && !enable->is_bool()) return "enable must be true or false";
+  if (enable && enable->boolean) {
+    rig_.mcu().set_profile_gate(rig_.cpu().measuring_flag());
+    rig_.mcu().clear_profile();
+  } else if (enable) {
+    rig_.mcu().set_profile_gate(nullptr);
+  }
+  std::string list = "[";
+  const std::vector<uint64_t>& prof = rig_.mcu().profile();
+  for (size_t word = 0; word < prof.size(); ++word) {
+    if (!prof[word]) continue;
+    if (list.size() > 1) list += ",";
+    list += "[" + std::to_string(word * 2) + "," + std::to_string(prof[word]) + "]";
+  }
+  *extra = "\"profile\":" + list + "]";
+  return "";
 }
 
 std::string Simulator::cmd_place(const json::Value& msg) {

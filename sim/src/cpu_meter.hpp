@@ -31,6 +31,8 @@ class CpuMeter {
   void on_tick(uint64_t cycle);
   // After an MCU reset: the tick being measured is abandoned.
   void abandon() { measuring_ = false; }
+  // True from a tick's compare match until the CPU sleeps: the window being measured.
+  const bool* measuring_flag() const { return &measuring_; }
 
   Summary window() const;  // the last window_ticks ticks
   Summary total() const;   // since start or the last reset_total()

@@ -101,9 +101,17 @@ void Mcu::sleep_callback(avr_t* avr, uint64_t how_long) {
   self->was_sleeping_ = true;
 }
 
+void Mcu::set_profile_gate(const bool* gate) {
+  profile_gate_ = gate;
+  if (gate && profile_.empty()) profile_.assign(32768 / 2, 0);  // one slot per flash word
+}
+
 bool Mcu::run_until(uint64_t target_cycle) {
   while (avr_->cycle < target_cycle) {
+    const uint32_t pc = avr_->pc;
+    const uint64_t before = avr_->cycle;
     const int state = avr_run(avr_);
+    if (profile_gate_ && *profile_gate_ && state == cpu_Running) profile_[(pc / 2) % profile_.size()] += avr_->cycle - before;
     if (state == cpu_Running) was_sleeping_ = false;
     else if (state != cpu_Sleeping) return false;
   }

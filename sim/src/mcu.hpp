@@ -3,9 +3,11 @@
 // the core in slices of simulated time.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <vector>
 
 struct avr_t;
 
@@ -40,12 +42,21 @@ class Mcu {
   // Called each time the core goes to sleep (SLEEP instruction), with the current cycle.
   void set_sleep_hook(std::function<void(uint64_t)> hook) { sleep_hook_ = std::move(hook); }
 
+  // Cycle profile: while *gate is true, the cycles of every executed instruction are added to
+  // profile()[program word address]. avr_run executes one instruction per call, so this is
+  // exact, not sampled. A null gate turns profiling off (and costs nothing).
+  void set_profile_gate(const bool* gate);
+  const std::vector<uint64_t>& profile() const { return profile_; }
+  void clear_profile() { std::fill(profile_.begin(), profile_.end(), 0); }
+
  private:
   static void sleep_callback(avr_t* avr, uint64_t how_long);
 
   avr_t* avr_ = nullptr;
   uint32_t f_cpu_hz_ = 16000000;
   std::function<void(uint64_t)> sleep_hook_;
+  const bool* profile_gate_ = nullptr;
+  std::vector<uint64_t> profile_;
   bool was_sleeping_ = false;
 };
 

@@ -29,6 +29,7 @@ class Simulator {
   void handle_line(int client, const std::string& line);
   std::string dispatch(int client, const std::string& type, const json::Value& msg, std::string* extra);
   std::string cmd_place(const json::Value& msg);
+  std::string cmd_profile(const json::Value& msg, std::string* extra);
   std::string cmd_obstacles(const json::Value& msg);
   std::string cmd_speed(const json::Value& msg);
   std::string cmd_truth_rate(int client, const json::Value& msg);

@@ -1,0 +1,175 @@
+"""Starting cart2d-sim and talking to its side channel (ground truth and control).
+
+The simulator prints one JSON line when ready: the pseudo-terminal to open as the robot's
+serial port and the TCP address of the side channel (JSON lines, see sim/README.md).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import json
+import os
+import socket
+import subprocess
+import threading
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from cart2d.spec import repo_file
+
+
+class SimulatorError(RuntimeError):
+    pass
+
+
+def default_binary() -> Path:
+    return Path(os.environ.get("CART2D_SIM", repo_file("build", "sim", "cart2d-sim")))
+
+
+def default_firmware() -> Path:
+    return Path(os.environ.get("CART2D_FIRMWARE", repo_file("build", "firmware", "cart2d-nano.elf")))
+
+
+@dataclass
+class SimOptions:
+    firmware: Path = field(default_factory=default_firmware)
+    binary: Path = field(default_factory=default_binary)
+    speed: str = "1"  # a factor, or "max"
+    seed: int = 1
+    eeprom: Path | None = None
+    start: tuple[float, float, float] | None = None
+    truth_hz: float = 50.0
+
+
+class SideChannel:
+    """A JSON-lines client: requests get acks by id; truth and events are kept as they come."""
+
+    def __init__(self, address: str) -> None:
+        host, port = address.rsplit(":", 1)
+        self._sock = socket.create_connection((host, int(port)), timeout=5.0)
+        self._sock.settimeout(None)
+        self._ids = itertools.count(1)
+        self._cond = threading.Condition()
+        self._acks: dict[int, dict[str, Any]] = {}
+        self.truth: dict[str, Any] | None = None
+        self.events: list[dict[str, Any]] = []
+        self._closed = False
+        self._reader = threading.Thread(target=self._read, name="sim side channel", daemon=True)
+        self._reader.start()
+
+    def request(self, message: dict[str, Any], timeout_s: float = 10.0) -> dict[str, Any]:
+        ident = next(self._ids)
+        data = (json.dumps({**message, "id": ident}) + "\n").encode()
+        with self._cond:
+            self._sock.sendall(data)
+            if not self._cond.wait_for(lambda: ident in self._acks or self._closed, timeout_s):
+                raise SimulatorError(f"no ack to {message.get('type')}")
+            if self._closed and ident not in self._acks:
+                raise SimulatorError("side channel closed")
+            ack = self._acks.pop(ident)
+        if not ack.get("ok"):
+            raise SimulatorError(f"{message.get('type')}: {ack.get('error')}")
+        return ack
+
+    def wait_truth(self, predicate: Any, timeout_s: float) -> dict[str, Any]:
+        """Waits until a truth message satisfies predicate(truth); returns it."""
+        with self._cond:
+            if not self._cond.wait_for(lambda: self.truth is not None and predicate(self.truth), timeout_s):
+                raise SimulatorError("condition not reached in time")
+            assert self.truth is not None
+            return self.truth
+
+    def close(self) -> None:
+        self._sock.close()
+
+    def _read(self) -> None:
+        buf = b""
+        while True:
+            try:
+                chunk = self._sock.recv(65536)
+            except OSError:
+                chunk = b""
+            if not chunk:
+                with self._cond:
+                    self._closed = True
+                    self._cond.notify_all()
+                return
+            buf += chunk
+            *lines, buf = buf.split(b"\n")
+            with self._cond:
+                for line in lines:
+                    self._dispatch(json.loads(line))
+                self._cond.notify_all()
+
+    def _dispatch(self, message: dict[str, Any]) -> None:
+        kind = message.get("type")
+        if kind == "ack":
+            self._acks[message.get("id") or 0] = message
+        elif kind == "truth":
+            self.truth = message
+        elif kind == "event":
+            self.events.append(message)
+
+
+class Simulator:
+    """A running cart2d-sim process."""
+
+    def __init__(self, options: SimOptions | None = None) -> None:
+        self.options = options or SimOptions()
+        self.process: subprocess.Popen[str] | None = None
+        self.pty = ""
+        self.control_address = ""
+        self.side: SideChannel | None = None
+
+    def start(self) -> Simulator:
+        o = self.options
+        for path, what in ((o.binary, "simulator (make sim)"), (o.firmware, "firmware (make firmware)")):
+            if not Path(path).exists():
+                raise SimulatorError(f"the {what} is not built: {path}")
+        cmd = [str(o.binary), "--firmware", str(o.firmware), "--speed", o.speed, "--seed", str(o.seed)]
+        cmd += ["--truth-hz", str(o.truth_hz)]
+        if o.eeprom is not None:
+            cmd += ["--eeprom", str(o.eeprom)]
+        if o.start is not None:
+            cmd += ["--start", ",".join(str(v) for v in o.start)]
+        self.process = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
+        assert self.process.stdout is not None
+        line = self.process.stdout.readline()
+        if not line:
+            raise SimulatorError(f"cart2d-sim exited ({self.process.wait()}) before it was ready")
+        ready = json.loads(line)
+        self.pty = ready["pty"]
+        self.control_address = ready["control"]
+        self.side = SideChannel(self.control_address)
+        return self
+
+    def control(self, kind: str, **members: Any) -> dict[str, Any]:
+        if self.side is None:
+            raise SimulatorError("the simulator is not running")
+        return self.side.request({"type": kind, **members})
+
+    def truth(self) -> dict[str, Any]:
+        truth: dict[str, Any] = self.control("truth")["truth"]
+        return truth
+
+    def stop(self) -> None:
+        if self.side is not None:
+            with contextlib.suppress(SimulatorError):  # it may be gone already
+                self.control("quit")
+            self.side.close()
+            self.side = None
+        if self.process is not None:
+            try:
+                self.process.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+            self.process = None
+
+    def __enter__(self) -> Simulator:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
