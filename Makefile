@@ -62,8 +62,8 @@ $(VENV)/.installed: pyproject.toml
 python-env: $(VENV)/.installed
 
 python-checks: python-env
-	$(VENV)/bin/ruff check cart2d tests bench
-	$(VENV)/bin/ruff format --check cart2d tests bench
+	$(VENV)/bin/ruff check cart2d tests bench tools
+	$(VENV)/bin/ruff format --check cart2d tests bench tools
 	$(VENV)/bin/mypy
 
 python-tests: python-env firmware sim
@@ -75,7 +75,7 @@ fuzz-quick: host-tests
 fuzz: host-tests
 	tools/run-fuzz.sh $(HOST_BUILD)/fuzz_packets $(FUZZ_SECONDS)
 
-test: deps firmware host-tests sim-tests fuzz-quick bench-firmware
+test: deps firmware host-tests sim-tests python-checks python-tests fuzz-quick bench-firmware
 
 bench-firmware: $(AVR_ELF) sim python-env
 	@python3 tools/firmware_size.py $(AVR_ELF)

@@ -79,11 +79,11 @@ class Link:
         return self
 
     def close(self) -> None:
+        """Stops the reader thread, which owns the port and closes it (within its read timeout)."""
         self._closing.set()
-        if self._serial is not None:
-            self._serial.close()
         if self._reader is not None:
             self._reader.join(timeout=2.0)
+            self._reader = None
 
     def __enter__(self) -> Link:
         return self.open()

@@ -41,6 +41,7 @@ class SimOptions:
     eeprom: Path | None = None
     start: tuple[float, float, float] | None = None
     truth_hz: float = 50.0
+    paused: bool = False  # start paused: nothing runs until resume() or run_for()
 
 
 class SideChannel:
@@ -132,6 +133,8 @@ class Simulator:
         cmd += ["--truth-hz", str(o.truth_hz)]
         if o.eeprom is not None:
             cmd += ["--eeprom", str(o.eeprom)]
+        if o.paused:
+            cmd.append("--paused")
         if o.start is not None:
             cmd += ["--start", ",".join(str(v) for v in o.start)]
         self.process = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
@@ -149,6 +152,19 @@ class Simulator:
         if self.side is None:
             raise SimulatorError("the simulator is not running")
         return self.side.request({"type": kind, **members})
+
+    def run_for(self, seconds: float, wall_timeout_s: float = 60.0) -> dict[str, Any]:
+        """Runs exactly `seconds` of simulated time, then pauses; returns the truth there."""
+        if self.side is None:
+            raise SimulatorError("the simulator is not running")
+        seen = len(self.side.events)
+        self.control("run", seconds=seconds)
+
+        def paused(_: dict[str, Any]) -> bool:
+            return any(e.get("event") == "paused" for e in self.side.events[seen:]) if self.side else False
+
+        self.side.wait_truth(paused, wall_timeout_s)
+        return self.truth()
 
     def truth(self) -> dict[str, Any]:
         truth: dict[str, Any] = self.control("truth")["truth"]

@@ -94,6 +94,7 @@ std::string Simulator::dispatch(int client, const std::string& type, const json:
   }
   if (type == "speed") return cmd_speed(msg);
   if (type == "profile") return cmd_profile(msg, extra);
+  if (type == "run") return cmd_run(msg);
   if (type == "stats") {
     *extra = "\"stats\":" + stats_json();
     if (const json::Value* r = msg.find("reset"); r && r->is_bool() && r->boolean) rig_.cpu().reset_total();
@@ -122,6 +123,18 @@ std::string Simulator::cmd_profile(const json::Value& msg, std::string* extra) {
     list += "[" + std::to_string(word * 2) + "," + std::to_string(prof[word]) + "]";
   }
   *extra = "\"profile\":" + list + "]";
+  return "";
+}
+
+// {"type":"run","seconds":S}: resume and pause again after exactly S simulated seconds (then an
+// {"type":"event","event":"paused","t":...} follows). With --paused and queued input this makes
+// runs that are identical down to the cycle.
+std::string Simulator::cmd_run(const json::Value& msg) {
+  double seconds = 0.0;
+  if (!number_member(msg, "seconds", &seconds) || seconds <= 0.0 || seconds > 1e6)
+    return "run needs seconds in (0, 1e6]";
+  pause_at_cycle_ = rig_.cycle() + static_cast<uint64_t>(std::llround(seconds * rig_.mcu().frequency_hz()));
+  paused_ = false;
   return "";
 }
 

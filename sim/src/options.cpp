@@ -18,6 +18,7 @@ std::string usage() {
          "  --start X,Y,THETA     initial pose in m, m, rad (default 0,0,0)\n"
          "  --arena-margin M      walls this far outside the node grid (default 0.25 m)\n"
          "  --control-port P      TCP port of the side channel on 127.0.0.1 (default: any free)\n"
+         "  --paused              start paused (for runs driven to exact simulated times)\n"
          "  --verbose | --quiet   more / less logging on stderr\n";
 }
 
@@ -48,6 +49,8 @@ bool parse_options(int argc, char** argv, Options* opts, bool* help, std::string
       return true;
     } else if (!std::strcmp(arg, "--verbose") || !std::strcmp(arg, "-v")) {
       opts->verbose = true;
+    } else if (!std::strcmp(arg, "--paused")) {
+      opts->start_paused = true;
     } else if (!std::strcmp(arg, "--quiet") || !std::strcmp(arg, "-q")) {
       opts->quiet = true;
     } else if (!std::strcmp(arg, "--firmware")) {

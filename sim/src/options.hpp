@@ -20,6 +20,7 @@ struct Options {
   int control_port = 0;  // 0: ephemeral
   bool verbose = false;
   bool quiet = false;
+  bool start_paused = false;  // hold the MCU until a resume or run message
 };
 
 // Fills *opts (pre-set with defaults) from argv. False with a message on a bad command line;

@@ -17,6 +17,7 @@ constexpr double kEepromCheckS = 0.25;     // wall time between two EEPROM chang
 Simulator::Simulator(const Options& opts)
     : opts_(opts), eeprom_(opts.eeprom.empty() ? EepromStore::default_path() : opts.eeprom) {
   pacer_.set_factor(opts.speed);
+  paused_ = opts.start_paused;
 }
 
 bool Simulator::init(std::string* error) {
@@ -74,6 +75,17 @@ void Simulator::on_physics_step(uint64_t end_cycle) {
   }
 }
 
+// Runs one slice, or less if a "run" message asked to pause at an earlier cycle.
+void Simulator::run_slice(uint64_t slice) {
+  const uint64_t now = rig_.cycle();
+  const uint64_t left = pause_at_cycle_ > now ? pause_at_cycle_ - now : 0;
+  rig_.run_cycles(left < slice ? left : slice);
+  if (rig_.cycle() < pause_at_cycle_) return;
+  paused_ = true;
+  pause_at_cycle_ = UINT64_MAX;
+  control_.broadcast(json::Object().add("type", "event").add("event", "paused").add("t", rig_.time_s()).str());
+}
+
 void Simulator::publish_events() {
   for (const auto& e : rig_.contacts().take_events()) {
     control_.broadcast(json::Object()
@@ -126,7 +138,7 @@ int Simulator::run(volatile std::sig_atomic_t* stop) {
     if (quit_) break;
 
     const bool running = !paused_ && rig_.mcu().alive();
-    if (running) rig_.run_cycles(slice);
+    if (running) run_slice(slice);
     rig_.uart().write_host(rig_.cycle());
     publish_events();
     control_.flush();

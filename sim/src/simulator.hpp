@@ -2,6 +2,8 @@
 // ground truth and control on the side channel, and the EEPROM kept in a file.
 #pragma once
 
+#include <cstdint>
+
 #include <csignal>
 #include <string>
 
@@ -30,6 +32,8 @@ class Simulator {
   std::string dispatch(int client, const std::string& type, const json::Value& msg, std::string* extra);
   std::string cmd_place(const json::Value& msg);
   std::string cmd_profile(const json::Value& msg, std::string* extra);
+  std::string cmd_run(const json::Value& msg);
+  void run_slice(uint64_t slice);
   std::string cmd_obstacles(const json::Value& msg);
   std::string cmd_speed(const json::Value& msg);
   std::string cmd_truth_rate(int client, const json::Value& msg);
@@ -49,6 +53,7 @@ class Simulator {
   EepromStore eeprom_;
   Pacer pacer_;
   bool paused_ = false;
+  uint64_t pause_at_cycle_ = UINT64_MAX;  // set by a "run" message
   bool quit_ = false;
   bool mcu_dead_reported_ = false;
   std::string firmware_path_;
