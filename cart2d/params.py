@@ -1,0 +1,25 @@
+"""The robot parameters of config/robot.toml (the same file the firmware and the simulator
+are built from), read once."""
+
+from __future__ import annotations
+
+import tomllib
+from functools import cache
+from importlib import resources
+from typing import Any
+
+
+@cache
+def robot() -> dict[str, Any]:
+    text = resources.files("cart2d").joinpath("data/robot.toml").read_text(encoding="utf-8")
+    return tomllib.loads(text)
+
+
+def settings_table() -> list[dict[str, Any]]:
+    """The firmware settings: stable id, name, unit, min, max, default, doc."""
+    table: list[dict[str, Any]] = robot()["setting"]
+    return table
+
+
+def footprint_radius_m() -> float:
+    return float(robot()["body"]["footprint_radius_m"])
