@@ -1,0 +1,120 @@
+"""What the gateway asks of the firmware, in words instead of command codes: compatibility,
+status, settings by stable id, path uploads split into frames. Built on a Link."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from cart2d.link import Link, LinkError
+from cart2d.params import settings_table
+from cart2d.spec import load_spec
+
+# How many (x, y) points one frame carries (31 floats at most: the count or index, then pairs).
+POINTS_PER_FRAME = 15
+SETTINGS_SOURCES = {0: "eeprom", 1: "defaults (blank EEPROM)", 2: "defaults (corrupt EEPROM)"}
+
+
+class IncompatibleFirmware(LinkError):
+    """The firmware was built from a different protocol table than this gateway."""
+
+
+@dataclass(frozen=True)
+class Version:
+    protocol: int
+    firmware: str
+    dictionary_hash: int
+    settings_layout: int
+    waypoint_capacity: int
+    setting_count: int
+
+
+@dataclass(frozen=True)
+class Status:
+    mode: str
+    flags: list[str]
+    waypoint_index: int
+    waypoint_count: int
+    loop_overruns: int
+    cpu_load_pct: int
+    cpu_max_pct: int
+    rx_errors: int
+    settings_source: str
+    eeprom_busy: bool
+    uptime_s: float
+    last_error: str | None
+
+    def has(self, flag: str) -> bool:
+        return flag in self.flags
+
+
+def flag_names(word: int) -> list[str]:
+    return [name for name, bit in load_spec().flags.items() if word & bit]
+
+
+def read_version(link: Link) -> Version:
+    protocol, firmware, dictionary, layout, capacity, count = link.call("VERSION")
+    fw = int(firmware)
+    return Version(
+        protocol=int(protocol),
+        firmware=f"{fw // 10000}.{fw // 100 % 100}.{fw % 100}",
+        dictionary_hash=int(dictionary),
+        settings_layout=int(layout),
+        waypoint_capacity=int(capacity),
+        setting_count=int(count),
+    )
+
+
+def check_compatible(version: Version) -> None:
+    """Refuses a firmware that speaks another protocol table (Klipper's dictionary idea)."""
+    spec = load_spec()
+    if version.protocol != spec.version or version.dictionary_hash != spec.dictionary_hash:
+        raise IncompatibleFirmware(
+            f"the firmware speaks protocol {version.protocol} (table {version.dictionary_hash:#06x}), "
+            f"this gateway {spec.version} (table {spec.dictionary_hash:#06x}): update one of them"
+        )
+    if version.setting_count != len(settings_table()):
+        raise IncompatibleFirmware("the firmware has a different settings table: update one of them")
+
+
+def read_status(link: Link) -> Status:
+    r = link.call("STATUS")
+    spec = load_spec()
+    last_error = int(r[11])
+    return Status(
+        mode=spec.modes.get(int(r[0]), f"mode {int(r[0])}"),
+        flags=flag_names(int(r[1])),
+        waypoint_index=int(r[2]),
+        waypoint_count=int(r[3]),
+        loop_overruns=int(r[4]),
+        cpu_load_pct=int(r[5]),
+        cpu_max_pct=int(r[6]),
+        rx_errors=int(r[7]),
+        settings_source=SETTINGS_SOURCES.get(int(r[8]), "unknown"),
+        eeprom_busy=bool(r[9]),
+        uptime_s=r[10],
+        last_error=spec.reasons.get(last_error) if last_error else None,
+    )
+
+
+def read_settings(link: Link) -> list[dict[str, object]]:
+    """Every firmware setting with its current value, range and unit (from robot.toml)."""
+    out: list[dict[str, object]] = []
+    for entry in settings_table():
+        _, value, _low, _high = link.call("PARAM_GET", entry["id"])
+        out.append({**entry, "value": value})
+    return out
+
+
+def write_setting(link: Link, setting_id: int, value: float) -> float:
+    return link.call("PARAM_SET", setting_id, value)[1]
+
+
+def upload_path(link: Link, points: Sequence[tuple[float, float]]) -> None:
+    """Sends a path: WAIT_XY_ARRAY with the first frame's points, XY_APPEND for the rest."""
+    flat = [c for p in points for c in p]
+    first = flat[: 2 * POINTS_PER_FRAME]
+    link.call("WAIT_XY_ARRAY", len(points), *first)
+    for start in range(POINTS_PER_FRAME, len(points), POINTS_PER_FRAME):
+        chunk = flat[2 * start : 2 * (start + POINTS_PER_FRAME)]
+        link.call("XY_APPEND", start, *chunk)

@@ -1,0 +1,54 @@
+"""The gateway's view of the firmware, against the real firmware in the simulator."""
+
+from __future__ import annotations
+
+import pytest
+
+from cart2d import firmware
+from cart2d.link import CommandRefused, Link
+from cart2d.params import settings_table
+from cart2d.simulator import Simulator
+from tests.conftest import wait_idle
+
+
+def test_the_built_firmware_is_compatible(link: Link) -> None:
+    version = firmware.read_version(link)
+    firmware.check_compatible(version)
+    assert version.waypoint_capacity == 32 and version.firmware == "0.1.0"
+
+
+def test_a_firmware_with_another_table_is_refused() -> None:
+    other = firmware.Version(1, "0.1.0", 0x1234, 0, 32, len(settings_table()))
+    with pytest.raises(firmware.IncompatibleFirmware, match="protocol"):
+        firmware.check_compatible(other)
+
+
+def test_status_in_words_at_power_up(link: Link) -> None:
+    status = firmware.read_status(link)
+    assert status.mode == "IDLE"
+    assert status.settings_source == "defaults (blank EEPROM)"
+    assert status.has("SETTINGS_DEFAULTED") and not status.has("MOTORS_ENABLED")
+    assert status.loop_overruns == 0 and status.last_error is None
+
+
+def test_settings_are_read_by_stable_id_with_their_defaults(link: Link) -> None:
+    values = {s["name"]: s["value"] for s in firmware.read_settings(link)}
+    expected = {s["name"]: s["default"] for s in settings_table()}
+    assert values.keys() == expected.keys()
+    for name, default in expected.items():
+        assert values[name] == pytest.approx(default, rel=1e-6), name
+    assert firmware.write_setting(link, 6, 0.3) == pytest.approx(0.3)
+
+
+def test_a_long_path_is_uploaded_in_frames_and_driven(sim: Simulator, link: Link) -> None:
+    points = [(0.05 * (i + 1), 0.0) for i in range(30)] + [(1.5, 0.3)]
+    firmware.upload_path(link, points)
+    status = wait_idle(link)
+    assert int(status[2]) == len(points)
+    assert abs(sim.truth()["x"] - 1.5) < 0.01 and abs(sim.truth()["y"] - 0.3) < 0.01
+
+
+def test_a_path_over_capacity_is_refused_before_anything_moves(link: Link) -> None:
+    with pytest.raises(CommandRefused, match="more waypoints than the firmware can hold"):
+        firmware.upload_path(link, [(0.01 * i, 0.0) for i in range(33)])
+    assert firmware.read_status(link).mode == "IDLE"
