@@ -3,20 +3,7 @@
 #include <cmath>   // std::sin, std::cos, std::sqrt, std::fabs
 #include <limits>  // std::numeric_limits
 
-#include "robot_params.hpp"  // params::traction, params::motor
-
 namespace cart2d {
-
-BodyParams BodyParams::from_robot_params() {
-  BodyParams p;
-  p.mass_kg = params::traction::mass_kg;
-  p.yaw_inertia_kgm2 = params::traction::inertia_kgm2;
-  p.wheel_radius_m = params::traction::radius_m;
-  p.track_m = params::traction::track_m;
-  p.wheel_inertia_kgm2 = params::motor::inertia_kgm2;
-  p.wheel_coulomb_nm = params::motor::coulomb_friction_nm;
-  return p;
-}
 
 double wrap_angle(double a) {
   constexpr double kPi = 3.14159265358979323846;

@@ -18,19 +18,19 @@
 
 #include <vector>
 
-#include "motor.hpp"  // TorqueLaw
+#include "motor.hpp"         // TorqueLaw
+#include "robot_params.hpp"  // params::traction, params::motor
 
 namespace cart2d {
 
+// Defaults: the robot (config/robot.toml).
 struct BodyParams {
-  double mass_kg = 6.0;
-  double yaw_inertia_kgm2 = 0.08;
-  double wheel_radius_m = 0.0315;
-  double track_m = 0.182;
-  double wheel_inertia_kgm2 = 0.0005;  // per wheel, about its axle: motor rotor·N² + gears + wheel
-  double wheel_coulomb_nm = 0.05;      // per wheel, at the axle
-
-  static BodyParams from_robot_params();
+  double mass_kg = params::traction::mass_kg;
+  double yaw_inertia_kgm2 = params::traction::inertia_kgm2;
+  double wheel_radius_m = params::traction::radius_m;
+  double track_m = params::traction::track_m;
+  double wheel_inertia_kgm2 = params::motor::inertia_kgm2;     // per wheel, about its axle: motor rotor·N² + gears + wheel
+  double wheel_coulomb_nm = params::motor::coulomb_friction_nm;  // per wheel, at the axle
 };
 
 struct Pose {

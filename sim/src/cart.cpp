@@ -1,17 +1,6 @@
 #include "cart.hpp"
 
-#include "robot_params.hpp"  // params::sim
-
 namespace cart2d {
-
-CartParams CartParams::from_robot_params() {
-  CartParams p;
-  p.motor = MotorParams::from_robot_params();
-  p.body = BodyParams::from_robot_params();
-  p.geometry = RobotGeometry::from_robot_params();
-  p.switch_travel_m = params::sim::switch_travel_m;
-  return p;
-}
 
 Cart::Cart(const CartParams& p) : p_(p), body_(p.body) {}
 

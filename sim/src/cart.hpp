@@ -7,17 +7,17 @@
 
 #include "body.hpp"
 #include "motor.hpp"
+#include "robot_params.hpp"  // params::sim
 #include "world.hpp"
 
 namespace cart2d {
 
+// Defaults: the robot (config/robot.toml).
 struct CartParams {
   MotorParams motor;
   BodyParams body;
   RobotGeometry geometry;
-  double switch_travel_m = 0.001;  // a switch closes when its point is this close to a wall
-
-  static CartParams from_robot_params();
+  double switch_travel_m = params::sim::switch_travel_m;  // a switch closes when its point is this close to a wall
 };
 
 class Cart {

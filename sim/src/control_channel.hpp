@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "robot_params.hpp"  // params::sim
+
 struct pollfd;
 
 namespace cart2d {
@@ -18,7 +20,7 @@ class ControlChannel {
     int fd = -1;
     std::string in;
     std::string out;
-    double truth_hz = 50.0;
+    double truth_hz = params::sim::truth_hz;
     uint64_t next_truth_cycle = 0;
     uint64_t truth_dropped = 0;  // truth lines skipped because the client fell behind
     bool dead = false;

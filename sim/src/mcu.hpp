@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "robot_params.hpp"  // params::control
+
 struct avr_t;
 
 namespace cart2d {
@@ -53,7 +55,7 @@ class Mcu {
   static void sleep_callback(avr_t* avr, uint64_t how_long);
 
   avr_t* avr_ = nullptr;
-  uint32_t f_cpu_hz_ = 16000000;
+  uint32_t f_cpu_hz_ = static_cast<uint32_t>(params::control::f_cpu_hz);  // load() sets the same
   std::function<void(uint64_t)> sleep_hook_;
   const bool* profile_gate_ = nullptr;
   std::vector<uint64_t> profile_;

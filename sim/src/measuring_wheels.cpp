@@ -1,15 +1,6 @@
 #include "measuring_wheels.hpp"
 
-#include "robot_params.hpp"  // params::encoders
-
 namespace cart2d {
-
-MeasuringWheelParams MeasuringWheelParams::from_robot_params() {
-  MeasuringWheelParams p;
-  p.radius_m = params::encoders::radius_m;
-  p.track_m = params::encoders::track_m;
-  return p;
-}
 
 WheelAdvance advance_measuring_wheels(const MeasuringWheelParams& p, const Faults& f, const Twist& twist, double h_s) {
   const double half_track = (p.track_m + f.enc_track_error_m) / 2.0;

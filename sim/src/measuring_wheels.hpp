@@ -5,15 +5,15 @@
 #pragma once
 
 #include "body.hpp"    // Twist
-#include "faults.hpp"  // Faults
+#include "faults.hpp"        // Faults
+#include "robot_params.hpp"  // params::encoders
 
 namespace cart2d {
 
+// Defaults: the robot's nominal wheels (config/robot.toml).
 struct MeasuringWheelParams {
-  double radius_m = 0.021;
-  double track_m = 0.305;
-
-  static MeasuringWheelParams from_robot_params();
+  double radius_m = params::encoders::radius_m;
+  double track_m = params::encoders::track_m;
 };
 
 struct WheelAdvance {

@@ -3,21 +3,7 @@
 #include <algorithm>  // std::clamp
 #include <cmath>      // std::fabs
 
-#include "robot_params.hpp"  // params::motor
-
 namespace cart2d {
-
-MotorParams MotorParams::from_robot_params() {
-  MotorParams p;
-  p.battery_v = params::motor::battery_v;
-  p.resistance_ohm = params::motor::resistance_ohm;
-  p.torque_constant_nm_per_a = params::motor::torque_constant_nm_per_a;
-  p.viscous_friction_nms = params::motor::viscous_friction_nms;
-  p.coulomb_friction_nm = params::motor::coulomb_friction_nm;
-  p.inertia_kgm2 = params::motor::inertia_kgm2;
-  p.current_limit_a = params::motor::current_limit_a;
-  return p;
-}
 
 double terminal_voltage_v(const MotorParams& p, double signed_duty) {
   return p.battery_v * std::clamp(signed_duty, -1.0, 1.0);

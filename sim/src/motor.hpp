@@ -9,18 +9,19 @@
 // i = (v − k·ω)/R with v the mean terminal voltage over a PWM period.
 #pragma once
 
+#include "robot_params.hpp"  // params::motor
+
 namespace cart2d {
 
+// Defaults: the robot (config/robot.toml).
 struct MotorParams {
-  double battery_v = 12.0;
-  double resistance_ohm = 2.5;
-  double torque_constant_nm_per_a = 0.36;  // = back-EMF constant, V·s/rad
-  double viscous_friction_nms = 0.002;     // N·m·s/rad
-  double coulomb_friction_nm = 0.05;       // N·m
-  double inertia_kgm2 = 0.0005;            // rotor·N² + gears + wheel
-  double current_limit_a = 10.0;
-
-  static MotorParams from_robot_params();
+  double battery_v = params::motor::battery_v;
+  double resistance_ohm = params::motor::resistance_ohm;
+  double torque_constant_nm_per_a = params::motor::torque_constant_nm_per_a;  // = back-EMF constant, V·s/rad
+  double viscous_friction_nms = params::motor::viscous_friction_nms;          // N·m·s/rad
+  double coulomb_friction_nm = params::motor::coulomb_friction_nm;            // N·m
+  double inertia_kgm2 = params::motor::inertia_kgm2;                          // rotor·N² + gears + wheel
+  double current_limit_a = params::motor::current_limit_a;
 };
 
 // Mean terminal voltage for a signed duty in [−1, 1] (sign = DIRECTION pin: + forward).

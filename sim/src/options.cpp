@@ -2,21 +2,32 @@
 
 #include <cerrno>   // errno
 #include <cmath>    // std::isfinite
+#include <cstdio>   // snprintf
 #include <cstdlib>  // strtod, strtoull
 #include <cstring>  // strcmp
 
 namespace cart2d {
 
+// A default for the help text (%g: six significant digits, so a float from robot.toml prints as written).
+static std::string shortest(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
 std::string usage() {
+  const Options defaults;
   return "usage: cart2d-sim --firmware ELF [options]\n"
          "  --firmware FILE       firmware ELF for the ATmega328P (required)\n"
          "  --speed F|max         simulated seconds per wall second (default 1 = real time)\n"
          "  --seed N              seed of every random fault (default 0)\n"
          "  --eeprom FILE         EEPROM image kept across runs\n"
          "                        (default $XDG_DATA_HOME/cart2d/sim-eeprom.bin)\n"
-         "  --truth-hz HZ         ground-truth messages per simulated second (default 50)\n"
+         "  --truth-hz HZ         ground-truth messages per simulated second (default " +
+         shortest(defaults.truth_hz) + ")\n"
          "  --start X,Y,THETA     initial pose in m, m, rad (default 0,0,0)\n"
-         "  --arena-margin M      walls this far outside the node grid (default 0.25 m)\n"
+         "  --arena-margin M      walls this far outside the node grid (default " +
+         shortest(defaults.arena_margin_m) + " m)\n"
          "  --control-port P      TCP port of the side channel on 127.0.0.1 (default: any free)\n"
          "  --paused              start paused (for runs driven to exact simulated times)\n"
          "  --verbose | --quiet   more / less logging on stderr\n";

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "rng.hpp"
+#include "robot_params.hpp"  // params::sim, params::control
 
 namespace cart2d {
 
@@ -26,7 +27,8 @@ struct QuadratureEdge {
 struct QuadratureFaults {
   double miss_prob = 0.0;         // chance that an A pulse is lost (A stays low through it)
   double noise_hz = 0.0;          // rate of spurious A spikes
-  uint64_t glitch_cycles = 32;    // width of a spike
+  // Width of a spike: robot.toml's encoder_glitch_s in CPU cycles, rounded.
+  uint64_t glitch_cycles = static_cast<uint64_t>(params::sim::encoder_glitch_s * params::control::f_cpu_hz + 0.5);
 };
 
 class QuadratureEncoder {

@@ -1,7 +1,5 @@
 #include "rig.hpp"
 
-#include <cmath>  // std::llround
-
 #include "atmega328p.hpp"
 #include "log.hpp"
 #include "robot_params.hpp"  // params::*
@@ -12,7 +10,7 @@ extern "C" {
 
 namespace cart2d {
 
-Rig::Rig() : world_(ArenaParams::from_robot_params()) {}
+Rig::Rig() : world_(ArenaParams{}) {}
 
 Rig::~Rig() = default;
 
@@ -21,16 +19,10 @@ bool Rig::init(const RigConfig& config, std::string* error) {
   if (!mcu_.load(config.firmware, f_cpu, error)) return false;
   avr_t* avr = mcu_.avr();
 
-  step_s_ = params::sim::physics_step_s;
-  step_cycles_ = static_cast<uint64_t>(std::llround(step_s_ * f_cpu));
-  step_s_ = static_cast<double>(step_cycles_) / f_cpu;  // exactly a whole number of cycles
-
   world_.set_margin(config.arena_margin_m);
-  cart_ = std::make_unique<Cart>(CartParams::from_robot_params());
+  cart_ = std::make_unique<Cart>(CartParams{});
   cart_->place(config.start);
   cart_->sense(world_);
-  wheels_ = MeasuringWheelParams::from_robot_params();
-  qfaults_.glitch_cycles = static_cast<uint64_t>(std::llround(params::sim::encoder_glitch_s * f_cpu));
 
   pins_ = std::make_unique<PinDriver>(avr);
   hbridge_ = std::make_unique<HBridgePart>(avr, pin_of(params::pins::left_dir), pin_of(params::pins::right_dir),

@@ -18,6 +18,7 @@
 #include "mcu.hpp"
 #include "measuring_wheels.hpp"
 #include "pin_driver.hpp"
+#include "robot_params.hpp"  // params::sim, params::control
 #include "switch_part.hpp"
 #include "uart_link.hpp"
 #include "world.hpp"
@@ -28,7 +29,7 @@ struct RigConfig {
   std::string firmware;
   uint64_t seed = 0;
   Pose start;
-  double arena_margin_m = 0.25;
+  double arena_margin_m = params::sim::arena_margin_m;
   bool open_pty = true;
 };
 
@@ -100,8 +101,12 @@ class Rig {
   std::optional<Twist> scripted_;
   std::function<void(uint64_t)> step_hook_;
 
-  double step_s_ = 0.00025;
-  uint64_t step_cycles_ = 4000;
+  // The physics step: robot.toml's physics_step_s rounded to a whole number of CPU cycles.
+  static constexpr uint64_t kStepCycles =
+      static_cast<uint64_t>(static_cast<double>(params::sim::physics_step_s) * params::control::f_cpu_hz + 0.5);
+  static_assert(kStepCycles > 0, "physics_step_s is shorter than half a CPU cycle");
+  const double step_s_ = static_cast<double>(kStepCycles) / params::control::f_cpu_hz;  // exactly kStepCycles cycles
+  const uint64_t step_cycles_ = kStepCycles;
   uint64_t next_step_cycle_ = 0;
   uint64_t physics_steps_ = 0;
   double enc_dist_l_m_ = 0.0, enc_dist_r_m_ = 0.0;

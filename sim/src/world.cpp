@@ -3,25 +3,7 @@
 #include <algorithm>  // std::min, std::max
 #include <cmath>      // std::cos, std::sin, std::fabs
 
-#include "robot_params.hpp"  // params::body, params::sim
-
 namespace cart2d {
-
-RobotGeometry RobotGeometry::from_robot_params() {
-  RobotGeometry g;
-  g.footprint_radius_m = params::body::footprint_radius_m;
-  g.bumper_x_m = params::body::bumper_x_m;
-  g.switch_y_m = params::body::switch_y_m;
-  return g;
-}
-
-ArenaParams ArenaParams::from_robot_params() {
-  ArenaParams a;
-  a.grid_step_m = params::sim::grid_step_m;
-  a.grid_nodes = static_cast<int>(params::sim::grid_nodes);
-  a.margin_m = params::sim::arena_margin_m;
-  return a;
-}
 
 World::World(const ArenaParams& arena) : arena_(arena) {}
 

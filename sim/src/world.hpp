@@ -8,24 +8,23 @@
 #include <string>
 #include <vector>
 
-#include "body.hpp"  // Pose, VelocityConstraint
+#include "body.hpp"          // Pose, VelocityConstraint
+#include "robot_params.hpp"  // params::body, params::sim
 
 namespace cart2d {
 
+// Defaults: the robot (config/robot.toml).
 struct RobotGeometry {
-  double footprint_radius_m = 0.17;  // disc around the centre of the wheel axis
-  double bumper_x_m = 0.17;          // flat front bumper, in body frame
-  double switch_y_m = 0.10;          // the two front switches at (bumper_x, ±switch_y)
-
-  static RobotGeometry from_robot_params();
+  double footprint_radius_m = params::body::footprint_radius_m;  // disc around the centre of the wheel axis
+  double bumper_x_m = params::body::bumper_x_m;                  // flat front bumper, in body frame
+  double switch_y_m = params::body::switch_y_m;                  // the two front switches at (bumper_x, ±switch_y)
 };
 
+// Defaults: the simulated arena (config/robot.toml, [sim]).
 struct ArenaParams {
-  double grid_step_m = 0.2;
-  int grid_nodes = 10;
-  double margin_m = 0.25;
-
-  static ArenaParams from_robot_params();
+  double grid_step_m = params::sim::grid_step_m;
+  int grid_nodes = static_cast<int>(params::sim::grid_nodes);
+  double margin_m = params::sim::arena_margin_m;
 };
 
 // One feature of the cart measured against one wall: its gap (negative = penetration) and the
@@ -41,7 +40,7 @@ struct WallProbe {
 
 struct Obstacle {
   double cx_m = 0.0, cy_m = 0.0;  // centre
-  double half_m = 0.1;            // half the side of the square
+  double half_m = params::sim::grid_step_m / 2.0;  // half the side of the square (default: one grid cell)
 };
 
 class World {

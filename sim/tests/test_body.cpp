@@ -73,7 +73,7 @@ TEST(ProjectContacts, MovingAwayIsAllowed) {
 }
 
 TEST(Body, ArcIntegrationIsExact) {
-  Body body(BodyParams::from_robot_params());
+  Body body{BodyParams{}};
   body.place({0, 0, 0});
   // Quarter circle of radius 1 m at constant twist: ends at (1, 1, π/2).
   const double w = 0.5;

@@ -11,8 +11,8 @@ namespace {
 constexpr double kH = 0.00025;
 
 struct Arena {
-  World world{ArenaParams::from_robot_params()};  // walls 0.25 m outside [0, 1.8]²
-  Cart cart{CartParams::from_robot_params()};
+  World world{ArenaParams{}};  // walls 0.25 m outside [0, 1.8]²
+  Cart cart{CartParams{}};
 };
 
 TEST(Cart, EqualDutiesDriveStraight) {
@@ -103,7 +103,7 @@ TEST(Cart, BackingIntoAWallStopsOnTheFootprintDisc) {
 }
 
 TEST(MeasuringWheels, NominalAndFaultyAngles) {
-  const MeasuringWheelParams p = MeasuringWheelParams::from_robot_params();
+  const MeasuringWheelParams p;
   Faults f;
   WheelAdvance a = advance_measuring_wheels(p, f, {0.1, 0.0}, 1.0);
   EXPECT_NEAR(a.angle_l_rad, 0.1 / p.radius_m, 1e-12);

@@ -9,18 +9,18 @@ namespace cart2d {
 namespace {
 
 TEST(Motor, NoLoadTopSpeedIsAboutOneMetrePerSecond) {
-  const MotorParams m = MotorParams::from_robot_params();
+  const MotorParams m;
   const double omega = steady_speed_radps(m, m.battery_v);
   // (k·V/R − τc) / (k²/R + b) with the robot.toml values.
   const double k = m.torque_constant_nm_per_a, r = m.resistance_ohm;
   EXPECT_NEAR(omega, (k * m.battery_v / r - m.coulomb_friction_nm) / (k * k / r + m.viscous_friction_nms), 1e-12);
-  const double v = omega * CartParams::from_robot_params().body.wheel_radius_m;
+  const double v = omega * CartParams{}.body.wheel_radius_m;
   EXPECT_GT(v, 0.9);
   EXPECT_LT(v, 1.1);
 }
 
 TEST(Motor, SteadySpeedIsOddAndZeroBelowStiction) {
-  const MotorParams m = MotorParams::from_robot_params();
+  const MotorParams m;
   EXPECT_DOUBLE_EQ(steady_speed_radps(m, -6.0), -steady_speed_radps(m, 6.0));
   // Drive torque k·V/R below Coulomb friction: the motor does not turn.
   const double v_stiction = m.coulomb_friction_nm * m.resistance_ohm / m.torque_constant_nm_per_a;
@@ -28,14 +28,14 @@ TEST(Motor, SteadySpeedIsOddAndZeroBelowStiction) {
 }
 
 TEST(Motor, TerminalVoltageFollowsSignedDuty) {
-  const MotorParams m = MotorParams::from_robot_params();
+  const MotorParams m;
   EXPECT_DOUBLE_EQ(terminal_voltage_v(m, 0.5), 6.0);
   EXPECT_DOUBLE_EQ(terminal_voltage_v(m, -0.25), -3.0);
   EXPECT_DOUBLE_EQ(terminal_voltage_v(m, 2.0), 12.0);  // clamped
 }
 
 TEST(Motor, TorqueLawBelowAndAtTheCurrentLimit) {
-  MotorParams m = MotorParams::from_robot_params();
+  MotorParams m;
   const double k = m.torque_constant_nm_per_a, r = m.resistance_ohm;
   TorqueLaw law = torque_law(m, 12.0, 10.0);
   EXPECT_DOUBLE_EQ(law.drive_nm, k * 12.0 / r);
@@ -54,7 +54,7 @@ class SteadyState : public ::testing::TestWithParam<double> {};
 
 TEST_P(SteadyState, CartSpeedMatchesAnalyticMotorSpeed) {
   const double duty = GetParam();
-  const CartParams p = CartParams::from_robot_params();
+  const CartParams p;
   Cart cart(p);
   World world(ArenaParams{0.2, 10, 1000.0});  // walls far away
   cart.place(Pose{0, 0, 0});

@@ -16,7 +16,7 @@ TEST(World, WallsLieTheMarginOutsideTheGrid) {
 
 TEST(World, ProbeGapsAndTheirRatesAgreeWithFiniteDifferences) {
   World w(ArenaParams{0.2, 10, 0.25});
-  const RobotGeometry g = RobotGeometry::from_robot_params();
+  const RobotGeometry g;
   const Pose p{1.3, 0.7, 0.4};
   std::vector<WallProbe> base, moved;
   w.probes(p, g, &base);
@@ -31,7 +31,7 @@ TEST(World, ProbeGapsAndTheirRatesAgreeWithFiniteDifferences) {
 
 TEST(World, SwitchGapAtTheEastWall) {
   World w(ArenaParams{0.2, 10, 0.25});
-  const RobotGeometry g = RobotGeometry::from_robot_params();
+  const RobotGeometry g;
   EXPECT_NEAR(w.switch_gap_m({1.0, 0.9, 0.0}, g, true), 2.05 - 1.0 - g.bumper_x_m, 1e-12);
 }
 
@@ -46,7 +46,7 @@ TEST(World, DiscOverlapsAnObstacleCell) {
 TEST(ContactMonitor, CountsObstacleOnsetsSeparatelyFromWallContacts) {
   World w(ArenaParams{0.2, 10, 0.25});
   w.set_obstacles({{1.0, 0.0, 0.1}, {1.4, 0.0, 0.1}});
-  const RobotGeometry g = RobotGeometry::from_robot_params();
+  const RobotGeometry g;
   ContactMonitor m;
   std::vector<WallProbe> probes;
   double t = 0;
