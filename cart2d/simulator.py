@@ -13,6 +13,7 @@ import os
 import socket
 import subprocess
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -42,6 +43,7 @@ class SimOptions:
     start: tuple[float, float, float] | None = None
     truth_hz: float = 50.0
     paused: bool = False  # start paused: nothing runs until resume() or run_for()
+    pty_link: Path | None = None  # a stable name for the serial port, across restarts
 
 
 class SideChannel:
@@ -56,6 +58,7 @@ class SideChannel:
         self._acks: dict[int, dict[str, Any]] = {}
         self.truth: dict[str, Any] | None = None
         self.events: list[dict[str, Any]] = []
+        self._listeners: list[Callable[[dict[str, Any]], None]] = []
         self._closed = False
         self._reader = threading.Thread(target=self._read, name="sim side channel", daemon=True)
         self._reader.start()
@@ -82,6 +85,10 @@ class SideChannel:
             assert self.truth is not None
             return self.truth
 
+    def subscribe(self, listener: Callable[[dict[str, Any]], None]) -> None:
+        """Calls listener(message) for every truth message, from the reader thread."""
+        self._listeners.append(listener)
+
     def close(self) -> None:
         self._sock.close()
 
@@ -99,10 +106,15 @@ class SideChannel:
                 return
             buf += chunk
             *lines, buf = buf.split(b"\n")
+            messages = [json.loads(line) for line in lines]
             with self._cond:
-                for line in lines:
-                    self._dispatch(json.loads(line))
+                for message in messages:
+                    self._dispatch(message)
                 self._cond.notify_all()
+            for message in messages:
+                if message.get("type") == "truth":
+                    for listener in self._listeners:
+                        listener(message)
 
     def _dispatch(self, message: dict[str, Any]) -> None:
         kind = message.get("type")
@@ -135,6 +147,8 @@ class Simulator:
             cmd += ["--eeprom", str(o.eeprom)]
         if o.paused:
             cmd.append("--paused")
+        if o.pty_link is not None:
+            cmd += ["--pty-link", str(o.pty_link)]
         if o.start is not None:
             cmd += ["--start", ",".join(str(v) for v in o.start)]
         self.process = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
@@ -169,6 +183,16 @@ class Simulator:
     def truth(self) -> dict[str, Any]:
         truth: dict[str, Any] = self.control("truth")["truth"]
         return truth
+
+    def kill(self) -> None:
+        """Ends the process abruptly (SIGKILL), as a crash would."""
+        if self.process is not None:
+            self.process.kill()
+            self.process.wait()
+            self.process = None
+        if self.side is not None:
+            self.side.close()
+            self.side = None
 
     def stop(self) -> None:
         if self.side is not None:

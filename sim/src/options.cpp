@@ -30,6 +30,7 @@ std::string usage() {
          shortest(defaults.arena_margin_m) + " m)\n"
          "  --control-port P      TCP port of the side channel on 127.0.0.1 (default: any free)\n"
          "  --paused              start paused (for runs driven to exact simulated times)\n"
+         "  --pty-link PATH       also make PATH a symlink to the pty (a stable port name)\n"
          "  --verbose | --quiet   more / less logging on stderr\n";
 }
 
@@ -60,6 +61,9 @@ bool parse_options(int argc, char** argv, Options* opts, bool* help, std::string
       return true;
     } else if (!std::strcmp(arg, "--verbose") || !std::strcmp(arg, "-v")) {
       opts->verbose = true;
+    } else if (!std::strcmp(arg, "--pty-link")) {
+      if (!value(&v)) return false;
+      opts->pty_link = v;
     } else if (!std::strcmp(arg, "--paused")) {
       opts->start_paused = true;
     } else if (!std::strcmp(arg, "--quiet") || !std::strcmp(arg, "-q")) {

@@ -2,8 +2,11 @@
 
 #include <cerrno>   // errno
 #include <climits>  // PATH_MAX
+#include <cstdio>   // std::rename
 #include <cstdlib>  // realpath
+#include <cstring>  // std::strerror
 #include <poll.h>   // ppoll
+#include <unistd.h>  // symlink, unlink
 #include <vector>
 
 #include "log.hpp"
@@ -46,6 +49,15 @@ bool Simulator::init(std::string* error) {
   else LOG_INFO("no EEPROM file yet at %s: starting from the firmware's image", eeprom_.path().c_str());
 
   if (!control_.listen(static_cast<uint16_t>(opts_.control_port), error)) return false;
+  if (!opts_.pty_link.empty()) {
+    // Replace atomically: a client reopening the name never finds it missing or stale.
+    const std::string tmp = opts_.pty_link + ".new";
+    ::unlink(tmp.c_str());
+    if (::symlink(rig_.uart().pty_path().c_str(), tmp.c_str()) != 0 || std::rename(tmp.c_str(), opts_.pty_link.c_str()) != 0) {
+      *error = "--pty-link " + opts_.pty_link + ": " + std::strerror(errno);
+      return false;
+    }
+  }
   rig_.set_step_hook([this](uint64_t end) { on_physics_step(end); });
   return true;
 }
@@ -53,7 +65,8 @@ bool Simulator::init(std::string* error) {
 std::string Simulator::ready_line() const {
   return json::Object()
       .add("event", "ready")
-      .add("pty", rig_.uart().pty_path())
+      .add("pty", opts_.pty_link.empty() ? rig_.uart().pty_path() : opts_.pty_link)
+      .add("pty_device", rig_.uart().pty_path())
       .add("control", "127.0.0.1:" + std::to_string(control_.port()))
       .add("firmware", firmware_path_)
       .add("eeprom", eeprom_.path())
