@@ -86,12 +86,8 @@ bench-sim: bench-firmware
 profile-firmware: $(AVR_ELF) sim python-env
 	@$(PY) -m bench.firmware_profile
 
-run: deps firmware sim
-	@echo "cart2d so far: the firmware ($(AVR_HEX), flash it with make flash PORT=/dev/ttyUSB0)"
-	@echo "and the simulator, which now runs that firmware in real time. The line below gives its"
-	@echo "serial port (\"pty\"): open it with screen, SerialPlot (see docs/protocol.md) or cart2d's"
-	@echo "Python link. The gateway and the web panel come next. Ctrl-C stops the simulator."
-	@$(SIM_BIN) --firmware $(AVR_ELF) --speed 1
+run: deps firmware sim python-env
+	@$(VENV)/bin/cart2d sim
 
 clean:
 	rm -rf build

@@ -142,6 +142,7 @@ class Simulator:
             if not Path(path).exists():
                 raise SimulatorError(f"the {what} is not built: {path}")
         cmd = [str(o.binary), "--firmware", str(o.firmware), "--speed", o.speed, "--seed", str(o.seed)]
+        cmd.append("--exit-with-parent")
         cmd += ["--truth-hz", str(o.truth_hz)]
         if o.eeprom is not None:
             cmd += ["--eeprom", str(o.eeprom)]
@@ -151,7 +152,8 @@ class Simulator:
             cmd += ["--pty-link", str(o.pty_link)]
         if o.start is not None:
             cmd += ["--start", ",".join(str(v) for v in o.start)]
-        self.process = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
+        # Its own session: a Ctrl-C in the terminal reaches us, and we stop it in order.
+        self.process = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, start_new_session=True)
         assert self.process.stdout is not None
         line = self.process.stdout.readline()
         if not line:

@@ -31,6 +31,7 @@ std::string usage() {
          "  --control-port P      TCP port of the side channel on 127.0.0.1 (default: any free)\n"
          "  --paused              start paused (for runs driven to exact simulated times)\n"
          "  --pty-link PATH       also make PATH a symlink to the pty (a stable port name)\n"
+         "  --exit-with-parent    stop when the process that started the simulator dies\n"
          "  --verbose | --quiet   more / less logging on stderr\n";
 }
 
@@ -64,6 +65,8 @@ bool parse_options(int argc, char** argv, Options* opts, bool* help, std::string
     } else if (!std::strcmp(arg, "--pty-link")) {
       if (!value(&v)) return false;
       opts->pty_link = v;
+    } else if (!std::strcmp(arg, "--exit-with-parent")) {
+      opts->exit_with_parent = true;
     } else if (!std::strcmp(arg, "--paused")) {
       opts->start_paused = true;
     } else if (!std::strcmp(arg, "--quiet") || !std::strcmp(arg, "-q")) {

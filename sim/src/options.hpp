@@ -22,6 +22,7 @@ struct Options {
   bool quiet = false;
   bool start_paused = false;  // hold the MCU until a resume or run message
   std::string pty_link;       // a symlink to (re)point at the pty: a stable name across restarts
+  bool exit_with_parent = false;  // stop when the launching process dies
 };
 
 // Fills *opts (pre-set with defaults) from argv. False with a message on a bad command line;

@@ -1,0 +1,144 @@
+"""The `cart2d` command line: `sim` (simulator + gateway), `serve` (a real robot on a serial
+port), `mission` (a headless mission run with a report)."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import time
+from collections.abc import Sequence
+
+import uvicorn
+
+from cart2d.gateway import Gateway
+from cart2d.link import Link, LinkError
+from cart2d.server import create_app, is_loopback
+from cart2d.simulator import SimOptions, Simulator, SimulatorError
+from cart2d.store import GatewaySettings, NetworkSettings, Store
+
+log = logging.getLogger("cart2d")
+
+
+def _network_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--host", help="bind address (default: the saved one, 127.0.0.1 at first)")
+    parser.add_argument("--port", type=int, help="HTTP port (default: the saved one, 8080 at first)")
+
+
+def _settings(store: Store, args: argparse.Namespace) -> GatewaySettings:
+    settings = store.load()
+    network = settings.network
+    if args.host or args.port:
+        network = NetworkSettings(host=args.host or network.host, port=args.port or network.port)
+        settings = settings.model_copy(update={"network": network})
+    if not is_loopback(network.host):
+        settings = store.ensure_token(settings)
+    return settings
+
+
+def _connect(gateway: Gateway, wait_s: float) -> None:
+    """Checks the firmware once it answers (a Nano resets when its port opens: give it time)."""
+    deadline = time.monotonic() + wait_s
+    while True:
+        try:
+            version = gateway.check_firmware()
+            log.info("firmware %s on %s", version.firmware, gateway.link.port)
+            return
+        except LinkError as exc:
+            if time.monotonic() > deadline:
+                log.warning("%s; the gateway starts anyway and keeps trying", exc)
+                return
+            time.sleep(0.5)
+
+
+def _serve(gateway: Gateway, settings: GatewaySettings) -> None:
+    host, port = settings.network.host, settings.network.port
+    app = create_app(gateway, host, settings.token)
+    shown = "127.0.0.1" if host in ("0.0.0.0", "::") else host
+    print(f"cart2d panel: http://{shown}:{port}/   (Ctrl-C stops)", flush=True)
+    if settings.token and not is_loopback(host):
+        print(f"access token (needed off this machine): {settings.token}", flush=True)
+    uvicorn.run(app, host=host, port=port, log_level="warning")
+
+
+def cmd_sim(args: argparse.Namespace) -> int:
+    store = Store()
+    settings = _settings(store, args)
+    store.directory.mkdir(parents=True, exist_ok=True)
+    options = SimOptions(
+        speed=args.speed,
+        seed=args.seed,
+        eeprom=store.directory / "sim-eeprom.bin",
+        pty_link=store.directory / "sim-tty",
+    )
+    try:
+        sim = Simulator(options).start()
+    except SimulatorError as exc:
+        print(f"cart2d: {exc}", file=sys.stderr)
+        return 2
+    link = Link(sim.pty).open()
+    gateway = Gateway(link, store, settings, sim)
+    try:
+        _connect(gateway, 5.0)
+        gateway.start()
+        print(f"simulator running ({args.speed}x real time), robot serial port {sim.pty}", flush=True)
+        _serve(gateway, settings)
+    finally:
+        gateway.close()
+        link.close()
+        sim.stop()
+    return 0
+
+
+def cmd_serve(args: argparse.Namespace) -> int:
+    store = Store()
+    settings = _settings(store, args)
+    link = Link(args.serial, args.baud)
+    try:
+        link.open(wait_s=3.0)
+    except LinkError as exc:
+        log.warning("%s; retrying in the background", exc)
+    gateway = Gateway(link, store, settings)
+    try:
+        _connect(gateway, 5.0)
+        gateway.start()
+        _serve(gateway, settings)
+    finally:
+        gateway.close()
+        link.close()
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="cart2d", description=__doc__)
+    parser.add_argument("-v", "--verbose", action="store_true")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    sim = sub.add_parser("sim", help="the simulator running the built firmware, with the gateway and panel")
+    _network_args(sim)
+    sim.add_argument("--speed", default="1", help="simulated seconds per second, or 'max' (default 1)")
+    sim.add_argument("--seed", type=int, default=1, help="seed of the simulator's random faults")
+    sim.set_defaults(run=cmd_sim)
+
+    serve = sub.add_parser("serve", help="the gateway and panel for a real cart on a serial port")
+    serve.add_argument("--serial", required=True, help="the Nano's serial port, e.g. /dev/ttyUSB0")
+    serve.add_argument("--baud", type=int, default=115200)
+    _network_args(serve)
+    serve.set_defaults(run=cmd_serve)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING, format="%(name)s: %(message)s"
+    )
+    try:
+        code: int = args.run(args)
+    except KeyboardInterrupt:
+        code = 0
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())

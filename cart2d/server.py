@@ -1,0 +1,296 @@
+"""The gateway's HTTP and WebSocket API (FastAPI), documented by its OpenAPI schema at
+/openapi.json. Everything the seed's web page could do, plus live data and missions.
+
+Inputs are validated (finite numbers within the protocol's range, bounded arrays, known names):
+a bad request gets a 4xx with a message and changes nothing. Bound to anything but loopback,
+every state-changing request and the WebSocket need the access token."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import hmac
+import ipaddress
+import json
+import logging
+from collections.abc import Awaitable, Callable
+from typing import Annotated, Any
+
+from fastapi import Depends, FastAPI, HTTPException, Request, Response, WebSocket, WebSocketDisconnect
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import HTMLResponse, JSONResponse
+from pydantic import BaseModel, ConfigDict, Field
+
+from cart2d import firmware
+from cart2d.gateway import Gateway
+from cart2d.link import CommandRefused, LinkError
+from cart2d.planner import PlanError
+from cart2d.protocol import MAX_ARGS
+from cart2d.spec import load_spec
+from cart2d.store import NetworkSettings, parse_settings
+
+log = logging.getLogger(__name__)
+
+MAX_BODY_BYTES = 256 * 1024  # the largest request: an imported settings file
+# Numbers the firmware accepts (docs/protocol.md): finite, magnitude below 2^20.
+Number = Annotated[float, Field(allow_inf_nan=False, gt=-1048576.0, lt=1048576.0)]
+
+
+class Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class PointIn(Strict):
+    x: Number = Field(description="m")
+    y: Number = Field(description="m")
+
+
+class ObstacleIn(PointIn):
+    present: bool = Field(True, description="true adds the obstacle at the nearest node, false removes it")
+
+
+class CommandIn(Strict):
+    name: str = Field(
+        min_length=1, max_length=40, description="a command of docs/protocol.md, e.g. POSE or GOTO"
+    )
+    args: list[Number] = Field(default_factory=list, max_length=MAX_ARGS)
+
+
+class DriveIn(Strict):
+    v: Number = Field(description="linear speed, m/s")
+    omega: Number = Field(description="angular speed, rad/s")
+
+
+class SettingIn(Strict):
+    id: int = Field(ge=0, le=255, description="stable setting id (config/robot.toml)")
+    value: Number
+
+
+def is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None = None) -> FastAPI:
+    """The API for `gateway`. Off loopback, `token` is required for changes and the WebSocket."""
+    needs_token = not is_loopback(bind_host)
+    if needs_token and not token:
+        raise ValueError("a token is required when the gateway is not bound to loopback")
+    app = FastAPI(title="cart2d gateway", version="0.1.0", description=__doc__)
+
+    def token_ok(supplied: str | None) -> bool:
+        return not needs_token or (
+            supplied is not None and token is not None and hmac.compare_digest(supplied, token)
+        )
+
+    async def require_token(request: Request) -> None:
+        supplied = request.headers.get("x-cart2d-token")
+        auth = request.headers.get("authorization", "")
+        if auth.lower().startswith("bearer "):
+            supplied = auth[7:]
+        if not token_ok(supplied):
+            raise HTTPException(
+                401, "this gateway needs its access token (shown in its terminal) for changes"
+            )
+
+    Guarded = Depends(require_token)
+
+    @app.middleware("http")
+    async def limit_body(request: Request, call_next: Callable[[Request], Awaitable[Response]]) -> Response:
+        length = request.headers.get("content-length")
+        if length is not None and (not length.isdigit() or int(length) > MAX_BODY_BYTES):
+            return JSONResponse({"detail": f"request body over {MAX_BODY_BYTES} bytes"}, status_code=413)
+        return await call_next(request)
+
+    @app.exception_handler(RequestValidationError)
+    async def invalid(_: Request, exc: RequestValidationError) -> JSONResponse:
+        # A sentence per problem, without echoing the input (NaN cannot even be written in JSON).
+        problems = []
+        for error in exc.errors():
+            where = ".".join(str(p) for p in error["loc"] if p != "body") or "body"
+            problems.append(f"{where}: {error['msg']}")
+        return JSONResponse({"detail": "; ".join(problems)}, status_code=422)
+
+    @app.exception_handler(PlanError)
+    async def plan_error(_: Request, exc: PlanError) -> JSONResponse:
+        return JSONResponse({"detail": str(exc)}, status_code=422)
+
+    @app.exception_handler(CommandRefused)
+    async def refused(_: Request, exc: CommandRefused) -> JSONResponse:
+        return JSONResponse({"detail": str(exc)}, status_code=409)
+
+    @app.exception_handler(LinkError)
+    async def link_error(_: Request, exc: LinkError) -> JSONResponse:
+        return JSONResponse({"detail": f"the robot is not reachable: {exc}"}, status_code=503)
+
+    # -- reading -----------------------------------------------------------------------------
+    @app.get("/api/status", summary="link, firmware, mission, pose")
+    def status() -> dict[str, Any]:
+        return gateway.status_view()
+
+    @app.get("/api/protocol", summary="the commands the generic-command form offers")
+    def protocol() -> list[dict[str, Any]]:
+        spec = load_spec()
+        return [
+            {"code": c.code, "name": c.name, "args": c.args, "results": c.results, "arg_count": c.arg_count}
+            for c in spec.commands.values()
+            if c.code > 2
+        ]
+
+    @app.get("/api/map", summary="grid, obstacles (metres) and the cart's footprint")
+    def get_map() -> dict[str, Any]:
+        return gateway.map_view()
+
+    @app.get("/api/mission", summary="idle / driving / arrived / failed, with the planned path")
+    def mission() -> dict[str, Any]:
+        return gateway.mission_view()
+
+    @app.get("/api/firmware/settings", summary="every firmware setting: id, name, unit, range, value")
+    def firmware_settings() -> list[dict[str, object]]:
+        return firmware.read_settings(gateway.link)
+
+    # -- changing ----------------------------------------------------------------------------
+    @app.post("/api/command", dependencies=[Guarded], summary="any protocol command and its reply")
+    def command(body: CommandIn) -> dict[str, Any]:
+        spec = load_spec()
+        name = body.name.upper()
+        key = name if name in spec.commands else f"COMMAND_{name}"
+        entry = spec.commands.get(key)
+        if entry is None or entry.code <= 2:
+            raise HTTPException(422, f"unknown command {body.name!r}; GET /api/protocol lists them")
+        reply = gateway.link.request(entry.code, body.args)
+        return {
+            "command": entry.name,
+            "status": ["CONTROL_OK", "CONTROL_ERROR", "CONTROL_INVALID_COM"][reply.status],
+            "results": list(reply.results),
+            "message": "" if reply.ok else reply.describe_error(),
+        }
+
+    @app.put("/api/map/obstacle", dependencies=[Guarded], summary="add or remove the obstacle nearest (x, y)")
+    def obstacle(body: ObstacleIn) -> dict[str, Any]:
+        return gateway.set_obstacle(body.x, body.y, body.present)
+
+    @app.post("/api/goto", dependencies=[Guarded], summary="plan from the measured pose and drive there")
+    def goto(body: PointIn) -> dict[str, Any]:
+        return gateway.plan_view(gateway.go_to(body.x, body.y))
+
+    @app.post("/api/stop", dependencies=[Guarded], summary="emergency stop: motors off now")
+    def stop() -> dict[str, str]:
+        gateway.stop()
+        return {"result": "stopped"}
+
+    @app.post("/api/drive", dependencies=[Guarded], summary="manual driving; repeat within 0.5 s or it stops")
+    def drive(body: DriveIn) -> dict[str, str]:
+        gateway.drive(body.v, body.omega)
+        return {"result": "driving"}
+
+    @app.put("/api/firmware/settings", dependencies=[Guarded], summary="change one firmware setting")
+    def set_setting(body: SettingIn) -> dict[str, float]:
+        return {"value": firmware.write_setting(gateway.link, body.id, body.value)}
+
+    @app.post("/api/firmware/save", dependencies=[Guarded], summary="firmware settings to EEPROM")
+    def save() -> dict[str, str]:
+        gateway.link.call("SAVE")
+        return {"result": "saving"}
+
+    @app.post("/api/firmware/load", dependencies=[Guarded], summary="firmware settings from EEPROM")
+    def load() -> dict[str, str]:
+        gateway.link.call("LOAD")
+        return {"result": "loaded"}
+
+    @app.post("/api/reset", dependencies=[Guarded], summary="soft reset of the MCU")
+    def reset() -> dict[str, str]:
+        if gateway.sim is not None:
+            gateway.sim.control("reset")
+        else:
+            gateway.link.call("REBOOT")
+        return {"result": "resetting"}
+
+    @app.get("/api/settings", summary="the gateway's own settings (network, map), without the token")
+    def gateway_settings() -> dict[str, Any]:
+        return gateway.settings.model_dump(exclude={"token"})
+
+    @app.put("/api/settings/network", dependencies=[Guarded], summary="bind address and port (at restart)")
+    def network(body: NetworkSettings) -> dict[str, Any]:
+        gateway.update_settings(gateway.settings.model_copy(update={"network": body}))
+        return {"result": "saved; takes effect when the gateway restarts", **body.model_dump()}
+
+    @app.get("/api/settings/file", summary="download the settings file (the seed's settings.bin)")
+    def export_settings() -> Response:
+        data = gateway.settings.model_dump_json(indent=2, exclude={"token"})
+        headers = {"Content-Disposition": 'attachment; filename="cart2d-settings.json"'}
+        return Response(data, media_type="application/json", headers=headers)
+
+    @app.post("/api/settings/file", dependencies=[Guarded], summary="upload a settings file")
+    async def import_settings(request: Request) -> dict[str, Any]:
+        body = await request.body()
+        if len(body) > MAX_BODY_BYTES:
+            raise HTTPException(413, f"request body over {MAX_BODY_BYTES} bytes")
+        try:
+            imported = parse_settings(body)
+        except ValueError as exc:
+            raise HTTPException(422, str(exc)) from exc
+        gateway.update_settings(imported.model_copy(update={"token": gateway.settings.token}))
+        return {"result": "imported; network changes take effect when the gateway restarts"}
+
+    # -- live data ---------------------------------------------------------------------------
+    @app.websocket("/ws")
+    async def live(ws: WebSocket) -> None:
+        origin = ws.headers.get("origin")
+        host = ws.headers.get("host", "")
+        if origin is not None and origin.split("://", 1)[-1] != host:
+            await ws.close(code=1008, reason="cross-origin WebSocket refused")
+            return
+        if not token_ok(ws.query_params.get("token")):
+            await ws.close(code=1008, reason="this gateway needs its access token")
+            return
+        await ws.accept()
+        loop = asyncio.get_running_loop()
+        queue: asyncio.Queue[dict[str, Any]] = asyncio.Queue(maxsize=256)
+
+        def deliver(message: dict[str, Any]) -> None:
+            def put() -> None:
+                if queue.full():  # a slow viewer loses old frames, never slows the others
+                    queue.get_nowait()
+                queue.put_nowait(message)
+
+            loop.call_soon_threadsafe(put)
+
+        unsubscribe = gateway.subscribe(deliver)
+        try:
+            await ws.send_text(json.dumps({"type": "hello", **gateway.mission_view()}))
+            while True:
+                await ws.send_text(json.dumps(await queue.get()))
+        except (WebSocketDisconnect, RuntimeError):
+            pass
+        finally:
+            unsubscribe()
+            with contextlib.suppress(RuntimeError):
+                await ws.close()
+
+    @app.get("/", response_class=HTMLResponse, include_in_schema=False)
+    def index() -> str:
+        return MINIMAL_PAGE
+
+    return app
+
+
+MINIMAL_PAGE = """<!doctype html><html><head><meta charset="utf-8"><title>cart2d</title>
+<meta name="viewport" content="width=device-width, initial-scale=1"></head>
+<body style="font-family: sans-serif; max-width: 40em; margin: 2em auto">
+<h1>cart2d gateway</h1>
+<p>The control panel is on its way. Meanwhile the API is live:
+<a href="/docs">interactive API documentation</a>, <a href="/openapi.json">OpenAPI schema</a>.</p>
+<pre id="status">loading status...</pre>
+<script>
+async function refresh() {
+  const r = await fetch('/api/status');
+  document.getElementById('status').textContent = JSON.stringify(await r.json(), null, 2);
+}
+refresh(); setInterval(refresh, 1000);
+</script></body></html>
+"""

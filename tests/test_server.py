@@ -1,0 +1,240 @@
+"""The gateway's HTTP/WebSocket API, against the real firmware in the simulator."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from fastapi.testclient import TestClient
+from starlette.websockets import WebSocketDisconnect
+
+from cart2d.gateway import Gateway
+from cart2d.link import Link
+from cart2d.server import MAX_BODY_BYTES, create_app
+from cart2d.simulator import Simulator
+from cart2d.store import Store
+from tests.conftest import start_sim, wait_for
+
+JSON = {"content-type": "application/json"}
+
+
+class Rig:
+    def __init__(self, tmp_path: Path, bind_host: str = "127.0.0.1", token: str | None = None) -> None:
+        self.sim = start_sim(tmp_path)
+        self.link = Link(self.sim.pty, timeout_s=0.2).open()
+        self.store = Store(tmp_path / "gateway")
+        self.gateway = Gateway(self.link, self.store, self.store.load(), self.sim)
+        self.gateway.check_firmware()
+        self.gateway.start()
+        self.client = TestClient(create_app(self.gateway, bind_host, token))
+
+    def close(self) -> None:
+        self.gateway.close()
+        self.link.close()
+        self.sim.stop()
+
+    def mission_state(self) -> str:
+        state: str = self.client.get("/api/mission").json()["state"]
+        return state
+
+
+@pytest.fixture
+def rig(tmp_path: Path) -> Iterator[Rig]:
+    r = Rig(tmp_path)
+    yield r
+    r.close()
+
+
+def raw(client: TestClient, method: str, url: str, body: str) -> Any:
+    return client.request(method, url, content=body.encode(), headers=JSON)
+
+
+def test_status_reports_link_firmware_and_pose(rig: Rig) -> None:
+    status = rig.client.get("/api/status").json()
+    assert status["link"] == {"state": "connected", "port": rig.sim.pty, "simulated": True}
+    assert status["firmware"]["firmware"] == "0.1.0"
+    assert status["status"]["mode"] == "IDLE" and status["pose"] == {"x": 0.0, "y": 0.0, "theta": 0.0}
+
+
+def test_openapi_schema_documents_the_api(rig: Rig) -> None:
+    paths = rig.client.get("/openapi.json").json()["paths"]
+    for path in ("/api/goto", "/api/map/obstacle", "/api/command", "/api/stop", "/api/drive"):
+        assert path in paths
+
+
+def test_mission_through_obstacles_arrives_without_collision(rig: Rig) -> None:
+    for x, y in [(0.8, 0.0), (0.8, 0.2), (0.8, 0.4)]:  # a wall across the direct route
+        assert rig.client.put("/api/map/obstacle", json={"x": x, "y": y}).status_code == 200
+    rig.sim.control("obstacles", points=[[0.8, 0.0], [0.8, 0.2], [0.8, 0.4]])
+    plan = rig.client.post("/api/goto", json={"x": 1.6, "y": 0.2}).json()
+    assert plan["length_m"] <= plan["grid_length_m"] + 1e-9 and plan["waypoints"][-1] == [1.6, 0.2]
+    wait_for(lambda: rig.mission_state() != "driving", 60)
+    truth = rig.sim.truth()
+    assert rig.mission_state() == "arrived"
+    assert math.hypot(truth["x"] - 1.6, truth["y"] - 0.2) < 0.01
+    assert truth["collisions"] == 0
+
+
+@pytest.mark.parametrize(
+    ("goal", "fragment"),
+    [
+        ({"x": 5.0, "y": 0.0}, "off the map"),
+        ({"x": 0.8, "y": 0.8}, "obstacle"),
+        ({"x": 1.8, "y": 1.8}, "reach"),
+    ],
+)
+def test_bad_goals_are_refused_and_nothing_is_sent(rig: Rig, goal: dict[str, float], fragment: str) -> None:
+    rig.client.put("/api/map/obstacle", json={"x": 0.8, "y": 0.8})
+    # A wall two nodes from the corner (1.8, 1.8): the corner stays free for the 0.17 m
+    # footprint but cannot be reached.
+    for x, y in [(1.4, 1.4), (1.4, 1.6), (1.4, 1.8), (1.6, 1.4), (1.8, 1.4)]:
+        rig.client.put("/api/map/obstacle", json={"x": x, "y": y})
+    response = rig.client.post("/api/goto", json=goal)
+    assert response.status_code == 422
+    assert fragment in response.json()["detail"]
+    assert rig.mission_state() == "idle"
+    assert rig.client.get("/api/status").json()["status"]["waypoint_count"] == 0
+
+
+BAD_BODIES = [
+    '{"x": NaN, "y": 0}',
+    '{"x": Infinity, "y": 0}',
+    '{"x": -Infinity, "y": 0}',
+    '{"x": "one", "y": 0}',
+    '{"x": 1e7, "y": 0}',
+    '{"x": 0.5}',
+    '{"x": 0.5, "y": 0.5, "z": 1}',
+    "[0.5, 0.5]",
+    "not json",
+]
+
+
+@pytest.mark.parametrize("body", BAD_BODIES)
+def test_bad_inputs_get_4xx_with_a_message_and_change_nothing(rig: Rig, body: str) -> None:
+    before = rig.client.get("/api/map").json()
+    for method, url in [("POST", "/api/goto"), ("PUT", "/api/map/obstacle"), ("POST", "/api/drive")]:
+        response = raw(
+            rig.client,
+            method,
+            url,
+            body.replace('"x"', '"v"').replace('"y"', '"omega"') if "drive" in url else body,
+        )
+        assert 400 <= response.status_code < 500, (url, response.text)
+        assert response.json()["detail"]
+    assert rig.client.get("/api/map").json() == before
+    assert rig.mission_state() == "idle"
+    assert rig.client.get("/api/status").json()["status"]["mode"] == "IDLE"
+
+
+def test_oversized_bodies_are_refused(rig: Rig) -> None:
+    big = '{"x": 0.5, "y": 0.5, "pad": "' + "a" * (MAX_BODY_BYTES + 1) + '"}'
+    response = raw(rig.client, "POST", "/api/goto", big)
+    assert response.status_code == 413 and "bytes" in response.json()["detail"]
+
+
+def test_generic_command_form(rig: Rig) -> None:
+    pose = rig.client.post("/api/command", json={"name": "POSE", "args": []}).json()
+    assert pose == {
+        "command": "COMMAND_POSE",
+        "status": "CONTROL_OK",
+        "results": [0.0, 0.0, 0.0],
+        "message": "",
+    }
+    refused = rig.client.post("/api/command", json={"name": "TOL_SET", "args": [5.0]}).json()
+    assert refused["status"] == "CONTROL_ERROR" and "out of range" in refused["message"]
+    assert rig.client.post("/api/command", json={"name": "FLY", "args": []}).status_code == 422
+    assert rig.client.post("/api/command", json={"name": "CONTROL_OK", "args": []}).status_code == 422
+    too_many = {"name": "GOTO", "args": [0.0] * 32}
+    assert rig.client.post("/api/command", json=too_many).status_code == 422
+    names = {c["name"] for c in rig.client.get("/api/protocol").json()}
+    assert {"COMMAND_GOTO", "COMMAND_POSE", "COMMAND_VELOCITY"} <= names
+
+
+def test_firmware_settings_are_read_and_range_checked(rig: Rig) -> None:
+    settings = {s["name"]: s for s in rig.client.get("/api/firmware/settings").json()}
+    assert settings["v_max_mps"]["value"] == pytest.approx(0.5) and settings["v_max_mps"]["unit"] == "m/s"
+    assert rig.client.put("/api/firmware/settings", json={"id": 6, "value": 0.3}).json()[
+        "value"
+    ] == pytest.approx(0.3)
+    refused = rig.client.put("/api/firmware/settings", json={"id": 6, "value": 9.0})
+    assert refused.status_code == 409 and "out of range" in refused.json()["detail"]
+    assert rig.client.put("/api/firmware/settings", json={"id": 99, "value": 1.0}).status_code == 409
+
+
+def test_emergency_stop_halts_a_moving_robot(rig: Rig) -> None:
+    rig.client.post("/api/goto", json={"x": 1.6, "y": 1.6})
+    wait_for(lambda: rig.sim.truth()["v"] > 0.2, 30)
+    assert rig.client.post("/api/stop").status_code == 200
+    mission = rig.client.get("/api/mission").json()
+    assert mission["state"] == "failed" and "stopped" in mission["reason"]
+    truth = rig.sim.truth()
+    assert truth["duty_l"] == 0.0 and truth["duty_r"] == 0.0
+
+
+def test_settings_file_export_and_import(rig: Rig) -> None:
+    rig.client.put("/api/map/obstacle", json={"x": 1.0, "y": 1.0})
+    exported = rig.client.get("/api/settings/file")
+    assert "attachment" in exported.headers["content-disposition"] and "token" not in exported.json()
+    rig.client.put("/api/map/obstacle", json={"x": 1.0, "y": 1.0, "present": False})
+    assert rig.client.post("/api/settings/file", content=exported.content).status_code == 200
+    assert rig.client.get("/api/map").json()["obstacles"] == [[1.0, 1.0]]
+    bad = rig.client.post("/api/settings/file", content=b'{"map": {"cols": 1}}')
+    assert bad.status_code == 422 and "map.cols" in bad.json()["detail"]
+    assert rig.client.get("/api/map").json()["obstacles"] == [[1.0, 1.0]]
+    assert rig.store.load().map.obstacles == [(5, 5)]  # persisted
+
+
+def test_websocket_streams_telemetry_and_truth(rig: Rig) -> None:
+    with rig.client.websocket_connect("/ws") as ws:
+        assert json.loads(ws.receive_text())["type"] == "hello"
+        kinds = {json.loads(ws.receive_text())["type"] for _ in range(40)}
+    assert {"telemetry", "truth"} <= kinds
+
+
+def test_token_is_required_off_loopback(tmp_path: Path) -> None:
+    rig = Rig(tmp_path, bind_host="0.0.0.0", token="s3cret-token-for-tests")
+    try:
+        assert rig.client.get("/api/status").status_code == 200  # reading is allowed
+        refused = rig.client.post("/api/stop")
+        assert refused.status_code == 401 and "token" in refused.json()["detail"]
+        assert rig.client.post("/api/stop", headers={"X-Cart2d-Token": "wrong"}).status_code == 401
+        assert (
+            rig.client.post("/api/stop", headers={"X-Cart2d-Token": "s3cret-token-for-tests"}).status_code
+            == 200
+        )
+        bearer = {"Authorization": "Bearer s3cret-token-for-tests"}
+        assert rig.client.post("/api/stop", headers=bearer).status_code == 200
+        with pytest.raises(WebSocketDisconnect) as refused_ws, rig.client.websocket_connect("/ws") as ws:
+            ws.receive_text()
+        assert refused_ws.value.code == 1008
+        with rig.client.websocket_connect("/ws?token=s3cret-token-for-tests") as ws:
+            assert json.loads(ws.receive_text())["type"] == "hello"
+    finally:
+        rig.close()
+
+
+def test_cross_origin_websocket_is_refused(rig: Rig) -> None:
+    evil = {"origin": "http://evil.example"}
+    with (
+        pytest.raises(WebSocketDisconnect) as refused,
+        rig.client.websocket_connect("/ws", headers=evil) as ws,
+    ):
+        ws.receive_text()
+    assert refused.value.code == 1008
+    with rig.client.websocket_connect("/ws", headers={"origin": "http://testserver"}) as ws:
+        assert json.loads(ws.receive_text())["type"] == "hello"
+
+
+def test_a_gateway_off_loopback_without_token_does_not_start(tmp_path: Path) -> None:
+    sim: Simulator = start_sim(tmp_path)
+    try:
+        with Link(sim.pty) as link:
+            gateway = Gateway(link, Store(tmp_path / "g"), Store(tmp_path / "g").load(), sim)
+            with pytest.raises(ValueError, match="token"):
+                create_app(gateway, "0.0.0.0", None)
+    finally:
+        sim.stop()
