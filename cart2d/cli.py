@@ -8,6 +8,7 @@ import logging
 import sys
 import time
 from collections.abc import Sequence
+from pathlib import Path
 
 import uvicorn
 
@@ -109,6 +110,12 @@ def cmd_serve(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_mission(args: argparse.Namespace) -> int:
+    from cart2d.mission import main_mission  # tqdm and friends only for this command
+
+    return main_mission(args.mission, args.report, args.speed, args.seed)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="cart2d", description=__doc__)
     parser.add_argument("-v", "--verbose", action="store_true")
@@ -125,6 +132,13 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--baud", type=int, default=115200)
     _network_args(serve)
     serve.set_defaults(run=cmd_serve)
+
+    mission = sub.add_parser("mission", help="run a mission in the simulator and write a report")
+    mission.add_argument("mission", type=Path, help="MISSION.json: grid, obstacles, start, goals, ...")
+    mission.add_argument("--report", type=Path, required=True, help="where to write REPORT.json")
+    mission.add_argument("--speed", default="max", help="simulated seconds per second, or 'max' (default)")
+    mission.add_argument("--seed", type=int, default=1)
+    mission.set_defaults(run=cmd_mission)
     return parser
 
 

@@ -44,6 +44,8 @@ class SimOptions:
     truth_hz: float = 50.0
     paused: bool = False  # start paused: nothing runs until resume() or run_for()
     pty_link: Path | None = None  # a stable name for the serial port, across restarts
+    grid: tuple[int, float] | None = None  # square arena: nodes per side, step (m)
+    quiet: bool = False  # only warnings and errors from the simulator on stderr
 
 
 class SideChannel:
@@ -148,6 +150,10 @@ class Simulator:
             cmd += ["--eeprom", str(o.eeprom)]
         if o.paused:
             cmd.append("--paused")
+        if o.quiet:
+            cmd.append("--quiet")
+        if o.grid is not None:
+            cmd += ["--grid", f"{o.grid[0]},{o.grid[1]}"]
         if o.pty_link is not None:
             cmd += ["--pty-link", str(o.pty_link)]
         if o.start is not None:

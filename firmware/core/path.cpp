@@ -48,8 +48,7 @@ void Path::advance() {
 void Path::clear() { count_ = received_ = index_ = 0; }
 
 // Called when the current waypoint changes: how fast the cart may pass it. The exit speed
-// shrinks with the turn: full speed straight on, zero for a U-turn (the follower's
-// cos(heading error) law gives the same speed just after the switch).
+// shrinks with the turn: full speed straight on, zero from 45 degrees on.
 void Path::update_exit_factor() {
   exit_factor_ = 0.0f;
   if (index_ + 1 >= count_) return;
@@ -59,7 +58,8 @@ void Path::update_exit_factor() {
   const float in_x = here.x_m - from.x_m, in_y = here.y_m - from.y_m;
   const float out_x = next.x_m - here.x_m, out_y = next.y_m - here.y_m;
   const float norms = sqrtf((in_x * in_x + in_y * in_y) * (out_x * out_x + out_y * out_y));
-  exit_factor_ = norms > 1e-9f ? clamp((in_x * out_x + in_y * out_y) / norms, 0.0f, 1.0f) : 0.0f;
+  // The follower's speed law just after the switch (heading error = the turn), as the exit speed.
+  exit_factor_ = norms > 1e-9f ? heading_speed_factor((in_x * out_x + in_y * out_y) / norms) : 0.0f;
 }
 
 bool Path::passed(const Pose& pose) const {

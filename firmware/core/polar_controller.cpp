@@ -40,8 +40,8 @@ PolarOutput polar_control(const Pose& pose, const Heading& heading, const Approa
   const float heading_error = atan2_right_half(direction * cross_m, direction * along_m);  // [-pi/2, pi/2]
   float speed = capped_speed(distance_m, target.exit_speed_mps, limits);
   if (target.final) speed = fminf(speed, gains.rho_kp * distance_m);
-  // Do not drive off sideways while the heading is still wrong: scale by cos(heading error).
-  if (distance_m > 1e-6f) speed *= fabsf(along_m) / distance_m;
+  // Do not drive off sideways while the heading is still wrong; turn on the spot when far off.
+  if (distance_m > 1e-6f) speed *= heading_speed_factor(fabsf(along_m) / distance_m);
   out.v_mps = direction * speed;
   out.omega_radps = clamp(gains.phase_kp * heading_error, -limits.w_max_radps, limits.w_max_radps);
   return out;

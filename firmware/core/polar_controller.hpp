@@ -34,6 +34,15 @@ struct PolarOutput {
   bool behind;             // the waypoint is behind the cart (it drives backwards)
 };
 
+// The speed factor of the heading error: 1 when aligned, 0 from kTurnOnTheSpot_rad on (the cart
+// turns on the spot first, so it drives the planner's straight segments instead of arcs that
+// can reach a wall or an obstacle). In cos: (cos e - cos e0) / (1 - cos e0), clamped at 0.
+constexpr float kCosTurnOnTheSpot = 0.70710678f;  // cos(45 deg)
+inline float heading_speed_factor(float cos_error) {
+  const float f = (cos_error - kCosTurnOnTheSpot) * (1.0f / (1.0f - kCosTurnOnTheSpot));
+  return f > 0.0f ? f : 0.0f;
+}
+
 // Within this distance of the FINAL waypoint the bearing is too noisy to steer by: stop
 // turning and only close the distance along the current heading (while the waypoint is within
 // 45 deg of the heading line; further off to the side the cart must still turn towards it).

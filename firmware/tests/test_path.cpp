@@ -209,12 +209,12 @@ TEST(PathBuffer, ExitSpeedFollowsTheTurnAngle) {
   struct Case {
     const char* name;
     core::Point next;     // after the waypoint (1, 0), reached from the start (0, 0)
-    float expected_exit;  // v_max * max(0, cos(turn))
+    float expected_exit;  // v_max * max(0, (cos(turn) - cos 45) / (1 - cos 45))
   };
-  const float c45 = static_cast<float>(std::cos(3.14159265358979 / 4));
   const Case cases[] = {
       {"collinear", {2.0f, 0.0f}, kVmax},                   // cos 0 = 1
-      {"gentle_45deg", {2.0f, 1.0f}, kVmax * c45},          // 0.35355 m/s
+      {"gentle_26.6deg", {3.0f, 1.0f}, kVmax * 0.63955f},   // cos = 2/sqrt 5: (0.89443 - 0.70711) / 0.29289
+      {"45deg_turns_on_the_spot", {2.0f, 1.0f}, 0.0f},       // (c45 - c45) / ... = 0
       {"right_angle_left", {1.0f, 1.0f}, 0.0f},             // cos 90 = 0
       {"right_angle_right", {1.0f, -3.0f}, 0.0f},
       {"sharp_135deg", {0.0f, 1.0f}, 0.0f},                 // cos 135 < 0 -> 0

@@ -173,10 +173,10 @@ TEST(PolarController, FinalApproachAlongTrackUsesTheCartHeading) {
 TEST(PolarController, FinalWaypointCloseButAbeamIsStillTurnedTowards) {
   // 0.015 m away but 86 deg to the left: closing "along the heading" would stop the cart
   // abeam of it, 0.015 m away (> tol_final) for ever. It must turn towards it instead:
-  // omega = clamp(4 * 1.504 rad, +-pi) = pi, and v = speed * cos(86 deg) ~ 0.
+  // omega = clamp(4 * 1.504 rad, +-pi) = pi, and v = 0 (beyond 45 deg it turns on the spot).
   const core::PolarOutput left = core::polar_control(kOrigin, final_point(0.001f, 0.015f), kGains, kLimits);
   EXPECT_GT(left.omega_radps, 1.0f);
-  EXPECT_NEAR(left.v_mps, 0.015 * std::cos(std::atan2(0.015, 0.001)), 1e-4);
+  EXPECT_NEAR(left.v_mps, 0.0f, 1e-6f);
   // Behind and to the right, 70 deg off the (backward) heading line: turns too.
   const core::PolarOutput behind = core::polar_control(kOrigin, final_point(-0.005f, -0.014f), kGains, kLimits);
   EXPECT_TRUE(behind.behind);
@@ -190,21 +190,22 @@ TEST(PolarController, ViaPointNearbyStillSteers) {
   EXPECT_NEAR(out.omega_radps, 4.0 * std::atan2(0.005, 0.01), kOmegaTolerance);
 }
 
-TEST(PolarController, SpeedShrinksWithTheCosineOfTheHeadingError) {
-  // Same distance 0.3 m (v before scaling = min(0.3, 0.5, 0.775) = 0.3) at 0 and 80 deg:
-  // v(80) = 0.3 * cos(80 deg) = 0.052094, about a sixth of v(0) = 0.3.
-  const double a80 = 80.0 * kPiD / 180.0;
-  const core::PolarOutput ahead = core::polar_control(kOrigin, final_point(0.3f, 0.0f), kGains, kLimits);
-  const core::PolarOutput side = core::polar_control(
-      kOrigin, final_point(static_cast<float>(0.3 * std::cos(a80)), static_cast<float>(0.3 * std::sin(a80))), kGains,
-      kLimits);
-  EXPECT_NEAR(ahead.v_mps, 0.3f, 1e-5f);
-  EXPECT_NEAR(side.v_mps, 0.3 * std::cos(a80), 1e-4);
-  EXPECT_LT(side.v_mps, 0.2f * ahead.v_mps);
-  EXPECT_GT(side.v_mps, 0.0f);
-  // At exactly 90 deg the cart turns on the spot.
-  const core::PolarOutput abeam = core::polar_control(kOrigin, final_point(0.0f, 0.3f), kGains, kLimits);
-  EXPECT_NEAR(abeam.v_mps, 0.0f, 1e-6f);
+TEST(PolarController, SpeedFallsWithTheHeadingErrorAndIsZeroFrom45Degrees) {
+  // Same distance 0.3 m (v before the heading factor = min(0.3, 0.5, 0.775) = 0.3). The factor
+  // is (cos e - cos 45) / (1 - cos 45): at 20 deg (0.93969 - 0.70711) / 0.29289 = 0.79409,
+  // so v = 0.23823; from 45 deg on the cart turns on the spot (v = 0).
+  const auto at = [](double degrees) {
+    const double a = degrees * kPiD / 180.0;
+    return core::polar_control(
+        kOrigin, final_point(static_cast<float>(0.3 * std::cos(a)), static_cast<float>(0.3 * std::sin(a))), kGains,
+        kLimits);
+  };
+  EXPECT_NEAR(at(0).v_mps, 0.3f, 1e-5f);
+  EXPECT_NEAR(at(20).v_mps, 0.3 * 0.79409, 1e-4);
+  EXPECT_GT(at(40).v_mps, 0.0f);
+  EXPECT_NEAR(at(50).v_mps, 0.0f, 1e-6f);
+  EXPECT_NEAR(at(90).v_mps, 0.0f, 1e-6f);
+  EXPECT_GT(at(50).omega_radps, 1.0f);  // turning towards it meanwhile
 }
 
 }  // namespace

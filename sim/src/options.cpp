@@ -32,6 +32,7 @@ std::string usage() {
          "  --paused              start paused (for runs driven to exact simulated times)\n"
          "  --pty-link PATH       also make PATH a symlink to the pty (a stable port name)\n"
          "  --exit-with-parent    stop when the process that started the simulator dies\n"
+         "  --grid NODES,STEP     the square node grid the walls surround (default 10,0.2)\n"
          "  --verbose | --quiet   more / less logging on stderr\n";
 }
 
@@ -65,6 +66,18 @@ bool parse_options(int argc, char** argv, Options* opts, bool* help, std::string
     } else if (!std::strcmp(arg, "--pty-link")) {
       if (!value(&v)) return false;
       opts->pty_link = v;
+    } else if (!std::strcmp(arg, "--grid")) {
+      if (!value(&v)) return false;
+      const std::string s = v;
+      const size_t comma = s.find(',');
+      double nodes = 0.0;
+      if (comma == std::string::npos || !parse_double(s.substr(0, comma).c_str(), &nodes) ||
+          !parse_double(s.substr(comma + 1).c_str(), &opts->grid_step_m) || nodes < 2 || nodes > 1000 ||
+          nodes != std::floor(nodes) || opts->grid_step_m <= 0.0 || opts->grid_step_m > 10.0) {
+        *error = "--grid takes NODES,STEP: 2 to 1000 nodes per side, a step in (0, 10] m";
+        return false;
+      }
+      opts->grid_nodes = static_cast<int>(nodes);
     } else if (!std::strcmp(arg, "--exit-with-parent")) {
       opts->exit_with_parent = true;
     } else if (!std::strcmp(arg, "--paused")) {

@@ -23,6 +23,8 @@ struct Options {
   bool start_paused = false;  // hold the MCU until a resume or run message
   std::string pty_link;       // a symlink to (re)point at the pty: a stable name across restarts
   bool exit_with_parent = false;  // stop when the launching process dies
+  int grid_nodes = static_cast<int>(params::sim::grid_nodes);  // the square arena's node grid
+  double grid_step_m = params::sim::grid_step_m;
 };
 
 // Fills *opts (pre-set with defaults) from argv. False with a message on a bad command line;

@@ -20,6 +20,7 @@ bool Rig::init(const RigConfig& config, std::string* error) {
   avr_t* avr = mcu_.avr();
 
   world_.set_margin(config.arena_margin_m);
+  world_.set_grid(config.grid_nodes, config.grid_step_m);
   cart_ = std::make_unique<Cart>(CartParams{});
   cart_->place(config.start);
   cart_->sense(world_);

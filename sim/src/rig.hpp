@@ -30,6 +30,8 @@ struct RigConfig {
   uint64_t seed = 0;
   Pose start;
   double arena_margin_m = params::sim::arena_margin_m;
+  int grid_nodes = static_cast<int>(params::sim::grid_nodes);  // per side of the square arena
+  double grid_step_m = params::sim::grid_step_m;
   bool open_pty = true;
 };
 

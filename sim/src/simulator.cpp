@@ -32,6 +32,8 @@ bool Simulator::init(std::string* error) {
   rc.seed = opts_.seed;
   rc.start = opts_.start;
   rc.arena_margin_m = opts_.arena_margin_m;
+  rc.grid_nodes = opts_.grid_nodes;
+  rc.grid_step_m = opts_.grid_step_m;
   if (!rig_.init(rc, error)) return false;
 
   const World& w = rig_.world();

@@ -9,6 +9,11 @@ World::World(const ArenaParams& arena) : arena_(arena) {}
 
 void World::set_margin(double margin_m) { arena_.margin_m = margin_m; }
 
+void World::set_grid(int nodes, double step_m) {
+  arena_.grid_nodes = nodes;
+  arena_.grid_step_m = step_m;
+}
+
 void World::probes(const Pose& pose, const RobotGeometry& geom, std::vector<WallProbe>* out) const {
   out->clear();
   const double c = std::cos(pose.theta_rad), s = std::sin(pose.theta_rad);

@@ -48,6 +48,8 @@ class World {
   explicit World(const ArenaParams& arena);
 
   void set_margin(double margin_m);
+  // The node grid the walls surround: `nodes` per side, `step_m` apart.
+  void set_grid(int nodes, double step_m);
   const ArenaParams& arena() const { return arena_; }
   double x_min() const { return -arena_.margin_m; }
   double y_min() const { return -arena_.margin_m; }

@@ -1,0 +1,82 @@
+"""Headless missions (cart2d mission) in the simulator, judged by ground truth."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+from cart2d.mission import MissionSpec, run_mission
+
+WALL = [[0.8, 0.0], [0.8, 0.2], [0.8, 0.4], [0.8, 0.6], [0.8, 0.8]]
+
+
+def test_missions_through_obstacles_reach_every_goal_without_collision() -> None:
+    spec = MissionSpec.model_validate(
+        {
+            "obstacles": [*WALL, [1.2, 1.4], [0.4, 1.2]],
+            "start": [0.0, 0.0, 0.0],
+            "goals": [[1.6, 0.2], [1.6, 1.8], [0.0, 1.8], [0.0, 0.0]],
+        }
+    )
+    report = run_mission(spec)
+    assert [g["reached"] for g in report["goals"]] == [True] * 4
+    assert report["collisions"] == 0 and report["wall_contacts"] == 0
+    for goal in report["goals"]:
+        assert goal["final_error_m"] < 0.01
+        assert goal["odometry_error_m"] < 0.002
+        # Driven (ground truth) close to planned: the cart follows its plan.
+        assert goal["planned_length_m"] <= goal["path_length_m"] < 1.15 * goal["planned_length_m"] + 0.05
+    assert report["real_time_factor"] > 5
+
+
+def test_a_larger_arena_with_a_finer_grid() -> None:
+    spec = MissionSpec.model_validate(
+        {
+            "grid": {"cols": 41, "rows": 41, "step": 0.1},
+            "obstacles": [[2.0, y / 10] for y in range(0, 31)],
+            "start": [0.5, 0.5, 0.0],
+            "goals": [[3.5, 0.5]],
+            "timeout_s": 120,
+        }
+    )
+    report = run_mission(spec)
+    (goal,) = report["goals"]
+    assert goal["reached"] and goal["final_error_m"] < 0.01 and report["collisions"] == 0
+    assert goal["planned_length_m"] > 6.0  # around the wall's end at y = 3.0 m, not through it
+
+
+def run_cli(tmp_path: Path, mission: object) -> tuple[int, dict[str, object]]:
+    mission_path, report_path = tmp_path / "mission.json", tmp_path / "report.json"
+    mission_path.write_text(json.dumps(mission))
+    done = subprocess.run(
+        [sys.executable, "-m", "cart2d.cli", "mission", str(mission_path), "--report", str(report_path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    return done.returncode, json.loads(report_path.read_text())
+
+
+def test_cli_reports_unreachable_and_invalid_goals_without_driving(tmp_path: Path) -> None:
+    walled = [[1.4, 1.4], [1.4, 1.6], [1.4, 1.8], [1.6, 1.4], [1.8, 1.4]]
+    code, report = run_cli(tmp_path, {"obstacles": walled, "goals": [[1.8, 1.8], [9.0, 0.0], [0.4, 0.0]]})
+    assert code == 1
+    unreachable, off_map, ok = report["goals"]  # type: ignore[misc]
+    assert not unreachable["reached"] and "cannot be reached" in unreachable["reason"]
+    assert not off_map["reached"] and "off the map" in off_map["reason"]
+    assert unreachable["path_length_m"] == 0.0 and off_map["path_length_m"] == 0.0
+    assert ok["reached"]
+
+
+def test_cli_writes_a_report_for_an_invalid_mission_file(tmp_path: Path) -> None:
+    code, report = run_cli(tmp_path, {"goals": []})
+    assert code == 1 and "goals" in str(report["error"])
+    code, report = run_cli(tmp_path, {"goals": [[0.4, 0.0]], "settings": {"warp_factor": 9}})
+    assert code == 1 and "warp_factor" in str(report["error"])
+
+
+def test_cli_succeeds_when_every_goal_is_reached(tmp_path: Path) -> None:
+    code, report = run_cli(tmp_path, {"goals": [[0.6, 0.4]], "settings": {"v_max_mps": 0.3}})
+    assert code == 0 and report["goals"][0]["reached"]  # type: ignore[index]
