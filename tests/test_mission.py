@@ -6,6 +6,7 @@ import json
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 from cart2d.mission import MissionSpec, run_mission
 
@@ -47,7 +48,7 @@ def test_a_larger_arena_with_a_finer_grid() -> None:
     assert goal["planned_length_m"] > 6.0  # around the wall's end at y = 3.0 m, not through it
 
 
-def run_cli(tmp_path: Path, mission: object) -> tuple[int, dict[str, object]]:
+def run_cli(tmp_path: Path, mission: object) -> tuple[int, dict[str, Any]]:
     mission_path, report_path = tmp_path / "mission.json", tmp_path / "report.json"
     mission_path.write_text(json.dumps(mission))
     done = subprocess.run(
@@ -63,7 +64,7 @@ def test_cli_reports_unreachable_and_invalid_goals_without_driving(tmp_path: Pat
     walled = [[1.4, 1.4], [1.4, 1.6], [1.4, 1.8], [1.6, 1.4], [1.8, 1.4]]
     code, report = run_cli(tmp_path, {"obstacles": walled, "goals": [[1.8, 1.8], [9.0, 0.0], [0.4, 0.0]]})
     assert code == 1
-    unreachable, off_map, ok = report["goals"]  # type: ignore[misc]
+    unreachable, off_map, ok = report["goals"]
     assert not unreachable["reached"] and "cannot be reached" in unreachable["reason"]
     assert not off_map["reached"] and "off the map" in off_map["reason"]
     assert unreachable["path_length_m"] == 0.0 and off_map["path_length_m"] == 0.0
@@ -79,4 +80,4 @@ def test_cli_writes_a_report_for_an_invalid_mission_file(tmp_path: Path) -> None
 
 def test_cli_succeeds_when_every_goal_is_reached(tmp_path: Path) -> None:
     code, report = run_cli(tmp_path, {"goals": [[0.6, 0.4]], "settings": {"v_max_mps": 0.3}})
-    assert code == 0 and report["goals"][0]["reached"]  # type: ignore[index]
+    assert code == 0 and report["goals"][0]["reached"]
