@@ -12,6 +12,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from cart2d import firmware
+from cart2d.flashing import Flasher
 from cart2d.link import CommandRefused, Link, LinkError
 from cart2d.params import footprint_radius_m
 from cart2d.planner import Grid, Plan, PlanError, Planner
@@ -57,6 +58,7 @@ class Gateway:
         self._stop = threading.Event()
         self._monitor = threading.Thread(target=self._watch_mission, name="mission monitor", daemon=True)
         self.version: firmware.Version | None = None
+        self.flasher = Flasher(link, store.directory, sim, after=self._check_after_update)
         link.subscribe(self._on_telemetry)
         if sim is not None and sim.side is not None:
             sim.side.subscribe(self._on_truth)
@@ -68,6 +70,17 @@ class Gateway:
     def close(self) -> None:
         self._stop.set()
         self._monitor.join(timeout=2.0)
+
+    def _check_after_update(self) -> None:
+        deadline = time.monotonic() + 10.0
+        while True:  # the MCU may still be starting (bootloader, simulator start-up)
+            try:
+                self.check_firmware()
+                return
+            except LinkError:
+                if time.monotonic() > deadline:
+                    raise
+                time.sleep(0.2)
 
     def check_firmware(self) -> firmware.Version:
         """Reads the firmware's version and refuses an incompatible one."""

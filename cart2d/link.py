@@ -9,11 +9,12 @@ link reopens it in the background; requests in the meantime fail with LinkDown.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import random
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 
 import serial
 
@@ -60,6 +61,7 @@ class Link:
         self._reply: Reply | None = None
         self._listeners: list[TelemetryListener] = []
         self._closing = threading.Event()
+        self._released = threading.Event()  # the port is lent out (e.g. to avrdude)
         self._reader: threading.Thread | None = None
         self.telemetry: Telemetry | None = None
         self.telemetry_count = 0
@@ -90,6 +92,19 @@ class Link:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+    @contextlib.contextmanager
+    def released(self, wait_s: float = 5.0) -> Iterator[None]:
+        """Closes the port and keeps it closed inside the block (for avrdude), then reopens it."""
+        self._released.set()
+        deadline = time.monotonic() + wait_s
+        while self.connected.is_set() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        try:
+            yield
+        finally:
+            self._released.clear()
+            self.connected.wait(wait_s)
 
     def subscribe(self, listener: TelemetryListener) -> None:
         self._listeners.append(listener)
@@ -143,6 +158,9 @@ class Link:
     # -- reader thread -------------------------------------------------------------------
     def _run(self) -> None:
         while not self._closing.is_set():
+            if self._released.is_set():
+                time.sleep(0.05)
+                continue
             try:
                 self._serial = serial.Serial(self.port, self.baud, timeout=0.05)
                 self._serial.reset_input_buffer()  # bytes queued while nobody listened
@@ -156,13 +174,13 @@ class Link:
             with self._reply_lock:
                 self._reply_lock.notify_all()
             self._serial.close()
-            if not self._closing.is_set():
+            if not self._closing.is_set() and not self._released.is_set():
                 log.warning("link to %s lost; reopening", self.port)
                 time.sleep(0.2)
 
     def _read_until_gone(self, port: serial.Serial) -> None:
         decoder = Decoder()
-        while not self._closing.is_set():
+        while not self._closing.is_set() and not self._released.is_set():
             try:
                 data = port.read(max(1, port.in_waiting))
             except (serial.SerialException, OSError, TypeError) as exc:

@@ -210,6 +210,27 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
             gateway.link.call("REBOOT")
         return {"result": "resetting"}
 
+    @app.post(
+        "/api/firmware/update",
+        dependencies=[Guarded],
+        status_code=202,
+        summary="upload an Intel HEX file: avrdude on a real port, a restart in the simulator",
+    )
+    async def update_firmware(request: Request) -> dict[str, object]:
+        body = await request.body()
+        if len(body) > MAX_BODY_BYTES:
+            raise HTTPException(413, f"request body over {MAX_BODY_BYTES} bytes")
+        try:
+            return gateway.flasher.start(body).view()
+        except ValueError as exc:
+            raise HTTPException(422, str(exc)) from exc
+        except RuntimeError as exc:
+            raise HTTPException(409, str(exc)) from exc
+
+    @app.get("/api/firmware/update", summary="the firmware update's state and log")
+    def update_state() -> dict[str, object]:
+        return gateway.flasher.job.view()
+
     @app.get("/api/settings", summary="the gateway's own settings (network, map), without the token")
     def gateway_settings() -> dict[str, Any]:
         return gateway.settings.model_dump(exclude={"token"})

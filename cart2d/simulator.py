@@ -91,6 +91,10 @@ class SideChannel:
         """Calls listener(message) for every truth message, from the reader thread."""
         self._listeners.append(listener)
 
+    @property
+    def listeners(self) -> list[Callable[[dict[str, Any]], None]]:
+        return list(self._listeners)
+
     def close(self) -> None:
         self._sock.close()
 
@@ -158,8 +162,12 @@ class Simulator:
             cmd += ["--pty-link", str(o.pty_link)]
         if o.start is not None:
             cmd += ["--start", ",".join(str(v) for v in o.start)]
-        # Its own session: a Ctrl-C in the terminal reaches us, and we stop it in order.
-        self.process = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, start_new_session=True)
+        # Its own session: a Ctrl-C in the terminal reaches us, and we stop it in order. Its stdin
+        # is a pipe we hold open: when this process ends, however, the simulator sees the end
+        # of file and stops (--exit-with-parent).
+        self.process = subprocess.Popen(
+            cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, start_new_session=True
+        )
         assert self.process.stdout is not None
         line = self.process.stdout.readline()
         if not line:
@@ -191,6 +199,19 @@ class Simulator:
     def truth(self) -> dict[str, Any]:
         truth: dict[str, Any] = self.control("truth")["truth"]
         return truth
+
+    def restart(self, firmware: Path | None = None) -> None:
+        """Stops the simulator and starts it again (the EEPROM file is kept), with a new
+        firmware file if given; truth listeners carry over. With a pty_link the serial port
+        keeps its name, so an open Link reconnects by itself."""
+        listeners = list(self.side.listeners) if self.side is not None else []
+        self.stop()
+        if firmware is not None:
+            self.options.firmware = firmware
+        self.start()
+        assert self.side is not None
+        for listener in listeners:
+            self.side.subscribe(listener)
 
     def kill(self) -> None:
         """Ends the process abruptly (SIGKILL), as a crash would."""

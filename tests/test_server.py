@@ -24,7 +24,7 @@ JSON = {"content-type": "application/json"}
 
 class Rig:
     def __init__(self, tmp_path: Path, bind_host: str = "127.0.0.1", token: str | None = None) -> None:
-        self.sim = start_sim(tmp_path)
+        self.sim = start_sim(tmp_path, pty_link=tmp_path / "robot-tty")  # a name that survives restarts
         self.link = Link(self.sim.pty, timeout_s=0.2).open()
         self.store = Store(tmp_path / "gateway")
         self.gateway = Gateway(self.link, self.store, self.store.load(), self.sim)

@@ -1,9 +1,8 @@
-// cart2d-sim: runs the cart2d firmware ELF in simavr, coupled to a physical model of the cart.
+// cart2d-sim: runs the cart2d firmware (ELF or Intel HEX) in simavr, coupled to a physical model
+// of the cart.
 // See sim/README.md.
-#include <csignal>       // sigaction
-#include <cstdio>        // printf, fflush
-#include <sys/prctl.h>   // prctl(PR_SET_PDEATHSIG)
-#include <unistd.h>      // getppid
+#include <csignal>  // sigaction
+#include <cstdio>   // printf, fflush
 
 #include "log.hpp"
 #include "options.hpp"
@@ -38,12 +37,6 @@ int main(int argc, char** argv) {
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
   std::signal(SIGPIPE, SIG_IGN);
-  if (opts.exit_with_parent) {
-    // Stop (saving the EEPROM) when the launching process dies, even by SIGKILL.
-    const pid_t parent = getppid();
-    prctl(PR_SET_PDEATHSIG, SIGTERM);
-    if (getppid() != parent) return 0;  // it died before prctl took effect
-  }
 
   cart2d::Simulator sim(opts);
   if (!sim.init(&error)) {

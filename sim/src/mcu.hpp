@@ -1,4 +1,4 @@
-// The simulated ATmega328P: loads the firmware ELF into simavr, replaces simavr's wall-clock
+// The simulated ATmega328P: loads the firmware (ELF or Intel HEX) into simavr, replaces simavr's wall-clock
 // sleep with a pure cycle skip (we pace in pacer.cpp), routes simavr's log to stderr and runs
 // the core in slices of simulated time.
 #pragma once
@@ -22,8 +22,11 @@ class Mcu {
   Mcu(const Mcu&) = delete;
   Mcu& operator=(const Mcu&) = delete;
 
-  // Reads the ELF, builds an atmega328p at f_cpu_hz and loads flash (and the ELF's .eeprom).
-  bool load(const std::string& elf_path, uint32_t f_cpu_hz, std::string* error);
+  // Reads the firmware, builds an atmega328p at f_cpu_hz and loads flash. An ELF (by its magic
+  // number) also loads its .eeprom; Intel HEX (the first non-empty line starts with ':') is
+  // flash only, validated strictly first. Anything else, or a malformed HEX, is refused with
+  // *error = "firmware PATH: reason".
+  bool load(const std::string& path, uint32_t f_cpu_hz, std::string* error);
 
   avr_t* avr() const { return avr_; }
   uint64_t cycle() const;
@@ -53,6 +56,7 @@ class Mcu {
 
  private:
   static void sleep_callback(avr_t* avr, uint64_t how_long);
+  bool load_ihex(const std::string& path, const std::string& text, uint32_t f_cpu_hz, std::string* error);
 
   avr_t* avr_ = nullptr;
   uint32_t f_cpu_hz_ = static_cast<uint32_t>(params::control::f_cpu_hz);  // load() sets the same

@@ -17,8 +17,8 @@ static std::string shortest(double v) {
 
 std::string usage() {
   const Options defaults;
-  return "usage: cart2d-sim --firmware ELF [options]\n"
-         "  --firmware FILE       firmware ELF for the ATmega328P (required)\n"
+  return "usage: cart2d-sim --firmware FILE [options]\n"
+         "  --firmware FILE       ATmega328P firmware: ELF or Intel HEX (required)\n"
          "  --speed F|max         simulated seconds per wall second (default 1 = real time)\n"
          "  --seed N              seed of every random fault (default 0)\n"
          "  --eeprom FILE         EEPROM image kept across runs\n"
@@ -31,7 +31,7 @@ std::string usage() {
          "  --control-port P      TCP port of the side channel on 127.0.0.1 (default: any free)\n"
          "  --paused              start paused (for runs driven to exact simulated times)\n"
          "  --pty-link PATH       also make PATH a symlink to the pty (a stable port name)\n"
-         "  --exit-with-parent    stop when the process that started the simulator dies\n"
+         "  --exit-with-parent    stop when stdin (a pipe from the launcher) closes: the launcher died\n"
          "  --grid NODES,STEP     the square node grid the walls surround (default 10,0.2)\n"
          "  --verbose | --quiet   more / less logging on stderr\n";
 }

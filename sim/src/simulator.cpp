@@ -90,6 +90,17 @@ void Simulator::on_physics_step(uint64_t end_cycle) {
   }
 }
 
+// With --exit-with-parent, stdin is a pipe the launcher holds open: end of file (or a hang-up)
+// means the launcher is gone, however it ended (PR_SET_PDEATHSIG would fire when the launching
+// THREAD ends, which is not the same).
+bool Simulator::parent_gone() {
+  pollfd fd = {STDIN_FILENO, POLLIN, 0};
+  if (poll(&fd, 1, 0) <= 0) return false;
+  if (fd.revents & (POLLHUP | POLLERR | POLLNVAL)) return true;
+  char byte;
+  return ::read(STDIN_FILENO, &byte, 1) == 0;
+}
+
 // Runs one slice, or less if a "run" message asked to pause at an earlier cycle.
 void Simulator::run_slice(uint64_t slice) {
   const uint64_t now = rig_.cycle();
@@ -147,7 +158,12 @@ int Simulator::run(volatile std::sig_atomic_t* stop) {
   pacer_.anchor(rig_.time_s(), wall_start_s_);
   next_eeprom_check_s_ = wall_start_s_ + kEepromCheckS;
 
+  unsigned iteration = 0;
   while (!quit_ && !*stop) {
+    if (opts_.exit_with_parent && (++iteration & 63) == 0 && parent_gone()) {
+      LOG_INFO("the launching process is gone: stopping");
+      break;
+    }
     rig_.uart().read_host();
     control_.poll_input(opts_.truth_hz, [this](int client, const std::string& line) { handle_line(client, line); });
     if (quit_) break;

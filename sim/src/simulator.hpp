@@ -34,6 +34,7 @@ class Simulator {
   std::string cmd_profile(const json::Value& msg, std::string* extra);
   std::string cmd_run(const json::Value& msg);
   void run_slice(uint64_t slice);
+  static bool parent_gone();
   std::string cmd_obstacles(const json::Value& msg);
   std::string cmd_speed(const json::Value& msg);
   std::string cmd_truth_rate(int client, const json::Value& msg);

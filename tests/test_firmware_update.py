@@ -1,0 +1,75 @@
+"""Firmware updates: HEX checks, refusal of bad files, and a reload in the simulator."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from cart2d.flashing import APPLICATION_BYTES, check_hex
+from cart2d.simulator import default_firmware
+from tests.conftest import wait_for
+from tests.test_server import Rig
+
+HEX = default_firmware().with_suffix(".hex")
+
+
+def record(address: int, data: bytes, kind: int = 0) -> str:
+    body = bytes([len(data), address >> 8, address & 0xFF, kind]) + data
+    return ":" + (body + bytes([(-sum(body)) & 0xFF])).hex().upper()
+
+
+def test_the_built_firmware_passes_the_check() -> None:
+    size = check_hex(HEX.read_bytes())
+    assert 10_000 < size < APPLICATION_BYTES
+
+
+@pytest.mark.parametrize(
+    ("text", "fragment"),
+    [
+        ("", "no program"),
+        (record(0, b"\x0c\x94") + "\n" + record(0, b"", 1), ""),  # valid: must not raise
+        (record(0, b"\x0c\x94")[:-2] + "00\n" + record(0, b"", 1), "Intel HEX"),  # bad checksum
+        ("hello, world\n", "Intel HEX"),
+        (record(0x7F00, b"\x00" * 16) + "\n" + record(0, b"", 1), "bootloader"),
+        ("\xff\xfe", "Intel HEX"),
+    ],
+)
+def test_hex_files_are_checked(text: str, fragment: str) -> None:
+    data = text.encode("latin-1")
+    if not fragment:
+        assert check_hex(data) == 2
+        return
+    with pytest.raises(ValueError, match=fragment):
+        check_hex(data)
+
+
+@pytest.fixture
+def rig(tmp_path: Path) -> Iterator[Rig]:
+    r = Rig(tmp_path)
+    yield r
+    r.close()
+
+
+def test_a_bad_file_is_refused_and_nothing_starts(rig: Rig) -> None:
+    response = rig.client.post("/api/firmware/update", content=b"not a hex file")
+    assert response.status_code == 422 and "Intel HEX" in response.json()["detail"]
+    assert rig.client.get("/api/firmware/update").json()["state"] == "idle"
+
+
+def test_uploading_a_hex_restarts_the_simulator_on_it_and_keeps_the_eeprom(rig: Rig) -> None:
+    rig.client.post("/api/command", json={"name": "SET_POSE", "args": [1.0, 1.0, 0.0]})
+    rig.client.put("/api/firmware/settings", json={"id": 4, "value": 0.02})  # tol_final_m
+    rig.client.post("/api/firmware/save")
+    wait_for(lambda: rig.client.get("/api/status").json()["status"]["eeprom_busy"] is False)
+    response = rig.client.post("/api/firmware/update", content=HEX.read_bytes())
+    assert response.status_code == 202 and response.json()["state"] == "running"
+    wait_for(lambda: rig.client.get("/api/firmware/update").json()["state"] != "running", 30)
+    job = rig.client.get("/api/firmware/update").json()
+    assert job["state"] == "done", job["log"]
+    status = rig.client.get("/api/status").json()
+    assert status["link"]["state"] == "connected" and status["firmware"]["firmware"] == "0.1.0"
+    assert status["pose"] == {"x": 0.0, "y": 0.0, "theta": 0.0}  # a freshly started MCU
+    settings = {s["name"]: s["value"] for s in rig.client.get("/api/firmware/settings").json()}
+    assert settings["tol_final_m"] == pytest.approx(0.02)  # loaded from the kept EEPROM
