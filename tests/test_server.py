@@ -238,3 +238,19 @@ def test_a_gateway_off_loopback_without_token_does_not_start(tmp_path: Path) -> 
                 create_app(gateway, "0.0.0.0", None)
     finally:
         sim.stop()
+
+
+def test_gateway_survives_the_simulator_being_killed_and_restarted(tmp_path: Path) -> None:
+    rig = Rig(tmp_path)
+    try:
+        rig.client.put("/api/map/obstacle", json={"x": 1.0, "y": 1.0})
+        rig.sim.kill()
+        wait_for(lambda: rig.client.get("/api/status").json()["link"]["state"] == "reconnecting", 10)
+        down = rig.client.post("/api/goto", json={"x": 0.4, "y": 0.0})
+        assert down.status_code == 503 and "not reachable" in down.json()["detail"]
+        rig.sim = start_sim(tmp_path, pty_link=tmp_path / "robot-tty")  # back on the same port name
+        wait_for(lambda: rig.client.get("/api/status").json()["link"]["state"] == "connected", 10)
+        assert rig.client.get("/api/map").json()["obstacles"] == [[1.0, 1.0]]  # the gateway kept its state
+        assert rig.client.post("/api/goto", json={"x": 0.4, "y": 0.0}).status_code == 200
+    finally:
+        rig.close()
