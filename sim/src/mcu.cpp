@@ -368,14 +368,7 @@ bool Mcu::load(const std::string& path, uint32_t f_cpu_hz, std::string* error) {
   }
   if (fw.mmcu[0] && std::strcmp(fw.mmcu, "atmega328p") != 0)
     LOG_WARN("firmware declares mmcu '%s'; simulating an atmega328p anyway", fw.mmcu);
-  avr_ = avr_make_mcu_by_name("atmega328p");
-  if (!avr_) {
-    *error = "simavr does not know the atmega328p";
-    return false;
-  }
-  avr_init(avr_);
-  disable_level_poll(avr_);
-  g_mcu = this;
+  if (!create_avr(error)) return false;
   // Without an .mmcu section the ELF says nothing about the clock: use robot.toml's.
   if (fw.frequency && fw.frequency != f_cpu_hz)
     LOG_WARN("firmware declares %u Hz, robot.toml says %u Hz: using robot.toml", fw.frequency, f_cpu_hz);
@@ -388,11 +381,27 @@ bool Mcu::load(const std::string& path, uint32_t f_cpu_hz, std::string* error) {
   free(fw.lockbits);
   for (uint32_t i = 0; i < fw.symbolcount; ++i) free(fw.symbol[i]);
   free(fw.symbol);
+  finish_load(f_cpu_hz);
+  return true;
+}
+
+bool Mcu::create_avr(std::string* error) {
+  avr_ = avr_make_mcu_by_name("atmega328p");
+  if (!avr_) {
+    *error = "simavr does not know the atmega328p";
+    return false;
+  }
+  avr_init(avr_);
+  disable_level_poll(avr_);
+  g_mcu = this;
+  return true;
+}
+
+void Mcu::finish_load(uint32_t f_cpu_hz) {
   avr_->frequency = f_cpu_hz;
   f_cpu_hz_ = f_cpu_hz;
   // Sleeping only skips cycles to the next timer event; pacing to wall time happens in our loop.
   avr_->sleep = sleep_callback;
-  return true;
 }
 
 bool Mcu::load_ihex(const std::string& path, const std::string& text, uint32_t f_cpu_hz, std::string* error) {
@@ -404,14 +413,7 @@ bool Mcu::load_ihex(const std::string& path, const std::string& text, uint32_t f
     *error = "firmware " + path + ": " + why;
     return false;
   }
-  avr_ = avr_make_mcu_by_name("atmega328p");
-  if (!avr_) {
-    *error = "simavr does not know the atmega328p";
-    return false;
-  }
-  avr_init(avr_);
-  disable_level_poll(avr_);
-  g_mcu = this;
+  if (!create_avr(error)) return false;
   // A .hex carries flash only: no clock, no mmcu, no .eeprom (avr-objcopy -R .eeprom). The MCU
   // starts at the reset vector, address 0, wherever the image begins.
   elf_firmware_t fw;
@@ -421,9 +423,7 @@ bool Mcu::load_ihex(const std::string& path, const std::string& text, uint32_t f
   fw.flashsize = static_cast<uint32_t>(flash.size());
   fw.flashbase = base;
   avr_load_firmware(avr_, &fw);  // copies the flash
-  avr_->frequency = f_cpu_hz;
-  f_cpu_hz_ = f_cpu_hz;
-  avr_->sleep = sleep_callback;
+  finish_load(f_cpu_hz);
   LOG_INFO("firmware %s: Intel HEX, %u bytes of flash at 0x%04X-0x%04X", path.c_str(), img.count, base,
            base + fw.flashsize - 1);
   return true;

@@ -57,6 +57,9 @@ class Mcu {
  private:
   static void sleep_callback(avr_t* avr, uint64_t how_long);
   bool load_ihex(const std::string& path, const std::string& text, uint32_t f_cpu_hz, std::string* error);
+  // The atmega328p core, before a firmware image goes in; and what follows every load.
+  bool create_avr(std::string* error);
+  void finish_load(uint32_t f_cpu_hz);
 
   avr_t* avr_ = nullptr;
   uint32_t f_cpu_hz_ = static_cast<uint32_t>(params::control::f_cpu_hz);  // load() sets the same
