@@ -34,7 +34,7 @@ class GridSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
     cols: int = Field(10, ge=2, le=1000)
     rows: int = Field(10, ge=2, le=1000)
-    step: float = Field(0.2, gt=0.0, le=10.0, allow_inf_nan=False)
+    step: float = Field(0.2, ge=0.01, le=10.0, allow_inf_nan=False)
 
 
 class MissionSpec(BaseModel):

@@ -233,6 +233,10 @@ def segment_square_distance(a: Point, b: Point, centre: Point, half_side: float)
 # --- the graph ---------------------------------------------------------------------------------
 
 
+# The footprint may span at most this many grid steps (the seed's map: 0.85).
+MAX_FOOTPRINT_STEPS = 50
+
+
 def _stencil(radius: float, move: Node) -> tuple[Node, ...]:
     """Cell offsets (relative to a node) whose squares a disc of `radius` (grid units) touches
     while sliding from the node by `move` (a point when move is (0, 0))."""
@@ -261,6 +265,12 @@ class GridGraph:
         r = footprint_radius_m
         if isinstance(r, bool) or not isinstance(r, int | float) or not math.isfinite(r) or r < 0:
             raise ValueError(f"footprint_radius_m must be a finite number >= 0, got {r!r}")
+        if r > MAX_FOOTPRINT_STEPS * grid.step_m:
+            # The clearance stencils grow with (radius / step)^2: refuse instead of exhausting memory.
+            raise PlanError(
+                f"the grid step {grid.step_m:g} m is too fine for the cart's footprint ({r:g} m): "
+                f"use a step of at least {r / MAX_FOOTPRINT_STEPS:g} m"
+            )
         self.grid = grid
         self.footprint_radius_m = float(r)
         nodes = frozenset((i, j) for i, j in obstacles)

@@ -17,9 +17,12 @@ from collections.abc import Awaitable, Callable
 from typing import Annotated, Any
 
 from fastapi import Depends, FastAPI, HTTPException, Request, Response, WebSocket, WebSocketDisconnect
+from fastapi.exception_handlers import http_exception_handler
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import HTMLResponse, JSONResponse
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, JsonValue, field_validator
+from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.routing import Match
 
 from cart2d import firmware
 from cart2d.gateway import Gateway
@@ -27,7 +30,7 @@ from cart2d.link import CommandRefused, LinkError
 from cart2d.planner import PlanError
 from cart2d.protocol import MAX_ARGS
 from cart2d.spec import load_spec
-from cart2d.store import NetworkSettings, parse_settings
+from cart2d.store import GatewaySettings, Integer, NetworkSettings, parse_settings
 
 log = logging.getLogger(__name__)
 
@@ -37,7 +40,49 @@ Number = Annotated[float, Field(allow_inf_nan=False, gt=-1048576.0, lt=1048576.0
 
 
 class Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    # strict: no coercion, so `true` is not 1.0 m/s and "1" is not a number, as the schema says
+    model_config = ConfigDict(extra="forbid", strict=True)
+
+
+class Problem(BaseModel):
+    detail: str = Field(description="what is wrong, in a sentence")
+
+
+ERRORS = {
+    400: "the body is not readable (not UTF-8 JSON)",
+    401: "the access token is missing or wrong (a gateway bound off loopback)",
+    409: "the firmware refused the command (a value out of its range, busy, wrong mode)",
+    413: f"the request body is over {MAX_BODY_BYTES} bytes",
+    422: "the request is invalid, or (goals, obstacles) off the map, blocked or unreachable",
+    503: "the robot is not reachable (link down, no reply)",
+}
+
+
+def errors(*codes: int) -> dict[int | str, dict[str, Any]]:
+    """OpenAPI `responses` for the error statuses an operation can answer, all {"detail": str}."""
+    return {code: {"model": Problem, "description": ERRORS[code]} for code in codes}
+
+
+# The commands of the generic form (codes 0..2 are reply statuses), without the COMMAND_ prefix.
+COMMAND_NAMES = sorted(c.name.removeprefix("COMMAND_") for c in load_spec().commands.values() if c.code > 2)
+COMMAND_ENUM: list[JsonValue] = list(COMMAND_NAMES)
+
+
+def inline_refs(schema: dict[str, Any]) -> dict[str, Any]:
+    """A pydantic JSON schema with its $defs inlined, for an OpenAPI document of its own."""
+    defs = schema.pop("$defs", {})
+
+    def resolve(node: Any) -> Any:
+        if isinstance(node, dict):
+            if "$ref" in node:
+                return resolve(defs[node["$ref"].rsplit("/", 1)[-1]])
+            return {key: resolve(value) for key, value in node.items()}
+        if isinstance(node, list):
+            return [resolve(value) for value in node]
+        return node
+
+    resolved: dict[str, Any] = resolve(schema)
+    return resolved
 
 
 class PointIn(Strict):
@@ -51,9 +96,17 @@ class ObstacleIn(PointIn):
 
 class CommandIn(Strict):
     name: str = Field(
-        min_length=1, max_length=40, description="a command of docs/protocol.md, e.g. POSE or GOTO"
+        description="a command of docs/protocol.md, e.g. POSE or GOTO",
+        json_schema_extra={"enum": COMMAND_ENUM},
     )
     args: list[Number] = Field(default_factory=list, max_length=MAX_ARGS)
+
+    @field_validator("name")
+    @classmethod
+    def known_command(cls, name: str) -> str:
+        if name not in COMMAND_NAMES:
+            raise ValueError(f"unknown command {name!r}; GET /api/protocol lists them")
+        return name
 
 
 class DriveIn(Strict):
@@ -62,7 +115,7 @@ class DriveIn(Strict):
 
 
 class SettingIn(Strict):
-    id: int = Field(ge=0, le=255, description="stable setting id (config/robot.toml)")
+    id: Integer = Field(ge=0, le=255, description="stable setting id (config/robot.toml)")
     value: Number
 
 
@@ -80,7 +133,7 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
     needs_token = not is_loopback(bind_host)
     if needs_token and not token:
         raise ValueError("a token is required when the gateway is not bound to loopback")
-    app = FastAPI(title="cart2d gateway", version="0.1.0", description=__doc__)
+    app = FastAPI(title="cart2d gateway", version="0.1.0", description=__doc__, responses=errors(413))
 
     def token_ok(supplied: str | None) -> bool:
         return not needs_token or (
@@ -115,6 +168,20 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
             problems.append(f"{where}: {error['msg']}")
         return JSONResponse({"detail": "; ".join(problems)}, status_code=422)
 
+    @app.exception_handler(StarletteHTTPException)
+    async def http_error(request: Request, exc: StarletteHTTPException) -> Response:
+        if exc.status_code == 405:
+            # Starlette's Allow names the methods of the first route on the path only (GET for
+            # /api/settings/file); RFC 9110 wants every method the resource supports.
+            methods = {
+                method
+                for route in app.router.routes
+                if route.matches(request.scope)[0] is not Match.NONE
+                for method in getattr(route, "methods", None) or ()
+            }
+            exc.headers = {**(exc.headers or {}), "Allow": ", ".join(sorted(methods))}
+        return await http_exception_handler(request, exc)
+
     @app.exception_handler(PlanError)
     async def plan_error(_: Request, exc: PlanError) -> JSONResponse:
         return JSONResponse({"detail": str(exc)}, status_code=422)
@@ -136,7 +203,13 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
     def protocol() -> list[dict[str, Any]]:
         spec = load_spec()
         return [
-            {"code": c.code, "name": c.name, "args": c.args, "results": c.results, "arg_count": c.arg_count}
+            {
+                "code": c.code,
+                "name": c.name.removeprefix("COMMAND_"),  # what POST /api/command takes
+                "args": c.args,
+                "results": c.results,
+                "arg_count": c.arg_count,
+            }
             for c in spec.commands.values()
             if c.code > 2
         ]
@@ -149,19 +222,23 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
     def mission() -> dict[str, Any]:
         return gateway.mission_view()
 
-    @app.get("/api/firmware/settings", summary="every firmware setting: id, name, unit, range, value")
+    @app.get(
+        "/api/firmware/settings",
+        summary="every firmware setting: id, name, unit, range, value",
+        responses=errors(409, 503),
+    )
     def firmware_settings() -> list[dict[str, object]]:
         return firmware.read_settings(gateway.link)
 
     # -- changing ----------------------------------------------------------------------------
-    @app.post("/api/command", dependencies=[Guarded], summary="any protocol command and its reply")
+    @app.post(
+        "/api/command",
+        dependencies=[Guarded],
+        summary="any protocol command and its reply",
+        responses=errors(400, 401, 422, 503),
+    )
     def command(body: CommandIn) -> dict[str, Any]:
-        spec = load_spec()
-        name = body.name.upper()
-        key = name if name in spec.commands else f"COMMAND_{name}"
-        entry = spec.commands.get(key)
-        if entry is None or entry.code <= 2:
-            raise HTTPException(422, f"unknown command {body.name!r}; GET /api/protocol lists them")
+        entry = load_spec().commands[f"COMMAND_{body.name}"]
         reply = gateway.link.request(entry.code, body.args)
         return {
             "command": entry.name,
@@ -170,39 +247,76 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
             "message": "" if reply.ok else reply.describe_error(),
         }
 
-    @app.put("/api/map/obstacle", dependencies=[Guarded], summary="add or remove the obstacle nearest (x, y)")
+    @app.put(
+        "/api/map/obstacle",
+        dependencies=[Guarded],
+        summary="add or remove the obstacle nearest (x, y)",
+        responses=errors(400, 401, 422),
+    )
     def obstacle(body: ObstacleIn) -> dict[str, Any]:
         return gateway.set_obstacle(body.x, body.y, body.present)
 
-    @app.post("/api/goto", dependencies=[Guarded], summary="plan from the measured pose and drive there")
+    @app.post(
+        "/api/goto",
+        dependencies=[Guarded],
+        summary="plan from the measured pose and drive there",
+        responses=errors(400, 401, 409, 422, 503),
+    )
     def goto(body: PointIn) -> dict[str, Any]:
         return gateway.plan_view(gateway.go_to(body.x, body.y))
 
-    @app.post("/api/stop", dependencies=[Guarded], summary="emergency stop: motors off now")
+    @app.post(
+        "/api/stop",
+        dependencies=[Guarded],
+        summary="emergency stop: motors off now",
+        responses=errors(401, 409, 503),
+    )
     def stop() -> dict[str, str]:
         gateway.stop()
         return {"result": "stopped"}
 
-    @app.post("/api/drive", dependencies=[Guarded], summary="manual driving; repeat within 0.5 s or it stops")
+    @app.post(
+        "/api/drive",
+        dependencies=[Guarded],
+        summary="manual driving; repeat within 0.5 s or it stops",
+        responses=errors(400, 401, 409, 422, 503),
+    )
     def drive(body: DriveIn) -> dict[str, str]:
         gateway.drive(body.v, body.omega)
         return {"result": "driving"}
 
-    @app.put("/api/firmware/settings", dependencies=[Guarded], summary="change one firmware setting")
+    @app.put(
+        "/api/firmware/settings",
+        dependencies=[Guarded],
+        summary="change one firmware setting",
+        responses=errors(400, 401, 409, 422, 503),
+    )
     def set_setting(body: SettingIn) -> dict[str, float]:
         return {"value": firmware.write_setting(gateway.link, body.id, body.value)}
 
-    @app.post("/api/firmware/save", dependencies=[Guarded], summary="firmware settings to EEPROM")
+    @app.post(
+        "/api/firmware/save",
+        dependencies=[Guarded],
+        summary="firmware settings to EEPROM",
+        responses=errors(401, 409, 503),
+    )
     def save() -> dict[str, str]:
         gateway.link.call("SAVE")
         return {"result": "saving"}
 
-    @app.post("/api/firmware/load", dependencies=[Guarded], summary="firmware settings from EEPROM")
+    @app.post(
+        "/api/firmware/load",
+        dependencies=[Guarded],
+        summary="firmware settings from EEPROM",
+        responses=errors(401, 409, 503),
+    )
     def load() -> dict[str, str]:
         gateway.link.call("LOAD")
         return {"result": "loaded"}
 
-    @app.post("/api/reset", dependencies=[Guarded], summary="soft reset of the MCU")
+    @app.post(
+        "/api/reset", dependencies=[Guarded], summary="soft reset of the MCU", responses=errors(401, 409, 503)
+    )
     def reset() -> dict[str, str]:
         if gateway.sim is not None:
             gateway.sim.control("reset")
@@ -215,6 +329,13 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
         dependencies=[Guarded],
         status_code=202,
         summary="upload an Intel HEX file: avrdude on a real port, a restart in the simulator",
+        responses=errors(401, 409, 422),
+        openapi_extra={
+            "requestBody": {
+                "required": True,
+                "content": {"application/octet-stream": {"schema": {"type": "string", "format": "binary"}}},
+            }
+        },
     )
     async def update_firmware(request: Request) -> dict[str, object]:
         body = await request.body()
@@ -235,7 +356,12 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
     def gateway_settings() -> dict[str, Any]:
         return gateway.settings.model_dump(exclude={"token"})
 
-    @app.put("/api/settings/network", dependencies=[Guarded], summary="bind address and port (at restart)")
+    @app.put(
+        "/api/settings/network",
+        dependencies=[Guarded],
+        summary="bind address and port (at restart)",
+        responses=errors(400, 401, 422),
+    )
     def network(body: NetworkSettings) -> dict[str, Any]:
         gateway.update_settings(gateway.settings.model_copy(update={"network": body}))
         return {"result": "saved; takes effect when the gateway restarts", **body.model_dump()}
@@ -246,16 +372,30 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
         headers = {"Content-Disposition": 'attachment; filename="cart2d-settings.json"'}
         return Response(data, media_type="application/json", headers=headers)
 
-    @app.post("/api/settings/file", dependencies=[Guarded], summary="upload a settings file")
+    @app.post(
+        "/api/settings/file",
+        dependencies=[Guarded],
+        summary="upload a settings file",
+        responses=errors(401, 422),
+        openapi_extra={
+            "requestBody": {
+                "required": True,
+                "content": {"application/json": {"schema": inline_refs(GatewaySettings.model_json_schema())}},
+            }
+        },
+    )
     async def import_settings(request: Request) -> dict[str, Any]:
         body = await request.body()
         if len(body) > MAX_BODY_BYTES:
             raise HTTPException(413, f"request body over {MAX_BODY_BYTES} bytes")
         try:
             imported = parse_settings(body)
-        except ValueError as exc:
+            # a new planner for the map: seconds for a 1000 x 1000 grid, so off the event loop
+            await asyncio.to_thread(
+                gateway.update_settings, imported.model_copy(update={"token": gateway.settings.token})
+            )
+        except ValueError as exc:  # PlanError too: obstacles off the file's own grid
             raise HTTPException(422, str(exc)) from exc
-        gateway.update_settings(imported.model_copy(update={"token": gateway.settings.token}))
         return {"result": "imported; network changes take effect when the gateway restarts"}
 
     # -- live data ---------------------------------------------------------------------------

@@ -11,10 +11,10 @@ import os
 import secrets
 import time
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 import platformdirs
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, Strict, ValidationError
 
 from cart2d.params import robot
 
@@ -23,26 +23,37 @@ log = logging.getLogger(__name__)
 SETTINGS_FILE = "settings.json"
 
 
+def _json_integer(value: object) -> object:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError("an integer is required, not a boolean or a string")
+    return value
+
+
+# JSON Schema's integer: 3 and 3.0, never true or "3" (the models are strict, this one field kind lax).
+Integer = Annotated[int, Strict(False), BeforeValidator(_json_integer)]
+
+
 def _grid_default(key: str) -> float:
     return float(robot()["sim"][key])
 
 
 class NetworkSettings(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", strict=True)
     host: str = Field("127.0.0.1", min_length=1, max_length=253, description="bind address")
-    port: int = Field(8080, ge=1, le=65535)
+    port: Integer = Field(8080, ge=1, le=65535)
 
 
 class MapSettings(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    cols: int = Field(int(_grid_default("grid_nodes")), ge=2, le=1000, description="nodes along x")
-    rows: int = Field(int(_grid_default("grid_nodes")), ge=2, le=1000, description="nodes along y")
-    step_m: float = Field(_grid_default("grid_step_m"), gt=0.0, le=10.0, allow_inf_nan=False)
-    obstacles: list[tuple[int, int]] = Field(default_factory=list, max_length=1_000_000)
+    model_config = ConfigDict(extra="forbid", strict=True)
+    cols: Integer = Field(int(_grid_default("grid_nodes")), ge=2, le=1000, description="nodes along x")
+    rows: Integer = Field(int(_grid_default("grid_nodes")), ge=2, le=1000, description="nodes along y")
+    # at least 1 cm: the planner's footprint stencils grow as (footprint / step)^2
+    step_m: float = Field(_grid_default("grid_step_m"), ge=0.01, le=10.0, allow_inf_nan=False)
+    obstacles: list[tuple[Integer, Integer]] = Field(default_factory=list, max_length=1_000_000)
 
 
 class GatewaySettings(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", strict=True)
     version: Literal[1] = 1
     network: NetworkSettings = Field(default_factory=NetworkSettings)
     map: MapSettings = Field(default_factory=MapSettings)

@@ -576,3 +576,8 @@ def test_obstacle_nodes_must_be_on_the_grid() -> None:
 def test_footprint_radius_is_validated(radius: float) -> None:
     with pytest.raises(ValueError):
         Planner(Grid(), radius)
+
+
+def test_a_grid_far_finer_than_the_footprint_is_refused_not_exhausted() -> None:
+    with pytest.raises(PlanError, match="too fine"):
+        Planner(Grid(cols=10, rows=10, step_m=0.001), 0.17)

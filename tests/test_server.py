@@ -151,7 +151,9 @@ def test_generic_command_form(rig: Rig) -> None:
     too_many = {"name": "GOTO", "args": [0.0] * 32}
     assert rig.client.post("/api/command", json=too_many).status_code == 422
     names = {c["name"] for c in rig.client.get("/api/protocol").json()}
-    assert {"COMMAND_GOTO", "COMMAND_POSE", "COMMAND_VELOCITY"} <= names
+    assert {"GOTO", "POSE", "VELOCITY"} <= names
+    for name in names - {"REBOOT"}:  # every listed name is accepted by the command form
+        assert rig.client.post("/api/command", json={"name": name, "args": []}).status_code == 200
 
 
 def test_firmware_settings_are_read_and_range_checked(rig: Rig) -> None:
@@ -254,3 +256,19 @@ def test_gateway_survives_the_simulator_being_killed_and_restarted(tmp_path: Pat
         assert rig.client.post("/api/goto", json={"x": 0.4, "y": 0.0}).status_code == 200
     finally:
         rig.close()
+
+
+@pytest.mark.parametrize("step", [5e-324, 1e-300, 0.0])
+def test_a_settings_file_with_a_tiny_grid_step_is_refused_quickly(rig: Rig, step: float) -> None:
+    """Found by fuzzing: a tiny step used to crash the planner (500) or exhaust memory."""
+    body = json.dumps({"map": {"step_m": step}}).encode()
+    response = rig.client.post("/api/settings/file", content=body)
+    assert response.status_code == 422 and "map.step_m" in response.json()["detail"]
+    assert rig.client.get("/api/map").json()["step_m"] == 0.2
+
+
+@pytest.mark.parametrize("body", ['{"port": true}', '{"port": "80"}', '{"host": 1}'])
+def test_network_settings_take_no_coercion(rig: Rig, body: str) -> None:
+    response = raw(rig.client, "PUT", "/api/settings/network", body)
+    assert response.status_code == 422
+    assert rig.client.get("/api/settings").json()["network"]["port"] == 8080
