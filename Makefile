@@ -13,8 +13,10 @@ SIM_BUILD := build/sim
 SIM_BIN := $(SIM_BUILD)/cart2d-sim
 VENV := build/venv
 PY := $(VENV)/bin/python
+PANEL := cart2d/panel/index.html
+PANEL_SOURCES := $(shell find web/src -type f 2>/dev/null) web/index.html web/vite.config.ts web/tsconfig.json
 
-.PHONY: help deps firmware flash host-tests fuzz fuzz-quick sim sim-tests python-env python-checks python-tests test bench-firmware bench-sim profile-firmware run clean
+.PHONY: help deps firmware flash host-tests fuzz fuzz-quick sim sim-tests python-env python-checks python-tests panel panel-tests test bench-firmware bench-sim profile-firmware run clean
 
 help:
 	@echo "make run             install what is missing, build, start cart2d"
@@ -25,6 +27,8 @@ help:
 	@echo "make bench-firmware  flash, RAM and CPU per control tick against the budgets"
 	@echo "make bench-sim       the same, with the simulator's real-time factor"
 	@echo "make profile-firmware  cycles per control tick by function (simavr)"
+	@echo "make panel           build the control panel (web/) into cart2d/panel/"
+	@echo "make panel-tests     the panel in headless Chromium against the simulator"
 	@echo "make fuzz            fuzz the packet parser and dispatcher for $(FUZZ_SECONDS) s"
 
 deps:
@@ -66,8 +70,22 @@ python-checks: python-env
 	$(VENV)/bin/ruff format --check cart2d tests bench tools
 	$(VENV)/bin/mypy
 
-python-tests: python-env firmware sim
+python-tests: python-env firmware sim panel
 	$(PY) -m pytest -q
+
+# The control panel: npm ci (exact versions from web/package-lock.json; browsers are never
+# downloaded: the tests use Debian's /usr/bin/chromium), a type check and the Vite build.
+web/node_modules/.installed: web/package.json web/package-lock.json
+	cd web && PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1 npm ci --no-audit --no-fund
+	touch $@
+
+$(PANEL): web/node_modules/.installed $(PANEL_SOURCES)
+	cd web && npm run build
+
+panel: $(PANEL)
+
+panel-tests: panel python-env firmware sim
+	cd web && npx playwright test
 
 fuzz-quick: host-tests
 	tools/run-fuzz.sh $(HOST_BUILD)/fuzz_packets 30
@@ -75,7 +93,7 @@ fuzz-quick: host-tests
 fuzz: host-tests
 	tools/run-fuzz.sh $(HOST_BUILD)/fuzz_packets $(FUZZ_SECONDS)
 
-test: deps firmware host-tests sim-tests python-checks python-tests fuzz-quick bench-firmware
+test: deps firmware host-tests sim-tests python-checks python-tests panel-tests fuzz-quick bench-firmware
 
 bench-firmware: $(AVR_ELF) sim python-env
 	@python3 tools/firmware_size.py $(AVR_ELF)
@@ -86,7 +104,7 @@ bench-sim: bench-firmware
 profile-firmware: $(AVR_ELF) sim python-env
 	@$(PY) -m bench.firmware_profile
 
-run: deps firmware sim python-env
+run: deps firmware sim python-env panel
 	@$(VENV)/bin/cart2d sim
 
 clean:

@@ -14,6 +14,7 @@ import ipaddress
 import json
 import logging
 from collections.abc import Awaitable, Callable
+from pathlib import Path
 from typing import Annotated, Any
 
 from fastapi import Depends, FastAPI, HTTPException, Request, Response, WebSocket, WebSocketDisconnect
@@ -22,7 +23,10 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import HTMLResponse, JSONResponse
 from pydantic import BaseModel, ConfigDict, Field, JsonValue, field_validator
 from starlette.exceptions import HTTPException as StarletteHTTPException
-from starlette.routing import Match
+from starlette.routing import BaseRoute, Match, Mount
+from starlette.staticfiles import StaticFiles
+from starlette.types import Receive, Scope, Send
+from starlette.websockets import WebSocketClose
 
 from cart2d import firmware
 from cart2d.gateway import Gateway
@@ -34,6 +38,7 @@ from cart2d.store import GatewaySettings, Integer, NetworkSettings, parse_settin
 
 log = logging.getLogger(__name__)
 
+PANEL_DIR = Path(__file__).parent / "panel"  # the built control panel (web/, `make panel`)
 MAX_BODY_BYTES = 256 * 1024  # the largest request: an imported settings file
 # Numbers the firmware accepts (docs/protocol.md): finite, magnitude below 2^20.
 Number = Annotated[float, Field(allow_inf_nan=False, gt=-1048576.0, lt=1048576.0)]
@@ -433,9 +438,14 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
             with contextlib.suppress(RuntimeError):
                 await ws.close()
 
-    @app.get("/", response_class=HTMLResponse, include_in_schema=False)
-    def index() -> str:
-        return MINIMAL_PAGE
+    if (PANEL_DIR / "index.html").is_file():
+        # mounted last: /api/..., /ws and /docs match first; everything else is the panel's files
+        app.mount("/", PanelFiles(directory=PANEL_DIR, api_routes=app.router.routes), name="panel")
+    else:
+
+        @app.get("/", response_class=HTMLResponse, include_in_schema=False)
+        def index() -> str:
+            return MINIMAL_PAGE
 
     return app
 
@@ -455,3 +465,29 @@ async function refresh() {
 refresh(); setInterval(refresh, 1000);
 </script></body></html>
 """
+
+
+class PanelFiles(StaticFiles):
+    """The panel's files, mounted at / after the API. The API keeps its own answers: a wrong
+    method on an API path is a 405 with its Allow (not a missing file), an unknown /api/ path a
+    404, a WebSocket to any path but /ws is closed."""
+
+    def __init__(self, *, directory: Path, api_routes: list[BaseRoute]) -> None:
+        super().__init__(directory=directory, html=True)
+        self.api_routes = api_routes
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await WebSocketClose()(scope, receive, send)
+            return
+        routes = [r for r in self.api_routes if not isinstance(r, Mount)]
+        if any(route.matches(scope)[0] is Match.PARTIAL for route in routes):
+            raise StarletteHTTPException(405)  # the app's handler lists the allowed methods
+        path: str = scope["path"]
+        if path == "/api" or path.startswith("/api/"):
+            raise StarletteHTTPException(404)
+        if scope["method"] not in ("GET", "HEAD"):
+            response = JSONResponse({"detail": "Method Not Allowed"}, 405, headers={"Allow": "GET, HEAD"})
+            await response(scope, receive, send)
+            return
+        await super().__call__(scope, receive, send)

@@ -1,0 +1,185 @@
+// The gateway's API (cart2d/server.py, GET /openapi.json): the shapes the panel reads, and one
+// fetch wrapper that turns every failure into a sentence a person can act on.
+
+export type Point = [number, number];
+
+export interface MapView {
+  cols: number;
+  rows: number;
+  step_m: number;
+  footprint_radius_m: number;
+  obstacles: Point[];
+}
+
+export interface Plan {
+  waypoints: Point[];
+  grid_path: Point[];
+  length_m: number;
+  grid_length_m?: number;
+}
+
+export interface MissionView {
+  state: "idle" | "driving" | "arrived" | "failed";
+  goal: Point | null;
+  reason: string;
+  elapsed_s?: number;
+  plan: Plan | null;
+}
+
+export interface FirmwareStatus {
+  mode: string;
+  flags: string[];
+  waypoint_index: number;
+  waypoint_count: number;
+  loop_overruns: number;
+  cpu_load_pct: number;
+  cpu_max_pct: number;
+  rx_errors: number;
+  last_error: string | null;
+}
+
+export interface StatusView {
+  link: { state: string; port: string; simulated: boolean; error?: string };
+  firmware: { firmware: string; protocol: number; waypoint_capacity: number } | null;
+  mission: MissionView;
+  status?: FirmwareStatus;
+  pose?: { x: number; y: number; theta: number };
+}
+
+export interface ProtocolCommand {
+  code: number;
+  name: string;
+  args: string;
+  results: string;
+  arg_count: number | null;
+}
+
+export interface CommandReply {
+  command: string;
+  status: string;
+  results: number[];
+  message: string;
+}
+
+export interface Telemetry {
+  type: "telemetry";
+  x: number;
+  y: number;
+  theta: number;
+  v_left: number;
+  v_right: number;
+  v_left_target: number;
+  v_right_target: number;
+  pwm_left: number;
+  pwm_right: number;
+  v: number;
+  omega: number;
+  v_target: number;
+  omega_target: number;
+  distance_to_waypoint: number;
+  waypoint_index: number;
+  mode_name: string;
+  flag_names: string[];
+  tick: number;
+}
+
+export interface Truth {
+  type: "truth";
+  t: number;
+  x: number;
+  y: number;
+  theta: number;
+  v: number;
+  omega: number;
+  collisions: number;
+}
+
+export type LiveMessage =
+  | Telemetry
+  | Truth
+  | ({ type: "hello" } & MissionView)
+  | ({ type: "mission" } & MissionView);
+
+/** A failed request, with the gateway's {"detail": ...} (or what went wrong) as its message. */
+export class ApiError extends Error {
+  constructor(
+    message: string,
+    readonly status: number,
+  ) {
+    super(message);
+    this.name = "ApiError";
+  }
+}
+
+const TOKEN_KEY = "cart2d-token";
+
+export function token(): string | null {
+  try {
+    return localStorage.getItem(TOKEN_KEY);
+  } catch {
+    return null;
+  }
+}
+
+export function setToken(value: string): void {
+  try {
+    localStorage.setItem(TOKEN_KEY, value);
+  } catch {
+    /* private mode: the token lasts for this page only */
+  }
+}
+
+function detailOf(body: unknown): string | null {
+  if (body && typeof body === "object" && "detail" in body) {
+    const detail = (body as { detail: unknown }).detail;
+    if (typeof detail === "string") return detail;
+    if (Array.isArray(detail)) {
+      return detail
+        .map((d: unknown) => (d && typeof d === "object" && "msg" in d ? String(d.msg) : String(d)))
+        .join("; ");
+    }
+  }
+  return null;
+}
+
+export async function api<T>(method: string, path: string, body?: unknown, timeoutMs = 8000): Promise<T> {
+  const headers: Record<string, string> = {};
+  if (body !== undefined) headers["Content-Type"] = "application/json";
+  const t = token();
+  if (t) headers["X-Cart2d-Token"] = t;
+  let response: Response;
+  try {
+    response = await fetch(path, {
+      method,
+      headers,
+      body: body === undefined ? null : JSON.stringify(body),
+      signal: AbortSignal.timeout(timeoutMs),
+    });
+  } catch (err) {
+    const timedOut = err instanceof DOMException && err.name === "TimeoutError";
+    throw new ApiError(
+      timedOut ? "The gateway did not answer in time." : "The gateway cannot be reached: is cart2d running?",
+      0,
+    );
+  }
+  let parsed: unknown = null;
+  const text = await response.text();
+  try {
+    parsed = text ? JSON.parse(text) : null;
+  } catch {
+    parsed = null;
+  }
+  if (!response.ok) {
+    const detail = detailOf(parsed) ?? (text.trim() || response.statusText);
+    throw new ApiError(sentence(detail), response.status);
+  }
+  return parsed as T;
+}
+
+/** "the goal is off the map" → "The goal is off the map." */
+export function sentence(text: string): string {
+  const s = text.trim();
+  if (!s) return "Something went wrong.";
+  const first = s.charAt(0).toUpperCase() + s.slice(1);
+  return /[.!?]$/.test(first) ? first : `${first}.`;
+}

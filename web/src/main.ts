@@ -1,0 +1,541 @@
+// The cart2d control panel: status, live map, emergency stop, the generic-command form, manual
+// driving and live plots, against the gateway's HTTP API and its /ws stream.
+
+import "./style.css";
+import {
+  api,
+  ApiError,
+  sentence,
+  setToken,
+  token,
+  type CommandReply,
+  type LiveMessage,
+  type MapView,
+  type MissionView,
+  type Point,
+  type ProtocolCommand,
+  type StatusView,
+} from "./api";
+import { LiveMap } from "./map";
+import { parseNumber } from "./parse";
+import { LivePlots } from "./plots";
+
+function $<T extends HTMLElement = HTMLElement>(id: string): T {
+  const el = document.getElementById(id);
+  if (!el) throw new Error(`the page has no #${id}`);
+  return el as T;
+}
+
+// -- messages ----------------------------------------------------------------------------------
+const messages = $("messages");
+
+function notify(text: string, kind: "error" | "info" = "error", ttlMs = kind === "error" ? 12000 : 4000): void {
+  for (const old of messages.querySelectorAll<HTMLElement>(".msg")) {
+    if (old.dataset["text"] === text) old.remove(); // the same sentence once, freshest last
+  }
+  const item = document.createElement("div");
+  item.className = `msg msg-${kind}`;
+  item.dataset["text"] = text;
+  const span = document.createElement("span");
+  span.textContent = text;
+  const close = document.createElement("button");
+  close.type = "button";
+  close.className = "msg-close";
+  close.setAttribute("aria-label", "dismiss");
+  close.textContent = "×";
+  close.addEventListener("click", () => item.remove());
+  item.append(span, close);
+  messages.append(item);
+  while (messages.children.length > 4) messages.firstElementChild?.remove();
+  window.setTimeout(() => item.remove(), ttlMs);
+}
+
+function errorText(err: unknown): string {
+  if (err instanceof ApiError) {
+    if (err.status === 401) showTokenForm();
+    return err.message;
+  }
+  return sentence(err instanceof Error ? err.message : String(err));
+}
+
+// -- access token (a gateway bound off loopback) -----------------------------------------------
+const tokenForm = $<HTMLFormElement>("token-form");
+function showTokenForm(): void {
+  tokenForm.hidden = false;
+}
+tokenForm.addEventListener("submit", (e) => {
+  e.preventDefault();
+  const input = tokenForm.elements.namedItem("token") as HTMLInputElement;
+  const value = input.value.trim();
+  if (value.length < 16) {
+    notify("The access token is at least 16 characters: copy it from the gateway's terminal.");
+    return;
+  }
+  setToken(value);
+  tokenForm.hidden = true;
+  notify("Token saved in this browser.", "info");
+  live?.close();
+});
+
+// -- status bar --------------------------------------------------------------------------------
+const linkDot = $("link-dot");
+const linkState = $("link-state");
+let gatewayUp = false;
+let wsUp = false;
+let lastStatus: StatusView | null = null;
+
+function renderLink(): void {
+  let state: "connected" | "reconnecting" | "lost";
+  let text: string;
+  if (!gatewayUp) {
+    state = "lost";
+    text = "lost: the gateway does not answer";
+  } else if (lastStatus?.link.state === "connected" && wsUp) {
+    state = "connected";
+    text = "connected";
+  } else {
+    state = "reconnecting";
+    text = lastStatus?.link.state === "connected" ? "live data reconnecting…" : "robot link reconnecting…";
+  }
+  linkDot.className = `dot dot-${state}`;
+  linkState.textContent = text;
+  document.body.dataset["link"] = state;
+  const port = lastStatus
+    ? lastStatus.link.simulated
+      ? "simulator"
+      : lastStatus.link.port
+    : "";
+  $("link-port").textContent = port;
+}
+
+let statusErrorShown = "";
+async function pollStatus(): Promise<void> {
+  try {
+    const s = await api<StatusView>("GET", "/api/status", undefined, 4000);
+    gatewayUp = true;
+    lastStatus = s;
+    $("fw-version").textContent = s.firmware ? `${s.firmware.firmware} (protocol ${s.firmware.protocol})` : "–";
+    if (s.status) {
+      $("fw-mode").textContent = s.status.mode;
+      $("cpu-load").textContent = `${s.status.cpu_load_pct} % (max ${s.status.cpu_max_pct} %)`;
+      const over = $("overruns");
+      over.textContent = String(s.status.loop_overruns);
+      over.classList.toggle("bad", s.status.loop_overruns > 0);
+    }
+    renderMission(s.mission, false);
+    const linkError = s.link.error ? `The robot does not answer: ${s.link.error}` : "";
+    if (linkError && linkError !== statusErrorShown) notify(sentence(linkError));
+    statusErrorShown = linkError;
+  } catch (err) {
+    if (gatewayUp || statusErrorShown !== "down") notify(errorText(err));
+    statusErrorShown = "down";
+    gatewayUp = false;
+  }
+  renderLink();
+}
+
+// -- map and mission ---------------------------------------------------------------------------
+type MapMode = "obstacle" | "goto";
+const canvas = $<HTMLCanvasElement>("map");
+const liveMap = new LiveMap(canvas, (world, node) => void mapClick(world, node));
+let mapMode: MapMode = "obstacle";
+let missionState = "";
+
+function mode(): MapMode {
+  return mapMode;
+}
+
+for (const radio of document.querySelectorAll<HTMLInputElement>('input[name="map-mode"]')) {
+  radio.addEventListener("change", () => {
+    if (!radio.checked) return;
+    mapMode = radio.value === "goto" ? "goto" : "obstacle";
+    canvas.dataset["mode"] = mapMode;
+    $("map-hint").textContent =
+      mapMode === "goto"
+        ? "Click a point to send the robot there (planned around the obstacles)."
+        : "Click a node to add or remove an obstacle.";
+  });
+}
+canvas.dataset["mode"] = mapMode;
+
+async function loadMap(): Promise<void> {
+  try {
+    liveMap.setMap(await api<MapView>("GET", "/api/map"));
+  } catch (err) {
+    notify(errorText(err));
+  }
+}
+
+async function mapClick(world: Point, node: Point | null): Promise<void> {
+  if (mode() === "goto") {
+    await goTo(Math.round(world[0] * 1000) / 1000, Math.round(world[1] * 1000) / 1000);
+    return;
+  }
+  if (!node) {
+    notify("Click on a node of the grid to add or remove an obstacle.", "info");
+    return;
+  }
+  const present = !liveMap.hasObstacle(node);
+  try {
+    liveMap.setMap(await api<MapView>("PUT", "/api/map/obstacle", { x: node[0], y: node[1], present }));
+  } catch (err) {
+    notify(errorText(err));
+  }
+}
+
+const gotoMsg = $<HTMLOutputElement>("goto-msg");
+async function goTo(x: number, y: number): Promise<void> {
+  gotoMsg.textContent = `Planning to (${x.toFixed(2)}, ${y.toFixed(2)})…`;
+  gotoMsg.className = "form-msg";
+  try {
+    const plan = await api<{ length_m: number; waypoints: Point[] }>("POST", "/api/goto", { x, y });
+    gotoMsg.textContent = `Driving to (${x.toFixed(2)}, ${y.toFixed(2)}): ${plan.length_m.toFixed(2)} m, ${plan.waypoints.length} waypoints.`;
+  } catch (err) {
+    const text = errorText(err);
+    gotoMsg.textContent = text;
+    gotoMsg.className = "form-msg form-error";
+    notify(text);
+  }
+}
+
+const gotoForm = $<HTMLFormElement>("goto-form");
+gotoForm.addEventListener("submit", (e) => {
+  e.preventDefault();
+  const field = (name: string): string => (gotoForm.elements.namedItem(name) as HTMLInputElement).value;
+  const x = parseNumber(field("x"), "x");
+  const y = parseNumber(field("y"), "y");
+  const bad = [x, y].find((p) => !p.ok);
+  if (bad && !bad.ok) {
+    gotoMsg.textContent = bad.message;
+    gotoMsg.className = "form-msg form-error";
+    return;
+  }
+  if (x.ok && y.ok) void goTo(x.value, y.value);
+});
+
+function renderMission(m: MissionView, fromStream: boolean): void {
+  liveMap.plan = m.plan;
+  liveMap.goal = m.goal;
+  liveMap.invalidate();
+  $("mission-state").textContent = m.state;
+  document.body.dataset["mission"] = m.state;
+  const at = m.goal ? `(${m.goal[0].toFixed(2)}, ${m.goal[1].toFixed(2)})` : "";
+  const length = m.plan ? `, ${m.plan.length_m.toFixed(2)} m planned` : "";
+  const words: Record<MissionView["state"], string> = {
+    idle: "idle",
+    driving: `driving to ${at}`,
+    arrived: `arrived at ${at}`,
+    failed: `failed on the way to ${at}`,
+  };
+  $("mission-detail").textContent =
+    m.state === "idle" ? "idle" : `${words[m.state]}${length}${m.reason ? `: ${m.reason}` : ""}`;
+  if (fromStream && m.state !== missionState) {
+    if (m.state === "failed" && m.reason) notify(sentence(`The mission failed: ${m.reason}`));
+    if (m.state === "arrived") notify(`Arrived at ${at}.`, "info");
+  }
+  missionState = m.state;
+}
+
+// -- live stream -------------------------------------------------------------------------------
+const plots = new LivePlots($("plot-wheels"), $("plot-body"));
+let live: WebSocket | null = null;
+let retryMs = 500;
+const fmt = (v: number, unit: string, digits = 3): string => `${v.toFixed(digits)} ${unit}`;
+const deg = (rad: number): number => (rad * 180) / Math.PI;
+
+function setReadout(id: string, label: string, value: number, text: string): void {
+  const el = $(id);
+  el.dataset["value"] = value.toFixed(4);
+  el.textContent = `${label} ${text}`;
+}
+
+function onMessage(msg: LiveMessage): void {
+  switch (msg.type) {
+    case "telemetry":
+      liveMap.waypointIndex = missionState === "driving" ? msg.waypoint_index : -1;
+      liveMap.setPose({ x: msg.x, y: msg.y, theta: msg.theta });
+      setReadout("pose-x", "x", msg.x, fmt(msg.x, "m"));
+      setReadout("pose-y", "y", msg.y, fmt(msg.y, "m"));
+      setReadout("pose-theta", "θ", msg.theta, `${deg(msg.theta).toFixed(1)}°`);
+      $("fw-mode").textContent = msg.mode_name;
+      plots.add(msg);
+      break;
+    case "truth": {
+      liveMap.setTruth({ x: msg.x, y: msg.y, theta: msg.theta });
+      const row = $("truth-row");
+      row.hidden = false;
+      const p = liveMap.pose;
+      const drift = p ? ` (odometry off by ${(Math.hypot(p.x - msg.x, p.y - msg.y) * 1000).toFixed(0)} mm)` : "";
+      $("truth-pose").textContent =
+        `x ${fmt(msg.x, "m")} y ${fmt(msg.y, "m")} θ ${deg(msg.theta).toFixed(1)}°${drift}` +
+        (msg.collisions ? `, ${msg.collisions} collision${msg.collisions > 1 ? "s" : ""}` : "");
+      break;
+    }
+    case "hello":
+    case "mission":
+      renderMission(msg, msg.type === "mission");
+      break;
+  }
+}
+
+function connect(): void {
+  const proto = location.protocol === "https:" ? "wss:" : "ws:";
+  const t = token();
+  const ws = new WebSocket(`${proto}//${location.host}/ws${t ? `?token=${encodeURIComponent(t)}` : ""}`);
+  live = ws;
+  ws.addEventListener("open", () => {
+    wsUp = true;
+    retryMs = 500;
+    renderLink();
+  });
+  ws.addEventListener("message", (e) => {
+    try {
+      onMessage(JSON.parse(String(e.data)) as LiveMessage);
+    } catch (err) {
+      console.warn("unreadable live message", err);
+    }
+  });
+  ws.addEventListener("close", (e) => {
+    wsUp = false;
+    live = null;
+    if (e.code === 1008) {
+      notify(sentence(e.reason || "The gateway refused the live stream"));
+      if (e.reason.includes("token")) showTokenForm();
+    }
+    renderLink();
+    window.setTimeout(connect, retryMs);
+    retryMs = Math.min(retryMs * 2, 5000);
+  });
+}
+
+// -- emergency stop ----------------------------------------------------------------------------
+async function emergencyStop(): Promise<void> {
+  held.clear();
+  try {
+    await api("POST", "/api/stop", undefined, 3000);
+    notify("Stopped: motors off.", "info");
+  } catch (err) {
+    notify(`The stop did not get through: ${errorText(err)}`);
+  }
+}
+$("estop").addEventListener("click", () => void emergencyStop());
+
+// -- manual driving ----------------------------------------------------------------------------
+type Dir = "fwd" | "back" | "left" | "right";
+const KEYS: Record<string, Dir> = {
+  ArrowUp: "fwd",
+  KeyW: "fwd",
+  ArrowDown: "back",
+  KeyS: "back",
+  ArrowLeft: "left",
+  KeyA: "left",
+  ArrowRight: "right",
+  KeyD: "right",
+};
+const held = new Set<Dir>();
+const speedInput = $<HTMLInputElement>("drive-speed");
+let driveTimer: number | null = null;
+let driveInFlight = false;
+
+speedInput.addEventListener("input", () => {
+  $("drive-speed-out").textContent = `${Number(speedInput.value).toFixed(2)} m/s`;
+});
+
+async function sendDrive(v: number, omega: number): Promise<void> {
+  if (driveInFlight) return;
+  driveInFlight = true;
+  try {
+    await api("POST", "/api/drive", { v, omega }, 2000);
+  } catch (err) {
+    held.clear();
+    notify(errorText(err));
+  } finally {
+    driveInFlight = false;
+  }
+}
+
+function driveTick(): void {
+  if (held.size === 0) {
+    if (driveTimer !== null) window.clearInterval(driveTimer);
+    driveTimer = null;
+    void sendDrive(0, 0);
+    return;
+  }
+  const speed = Number(speedInput.value);
+  const v = speed * ((held.has("fwd") ? 1 : 0) - (held.has("back") ? 1 : 0));
+  const omega = Math.min(3, speed * 8) * ((held.has("left") ? 1 : 0) - (held.has("right") ? 1 : 0));
+  void sendDrive(v, omega);
+}
+
+function press(dir: Dir): void {
+  held.add(dir);
+  if (driveTimer === null) {
+    driveTick();
+    driveTimer = window.setInterval(driveTick, 150);
+  }
+}
+
+function release(dir: Dir): void {
+  held.delete(dir);
+}
+
+function typing(target: EventTarget | null): boolean {
+  return (
+    target instanceof HTMLInputElement ||
+    target instanceof HTMLSelectElement ||
+    target instanceof HTMLTextAreaElement
+  ) && !(target instanceof HTMLInputElement && (target.type === "radio" || target.type === "range"));
+}
+
+window.addEventListener("keydown", (e) => {
+  if (e.key === "Escape") {
+    e.preventDefault();
+    void emergencyStop();
+    return;
+  }
+  const dir = KEYS[e.code];
+  if (!dir || e.ctrlKey || e.altKey || e.metaKey || typing(e.target)) return;
+  e.preventDefault();
+  if (!e.repeat) press(dir);
+});
+window.addEventListener("keyup", (e) => {
+  const dir = KEYS[e.code];
+  if (dir) release(dir);
+});
+window.addEventListener("blur", () => held.clear());
+
+for (const button of document.querySelectorAll<HTMLButtonElement>("[data-drive]")) {
+  const dir = button.dataset["drive"] as Dir;
+  button.addEventListener("pointerdown", (e) => {
+    button.setPointerCapture(e.pointerId);
+    press(dir);
+  });
+  for (const end of ["pointerup", "pointercancel", "lostpointercapture"] as const) {
+    button.addEventListener(end, () => release(dir));
+  }
+  button.addEventListener("contextmenu", (e) => e.preventDefault());
+}
+
+// -- generic command ---------------------------------------------------------------------------
+const cmdForm = $<HTMLFormElement>("cmd-form");
+const cmdSelect = $<HTMLSelectElement>("cmd-name");
+const cmdMsg = $<HTMLOutputElement>("cmd-msg");
+const argInputs = [0, 1, 2, 3].map((k) => cmdForm.elements.namedItem(`a${k}`) as HTMLInputElement);
+let commands: ProtocolCommand[] = [];
+
+function selected(): ProtocolCommand | undefined {
+  return commands.find((c) => c.name === cmdSelect.value);
+}
+
+function names(list: string): string[] {
+  return list === "–" || list.trim() === "" ? [] : list.split(",").map((s) => s.trim());
+}
+
+function describeCommand(): void {
+  const c = selected();
+  if (!c) return;
+  const argNames = names(c.args).filter((n) => n !== "…");
+  argInputs.forEach((input, k) => {
+    const used = c.arg_count === null ? true : k < c.arg_count;
+    input.disabled = !used;
+    input.placeholder = used ? (argNames[k] ?? (c.arg_count === null ? "…" : "")) : "";
+    if (!used) input.value = "";
+  });
+  $("cmd-args-hint").textContent =
+    `arguments: ${c.args === "–" ? "none" : c.args}${c.arg_count === null ? " (up to 4 here)" : ""}; ` +
+    `results: ${c.results === "–" ? "none" : c.results}`;
+  cmdMsg.textContent = "";
+}
+
+async function loadProtocol(): Promise<void> {
+  try {
+    commands = await api<ProtocolCommand[]>("GET", "/api/protocol");
+  } catch (err) {
+    notify(errorText(err));
+    return;
+  }
+  cmdSelect.replaceChildren(
+    ...commands.map((c) => {
+      const o = document.createElement("option");
+      o.value = c.name;
+      o.textContent = c.name;
+      return o;
+    }),
+  );
+  if (commands.some((c) => c.name === "POSE")) cmdSelect.value = "POSE";
+  describeCommand();
+}
+cmdSelect.addEventListener("change", describeCommand);
+
+/** The arguments typed, or a sentence saying why they cannot be sent. */
+function commandArgs(c: ProtocolCommand): { args: number[] } | { error: string } {
+  const texts = argInputs.map((i) => (i.disabled ? "" : i.value.trim()));
+  const wanted = c.arg_count ?? texts.reduce((n, t, k) => (t !== "" ? k + 1 : n), 0);
+  const args: number[] = [];
+  for (let k = 0; k < wanted; k++) {
+    const what = `argument ${k + 1}${names(c.args)[k] && names(c.args)[k] !== "…" ? ` (${names(c.args)[k]})` : ""}`;
+    const p = parseNumber(texts[k] ?? "", what.charAt(0).toUpperCase() + what.slice(1));
+    if (!p.ok) return { error: `${c.name} needs ${wanted} argument${wanted === 1 ? "" : "s"}: ${p.message}` };
+    args.push(p.value);
+  }
+  return { args };
+}
+
+cmdForm.addEventListener("submit", (e) => {
+  e.preventDefault();
+  const c = selected();
+  if (!c) {
+    cmdMsg.textContent = "Pick a command first.";
+    cmdMsg.className = "form-msg form-error";
+    return;
+  }
+  const parsed = commandArgs(c);
+  if ("error" in parsed) {
+    cmdMsg.textContent = parsed.error;
+    cmdMsg.className = "form-msg form-error";
+    return;
+  }
+  void sendCommand(c, parsed.args);
+});
+
+async function sendCommand(c: ProtocolCommand, args: number[]): Promise<void> {
+  cmdMsg.textContent = `Sending ${c.name}…`;
+  cmdMsg.className = "form-msg";
+  try {
+    const reply = await api<CommandReply>("POST", "/api/command", { name: c.name, args });
+    $("cmd-status").textContent = reply.status;
+    $("cmd-status").className = reply.status === "CONTROL_OK" ? "ok" : "bad";
+    const resultNames = names(c.results);
+    $("cmd-results").textContent =
+      reply.results.length === 0
+        ? "none"
+        : reply.results
+            .map((v, k) => (resultNames.length === reply.results.length ? `${resultNames[k]} = ${v}` : String(v)))
+            .join(", ");
+    $("cmd-message").textContent = reply.message || "–";
+    cmdMsg.textContent = `${c.name} answered.`;
+  } catch (err) {
+    const text = errorText(err);
+    cmdMsg.textContent = text;
+    cmdMsg.className = "form-msg form-error";
+  }
+}
+
+// -- plots -------------------------------------------------------------------------------------
+const pause = $<HTMLButtonElement>("plot-pause");
+pause.addEventListener("click", () => {
+  plots.paused = !plots.paused;
+  pause.setAttribute("aria-pressed", String(plots.paused));
+  pause.textContent = plots.paused ? "Resume" : "Pause";
+});
+const windowSelect = $<HTMLSelectElement>("plot-window");
+windowSelect.addEventListener("change", () => plots.setWindow(Number(windowSelect.value)));
+$("clear-trail").addEventListener("click", () => liveMap.clearTrails());
+
+// -- start -------------------------------------------------------------------------------------
+renderLink();
+void loadMap();
+void loadProtocol();
+void pollStatus();
+window.setInterval(() => void pollStatus(), 1000);
+connect();
