@@ -142,9 +142,39 @@ function detailOf(body: unknown): string | null {
   return null;
 }
 
+/** A request body sent as it is (a file's bytes), not as JSON. */
+export class Raw {
+  constructor(
+    readonly data: Blob | string,
+    readonly type: string,
+  ) {}
+}
+
+export interface FirmwareSetting {
+  id: number;
+  name: string;
+  unit: string;
+  min: number;
+  max: number;
+  default: number;
+  doc: string;
+  value: number;
+}
+
+export interface UpdateJob {
+  state: "idle" | "running" | "done" | "failed";
+  log: string[];
+  elapsed_s: number;
+}
+
+export interface GatewaySettings {
+  network: { host: string; port: number };
+}
+
 export async function api<T>(method: string, path: string, body?: unknown, timeoutMs = 8000): Promise<T> {
   const headers: Record<string, string> = {};
-  if (body !== undefined) headers["Content-Type"] = "application/json";
+  if (body instanceof Raw) headers["Content-Type"] = body.type;
+  else if (body !== undefined) headers["Content-Type"] = "application/json";
   const t = token();
   if (t) headers["X-Cart2d-Token"] = t;
   let response: Response;
@@ -152,7 +182,7 @@ export async function api<T>(method: string, path: string, body?: unknown, timeo
     response = await fetch(path, {
       method,
       headers,
-      body: body === undefined ? null : JSON.stringify(body),
+      body: body === undefined ? null : body instanceof Raw ? body.data : JSON.stringify(body),
       signal: AbortSignal.timeout(timeoutMs),
     });
   } catch (err) {

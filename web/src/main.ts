@@ -18,7 +18,9 @@ import {
 } from "./api";
 import { LiveMap } from "./map";
 import { parseNumber } from "./parse";
+import { GatewayPanel } from "./admin";
 import { LivePlots } from "./plots";
+import { StepResponse, Tuning, type PanelContext } from "./tuning";
 
 function $<T extends HTMLElement = HTMLElement>(id: string): T {
   const el = document.getElementById(id);
@@ -237,7 +239,12 @@ function renderMission(m: MissionView, fromStream: boolean): void {
 }
 
 // -- live stream -------------------------------------------------------------------------------
-const plots = new LivePlots($("plot-wheels"), $("plot-body"));
+const plots = new LivePlots($("plot-wheels"), $("plot-body"), $("plot-pwm"), $("plot-distance"));
+const ctx: PanelContext = { notify, errorText };
+const tuning = new Tuning($("tuning"), ctx);
+const step = new StepResponse($("tuning"), ctx);
+const gatewayPanel = new GatewayPanel(ctx);
+window.addEventListener("cart2d-settings-imported", () => void loadMap());
 let live: WebSocket | null = null;
 let retryMs = 500;
 const fmt = (v: number, unit: string, digits = 3): string => `${v.toFixed(digits)} ${unit}`;
@@ -259,6 +266,7 @@ function onMessage(msg: LiveMessage): void {
       setReadout("pose-theta", "θ", msg.theta, `${deg(msg.theta).toFixed(1)}°`);
       $("fw-mode").textContent = msg.mode_name;
       plots.add(msg);
+      step.onTelemetry(msg);
       break;
     case "truth": {
       liveMap.setTruth({ x: msg.x, y: msg.y, theta: msg.theta });
@@ -311,6 +319,7 @@ function connect(): void {
 // -- emergency stop ----------------------------------------------------------------------------
 async function emergencyStop(): Promise<void> {
   held.clear();
+  step.cancel();
   try {
     await api("POST", "/api/stop", undefined, 3000);
     notify("Stopped: motors off.", "info");
@@ -530,12 +539,26 @@ pause.addEventListener("click", () => {
 });
 const windowSelect = $<HTMLSelectElement>("plot-window");
 windowSelect.addEventListener("change", () => plots.setWindow(Number(windowSelect.value)));
+$("plot-csv").addEventListener("click", () => {
+  const text = plots.csv();
+  if (!text) {
+    notify("Nothing recorded yet: the plots record the robot's telemetry while the page is open.", "info");
+    return;
+  }
+  const a = document.createElement("a");
+  a.href = URL.createObjectURL(new Blob([text], { type: "text/csv" }));
+  a.download = `cart2d-telemetry-${new Date().toISOString().replace(/[:.]/g, "-")}.csv`;
+  a.click();
+  window.setTimeout(() => URL.revokeObjectURL(a.href), 1000);
+});
 $("clear-trail").addEventListener("click", () => liveMap.clearTrails());
 
 // -- start -------------------------------------------------------------------------------------
 renderLink();
 void loadMap();
 void loadProtocol();
+void tuning.load();
+void gatewayPanel.load();
 void pollStatus();
 window.setInterval(() => void pollStatus(), 1000);
 connect();

@@ -1,4 +1,5 @@
-// Live plots with uPlot: wheel speeds against their targets, and v and ω against theirs. Frames
+// Live plots with uPlot: wheel speeds against their targets, v and ω against theirs, the PWMs
+// and the distance to the waypoint; everything recorded can be exported as CSV. Frames
 // are recorded continuously; the charts redraw a few times a second unless paused.
 
 import uPlot from "uplot";
@@ -23,7 +24,9 @@ export class LivePlots {
   private windowS = 20;
   paused = false;
 
-  constructor(wheels: HTMLElement, body: HTMLElement) {
+  private readonly frames: Telemetry[] = [];
+
+  constructor(wheels: HTMLElement, body: HTMLElement, pwm: HTMLElement, distance: HTMLElement) {
     const css = getComputedStyle(document.documentElement);
     const c = (name: string, fallback: string): string => css.getPropertyValue(name).trim() || fallback;
     const left = c("--plot-a", "#1d4ed8");
@@ -41,6 +44,13 @@ export class LivePlots {
         ["v_target", "v target", left, true],
         ["omega", "ω", right, false],
         ["omega_target", "ω target", right, true],
+      ], axis),
+      this.chart(pwm, "PWM", [
+        ["pwm_left", "left", left, false],
+        ["pwm_right", "right", right, false],
+      ], axis),
+      this.chart(distance, "distance to the waypoint (m)", [
+        ["distance_to_waypoint", "distance", left, false],
       ], axis),
     );
     new ResizeObserver(() => this.resize()).observe(wheels);
@@ -86,6 +96,7 @@ export class LivePlots {
 
   add(frame: Telemetry): void {
     this.t.push((performance.now() - this.t0) / 1000);
+    this.frames.push(frame);
     for (const [field, column] of this.columns) {
       const v = frame[field];
       column.push(typeof v === "number" ? v : NaN);
@@ -93,8 +104,30 @@ export class LivePlots {
     if (this.t.length > CAPACITY) {
       const extra = this.t.length - CAPACITY;
       this.t.splice(0, extra);
+      this.frames.splice(0, extra);
       for (const column of this.columns.values()) column.splice(0, extra);
     }
+  }
+
+  /** How many frames are recorded (the last two minutes at most). */
+  get recorded(): number {
+    return this.frames.length;
+  }
+
+  /** Everything recorded, as CSV: the page's time, then every telemetry field (tick included). */
+  csv(): string {
+    const first = this.frames[0];
+    if (!first) return "";
+    const fields = (Object.keys(first) as (keyof Telemetry)[]).filter((k) => k !== "type");
+    const cell = (v: unknown): string => {
+      const text = Array.isArray(v) ? v.join(" ") : String(v);
+      return /[",\n]/.test(text) ? `"${text.replaceAll('"', '""')}"` : text;
+    };
+    const lines = [["t_s", ...fields].join(",")];
+    this.frames.forEach((frame, k) => {
+      lines.push([(this.t[k] ?? 0).toFixed(3), ...fields.map((f) => cell(frame[f]))].join(","));
+    });
+    return lines.join("\n") + "\n";
   }
 
   private resize(): void {

@@ -248,6 +248,219 @@ test("holding an arrow key drives the robot; releasing it stops", async ({ page 
   expect(w.pageErrors).toEqual([]);
 });
 
+interface Setting {
+  id: number;
+  name: string;
+  unit: string;
+  min: number;
+  max: number;
+  doc: string;
+  value: number;
+}
+
+async function settings(page: Page): Promise<Setting[]> {
+  return (await (await page.request.get(`${BASE}/api/firmware/settings`)).json()) as Setting[];
+}
+
+async function setting(page: Page, name: string): Promise<number> {
+  const s = (await settings(page)).find((x) => x.name === name);
+  if (!s) throw new Error(`no firmware setting ${name}`);
+  return s.value;
+}
+
+async function gotoAndWait(page: Page, p: Point): Promise<void> {
+  const r = await page.request.post(`${BASE}/api/goto`, { data: { x: p[0], y: p[1] } });
+  expect(r.ok()).toBe(true);
+  await expect
+    .poll(
+      async () => {
+        const m = (await (await page.request.get(`${BASE}/api/mission`)).json()) as { state: string; goal: Point | null };
+        return m.state === "arrived" && m.goal !== null && near(m.goal, p, 1e-3);
+      },
+      { timeout: 20_000 },
+    )
+    .toBe(true);
+}
+
+test("the tuning panel lists every firmware setting, applies, refuses bad values, saves and loads", async ({ page }) => {
+  const w = await open(page);
+  const all = await settings(page);
+  await expect(page.locator("#tune-table .tune-row")).toHaveCount(all.length);
+  const row = page.locator('.tune-row[data-setting="speed_kp"]');
+  const kp = all.find((s) => s.name === "speed_kp");
+  if (!kp) throw new Error("no speed_kp");
+  await expect(row.locator(".tune-name")).toHaveAttribute("title", kp.doc);
+  await expect(row.locator(".tune-unit")).toHaveText(kp.unit);
+  await expect(row.locator(".tune-range")).toHaveText(`${kp.min} … ${kp.max}`);
+  await expect(row.locator("input")).toHaveValue(String(kp.value));
+
+  // bad values: a message, nothing sent, nothing changed
+  for (const [text, message] of [["", /empty/], ["abc", /not a number/], ["1e5", /between 0 and 20000/], ["-1", /out of range/]] as const) {
+    await row.locator("input").fill(text);
+    await row.locator("button").click();
+    await expect(page.locator("#tune-msg")).toHaveText(message);
+    await expect(page.locator("#tune-msg")).toHaveClass(/form-error/);
+  }
+  await page.waitForTimeout(200);
+  expect(w.requests).toEqual([]);
+  expect(await setting(page, "speed_kp")).toBe(kp.value);
+
+  // the firmware's 409 sentence is shown if it refuses anyway (made to refuse here: the
+  // simulator's firmware accepts its whole published range)
+  await page.route("**/api/firmware/settings", (route) =>
+    route.request().method() === "PUT"
+      ? route.fulfill({ status: 409, contentType: "application/json", body: JSON.stringify({ detail: "COMMAND_PARAM_SET refused: an argument is out of range" }) })
+      : route.fallback(),
+  );
+  await row.locator("input").fill("1500");
+  await row.locator("button").click();
+  await expect(page.locator("#tune-msg")).toHaveText("COMMAND_PARAM_SET refused: an argument is out of range.");
+  await page.unroute("**/api/firmware/settings");
+  expect(await setting(page, "speed_kp")).toBe(kp.value);
+
+  // save, apply a new value, load from EEPROM: the saved value is back
+  await page.click("#tune-save");
+  await expect(page.locator("#tune-msg")).toHaveText(/saved to EEPROM/);
+  await row.locator("input").fill("1200");
+  await row.locator("button").click();
+  await expect(page.locator("#tune-msg")).toContainText("speed_kp = 1200");
+  expect(await setting(page, "speed_kp")).toBe(1200);
+  await page.click("#tune-load");
+  await expect(page.locator("#tune-msg")).toHaveText(/loaded from EEPROM/);
+  await expect(row.locator("input")).toHaveValue(String(kp.value));
+  expect(await setting(page, "speed_kp")).toBe(kp.value);
+  await page.locator("#tuning").screenshot({ path: `${SHOTS}/tuning.png` });
+  // Chromium logs every 4xx response; the refused PUT above is the only one
+  expect(w.consoleErrors.filter((e) => !e.includes("status of 409"))).toEqual([]);
+  expect(w.pageErrors).toEqual([]);
+});
+
+test("four live plots, and a CSV export of every telemetry field recorded", async ({ page }) => {
+  const w = await open(page);
+  for (const id of ["#plot-wheels", "#plot-body", "#plot-pwm", "#plot-distance"]) {
+    await expect(page.locator(`${id} .uplot`)).toHaveCount(1);
+  }
+  await expect(page.locator("#plot-pwm .u-title")).toHaveText("PWM");
+  await page.waitForTimeout(1000);
+  const [download] = await Promise.all([page.waitForEvent("download"), page.click("#plot-csv")]);
+  expect(download.suggestedFilename()).toMatch(/^cart2d-telemetry-.*\.csv$/);
+  const text = await (await download.createReadStream()).toArray();
+  const lines = Buffer.concat(text).toString("utf8").trim().split("\n");
+  const header = (lines[0] ?? "").split(",");
+  for (const f of ["t_s", "tick", "x", "y", "theta", "v_left", "v_right", "v_left_target", "pwm_left", "pwm_right", "v", "omega", "distance_to_waypoint", "mode_name"]) {
+    expect(header).toContain(f);
+  }
+  expect(lines.length).toBeGreaterThan(10);
+  const tick = header.indexOf("tick");
+  const ticks = lines.slice(1).map((l) => Number(l.split(",")[tick]));
+  expect(ticks.every((t, k) => k === 0 || t > (ticks[k - 1] ?? 0))).toBe(true);
+  await page.locator(".plots-card").screenshot({ path: `${SHOTS}/plots.png` });
+  expect(w.pageErrors).toEqual([]);
+});
+
+test("the step response drives straight and plots the wheel speeds against the target", async ({ page }) => {
+  const w = await open(page);
+  // room ahead: along y = 0.8 towards +x
+  await gotoAndWait(page, [0.4, 0.8]);
+  await gotoAndWait(page, [0.8, 0.8]);
+  const start = await pose(page);
+  w.requests.length = 0;
+  await page.click("#step-run");
+  await expect(page.locator("#tuning")).toHaveAttribute("data-step", "running");
+  await expect(page.locator("#tuning")).toHaveAttribute("data-step", "done", { timeout: 8000 });
+  await expect(page.locator("#step-msg")).toContainText("samples");
+  expect(Number(await page.locator("#tuning").getAttribute("data-samples"))).toBeGreaterThan(20);
+  expect(Number(await page.locator("#tuning").getAttribute("data-peak"))).toBeGreaterThan(0.2);
+  await expect(page.locator("#step-plot .uplot")).toHaveCount(1);
+  expect(w.requests.filter((r) => r === "POST /api/drive").length).toBeGreaterThanOrEqual(9);
+  const end = await pose(page);
+  expect(Math.hypot(end[0] - start[0], end[1] - start[1])).toBeGreaterThan(0.3);
+  const a = await pose(page);
+  await page.waitForTimeout(500);
+  const b = await pose(page);
+  expect(Math.hypot(a[0] - b[0], a[1] - b[1])).toBeLessThan(0.003);
+  await page.locator("#tuning").screenshot({ path: `${SHOTS}/step-response.png` });
+  expect(w.pageErrors).toEqual([]);
+});
+
+test("the gateway panel: network, settings file, soft reset, firmware update; bad inputs change nothing", async ({ page }) => {
+  const w = await open(page);
+  const gw = async (): Promise<unknown> => (await page.request.get(`${BASE}/api/settings`)).json();
+  const before = (await gw()) as { network: { host: string; port: number } };
+  await expect(page.locator("#net-form input[name=port]")).toHaveValue(String(before.network.port));
+  await expect(page.locator("#net-msg")).toContainText("restarts");
+
+  for (const [host, port, message] of [["", "8080", /host is empty/], ["a b", "8080", /not an address/], ["127.0.0.1", "http", /not a whole number/], ["127.0.0.1", "70000", /between 1 and 65535/], ["127.0.0.1", "0", /between 1 and 65535/]] as const) {
+    await page.fill("#net-form input[name=host]", host);
+    await page.fill("#net-form input[name=port]", port);
+    await page.click("#net-form button[type=submit]");
+    await expect(page.locator("#net-msg")).toHaveText(message);
+    await expect(page.locator("#net-msg")).toHaveClass(/form-error/);
+  }
+  // bad settings files: refused in the page (not JSON) or by the gateway (its 422 sentence)
+  await page.click("#settings-file-form button[type=submit]");
+  await expect(page.locator("#settings-file-msg")).toHaveText(/Choose a settings file/);
+  await page.setInputFiles("#settings-file-form input[type=file]", { name: "broken.json", mimeType: "application/json", buffer: Buffer.from("{not json") });
+  await page.click("#settings-file-form button[type=submit]");
+  await expect(page.locator("#settings-file-msg")).toHaveText(/broken.json is not JSON/);
+  // bad firmware files
+  await page.click("#fw-update-form button[type=submit]");
+  await expect(page.locator("#fw-update-msg")).toHaveText(/Choose a .hex file/);
+  await page.setInputFiles("#fw-update-form input[type=file]", { name: "notes.txt", mimeType: "text/plain", buffer: Buffer.from(":00000001FF\n") });
+  await page.click("#fw-update-form button[type=submit]");
+  await expect(page.locator("#fw-update-msg")).toHaveText(/not a .hex file/);
+  await page.setInputFiles("#fw-update-form input[type=file]", { name: "text.hex", mimeType: "text/plain", buffer: Buffer.from("hello\n") });
+  await page.click("#fw-update-form button[type=submit]");
+  await expect(page.locator("#fw-update-msg")).toHaveText(/not an Intel HEX file/);
+  await page.waitForTimeout(200);
+  expect(w.requests).toEqual([]);
+
+  await page.setInputFiles("#settings-file-form input[type=file]", { name: "wrong.json", mimeType: "application/json", buffer: Buffer.from('{"bad": 1}') });
+  await page.click("#settings-file-form button[type=submit]");
+  await expect(page.locator("#settings-file-msg")).toHaveText("Invalid settings file: bad: Extra inputs are not permitted.");
+  await page.setInputFiles("#fw-update-form input[type=file]", { name: "broken.hex", mimeType: "text/plain", buffer: Buffer.from(":zz\n") });
+  await page.click("#fw-update-form button[type=submit]");
+  await expect(page.locator("#fw-update-msg")).toHaveText(/^Not a valid Intel HEX file/);
+  expect(await gw()).toEqual(before);
+  expect(((await (await page.request.get(`${BASE}/api/firmware/update`)).json()) as { state: string }).state).toBe("idle");
+
+  // the good paths
+  await page.fill("#net-form input[name=host]", before.network.host);
+  await page.fill("#net-form input[name=port]", String(before.network.port));
+  await page.click("#net-form button[type=submit]");
+  await expect(page.locator("#net-msg")).toHaveText(/takes effect when the gateway restarts/);
+  const [download] = await Promise.all([page.waitForEvent("download"), page.click("#settings-download")]);
+  const file = Buffer.concat(await (await download.createReadStream()).toArray());
+  expect(JSON.parse(file.toString("utf8"))).toEqual(before);
+  await page.setInputFiles("#settings-file-form input[type=file]", { name: "cart2d-settings.json", mimeType: "application/json", buffer: file });
+  await page.click("#settings-file-form button[type=submit]");
+  await expect(page.locator("#settings-file-msg")).toHaveText(/^Imported cart2d-settings.json/);
+  expect(await gw()).toEqual(before);
+
+  await page.click("#reset-mcu");
+  await expect(page.locator("#messages")).toContainText("Soft reset sent");
+  await expect(page.locator("body")).toHaveAttribute("data-link", "connected", { timeout: 15_000 });
+
+  const hex = resolve(import.meta.dirname, "..", "..", "build", "firmware", "cart2d-nano.hex");
+  await page.setInputFiles("#fw-update-form input[type=file]", hex);
+  await page.click("#fw-update-form button[type=submit]");
+  await expect(page.locator("#fw-update")).toHaveAttribute("data-state", "done", { timeout: 20_000 });
+  await expect(page.locator("#fw-update-log")).toContainText("checked:");
+  await expect(page.locator("#fw-update-log")).toContainText("done");
+  await expect(page.locator("#fw-update-msg")).toHaveText("The new firmware is running.");
+  await expect(page.locator("body")).toHaveAttribute("data-link", "connected", { timeout: 15_000 });
+  await page.locator("#gw-title").locator("..").screenshot({ path: `${SHOTS}/gateway.png` });
+  expect(w.requests.filter((r) => r.startsWith("PUT") || r.startsWith("POST"))).toEqual([
+    "POST /api/settings/file",
+    "POST /api/firmware/update",
+    "PUT /api/settings/network",
+    "POST /api/settings/file",
+    "POST /api/reset",
+    "POST /api/firmware/update",
+  ]);
+  expect(w.pageErrors).toEqual([]);
+});
+
 test("the layout works at a phone's width", async ({ browser }) => {
   const context = await browser.newContext({ viewport: { width: 390, height: 844 }, deviceScaleFactor: 2, hasTouch: true });
   const page = await context.newPage();
@@ -258,7 +471,7 @@ test("the layout works at a phone's width", async ({ browser }) => {
   await expect(estop).toBeInViewport({ ratio: 1 });
   const box = await estop.boundingBox();
   expect(box && box.width >= 44 && box.height >= 44).toBe(true);
-  for (const id of ["#map", "#cmd-form", "#plot-body"]) {
+  for (const id of ["#map", "#cmd-form", "#plot-body", "#plot-distance", "#tune-table", "#net-form", "#fw-update-form", "#step-run"]) {
     const b = await page.locator(id).boundingBox();
     expect(b && b.x >= 0 && b.x + b.width <= 390.5).toBe(true);
   }
