@@ -14,7 +14,7 @@ from typing import Any
 from cart2d import firmware
 from cart2d.flashing import Flasher
 from cart2d.link import CommandRefused, Link, LinkError
-from cart2d.params import footprint_radius_m
+from cart2d.params import footprint_radius_m, robot
 from cart2d.planner import Grid, Plan, PlanError, Planner
 from cart2d.protocol import Telemetry
 from cart2d.simulator import Simulator
@@ -125,10 +125,18 @@ class Gateway:
     def map_view(self) -> dict[str, Any]:
         with self._lock:
             g = self.planner.grid
+            margin = float(robot()["sim"]["arena_margin_m"])  # walls outside the grid (the brief)
+            width, height = (g.cols - 1) * g.step_m, (g.rows - 1) * g.step_m
             return {
                 "cols": g.cols,
                 "rows": g.rows,
                 "step_m": g.step_m,
+                "arena": {
+                    "x_min": -margin,
+                    "y_min": -margin,
+                    "x_max": width + margin,
+                    "y_max": height + margin,
+                },
                 "footprint_radius_m": self.planner.footprint_radius_m,
                 "obstacles": [list(g.node_xy(i, j)) for i, j in sorted(self.planner.obstacles)],
             }

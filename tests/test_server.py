@@ -15,7 +15,7 @@ from starlette.websockets import WebSocketDisconnect
 from cart2d.gateway import Gateway
 from cart2d.link import Link
 from cart2d.server import MAX_BODY_BYTES, create_app
-from cart2d.simulator import Simulator
+from cart2d.simulator import Simulator, SimulatorError
 from cart2d.store import Store
 from tests.conftest import start_sim, wait_for
 
@@ -272,3 +272,13 @@ def test_network_settings_take_no_coercion(rig: Rig, body: str) -> None:
     response = raw(rig.client, "PUT", "/api/settings/network", body)
     assert response.status_code == 422
     assert rig.client.get("/api/settings").json()["network"]["port"] == 8080
+
+
+def test_map_gives_the_arena_walls_the_simulator_uses(rig: Rig) -> None:
+    arena = rig.client.get("/api/map").json()["arena"]
+    # The grid spans 0..1.8 m; the walls stand 0.25 m outside it (config/robot.toml, [sim]).
+    assert arena == pytest.approx({"x_min": -0.25, "y_min": -0.25, "x_max": 2.05, "y_max": 2.05})
+    # The simulator agrees: placing the cart's 0.17 m disc against the east wall works, beyond fails.
+    rig.sim.control("place", x=2.05 - 0.17, y=0.9)
+    with pytest.raises(SimulatorError):
+        rig.sim.control("place", x=2.05 - 0.16, y=0.9)
