@@ -3,11 +3,20 @@
 
 export type Point = [number, number];
 
+/** The arena's walls (metres): the cart cannot leave this rectangle. */
+export interface Arena {
+  x_min: number;
+  y_min: number;
+  x_max: number;
+  y_max: number;
+}
+
 export interface MapView {
   cols: number;
   rows: number;
   step_m: number;
   footprint_radius_m: number;
+  arena: Arena;
   obstacles: Point[];
 }
 

@@ -16,6 +16,7 @@ import {
   type ProtocolCommand,
   type StatusView,
 } from "./api";
+import { Joystick, type Stick } from "./joystick";
 import { LiveMap } from "./map";
 import { parseNumber } from "./parse";
 import { GatewayPanel } from "./admin";
@@ -62,21 +63,70 @@ function errorText(err: unknown): string {
 
 // -- access token (a gateway bound off loopback) -----------------------------------------------
 const tokenForm = $<HTMLFormElement>("token-form");
+const tokenMsg = $<HTMLOutputElement>("token-msg");
+let tokenRefused = false; // the live stream was refused for the token: wait for a new one
 function showTokenForm(): void {
   tokenForm.hidden = false;
 }
+function sayToken(text: string, error: boolean): void {
+  tokenMsg.textContent = text;
+  tokenMsg.className = error ? "form-msg form-error" : "form-msg";
+}
+
+/** Whether the gateway takes `value`: a WebSocket with it opens. The gateway refuses one before
+ * accepting it, which a browser sees as a failed handshake (403, close code 1006), not as 1008. */
+function checkToken(value: string): Promise<"ok" | "refused" | "unreachable"> {
+  return new Promise((done) => {
+    const proto = location.protocol === "https:" ? "wss:" : "ws:";
+    const ws = new WebSocket(`${proto}//${location.host}/ws?token=${encodeURIComponent(value)}`);
+    const timer = window.setTimeout(() => {
+      done("unreachable");
+      ws.close();
+    }, 5000);
+    ws.addEventListener("open", () => {
+      window.clearTimeout(timer);
+      done("ok");
+      ws.close();
+    });
+    ws.addEventListener("close", () => {
+      window.clearTimeout(timer);
+      void gatewayAnswers().then((up) => done(up ? "refused" : "unreachable"));
+    });
+  });
+}
+
 tokenForm.addEventListener("submit", (e) => {
   e.preventDefault();
   const input = tokenForm.elements.namedItem("token") as HTMLInputElement;
   const value = input.value.trim();
   if (value.length < 16) {
-    notify("The access token is at least 16 characters: copy it from the gateway's terminal.");
+    sayToken("The access token is at least 16 characters: copy it from the gateway's terminal.", true);
     return;
   }
-  setToken(value);
+  sayToken("Checking the token…", false);
+  void checkToken(value).then((verdict) => {
+    if (verdict === "refused") {
+      input.value = "";
+      sayToken("That is not this gateway's access token: copy it from the terminal where cart2d runs.", true);
+      return;
+    }
+    if (verdict === "unreachable") {
+      sayToken("The gateway cannot be reached to check the token: try again.", true);
+      return;
+    }
+    setToken(value);
+    input.value = "";
+    sayToken("", false);
+    tokenForm.hidden = true;
+    notify("Token accepted and saved in this browser: changes are allowed now.", "info");
+    tokenRefused = false;
+    if (live) live.close();
+    else connect();
+  });
+});
+$("token-later").addEventListener("click", () => {
   tokenForm.hidden = true;
-  notify("Token saved in this browser.", "info");
-  live?.close();
+  sayToken("", false);
 });
 
 // -- status bar --------------------------------------------------------------------------------
@@ -95,6 +145,9 @@ function renderLink(): void {
   } else if (lastStatus?.link.state === "connected" && wsUp) {
     state = "connected";
     text = "connected";
+  } else if (tokenRefused) {
+    state = "reconnecting";
+    text = "live data needs the access token";
   } else {
     state = "reconnecting";
     text = lastStatus?.link.state === "connected" ? "live data reconnecting…" : "robot link reconnecting…";
@@ -291,7 +344,9 @@ function connect(): void {
   const t = token();
   const ws = new WebSocket(`${proto}//${location.host}/ws${t ? `?token=${encodeURIComponent(t)}` : ""}`);
   live = ws;
+  let opened = false;
   ws.addEventListener("open", () => {
+    opened = true;
     wsUp = true;
     retryMs = 500;
     renderLink();
@@ -303,22 +358,42 @@ function connect(): void {
       console.warn("unreadable live message", err);
     }
   });
-  ws.addEventListener("close", (e) => {
-    wsUp = false;
-    live = null;
-    if (e.code === 1008) {
-      notify(sentence(e.reason || "The gateway refused the live stream"));
-      if (e.reason.includes("token")) showTokenForm();
-    }
-    renderLink();
-    window.setTimeout(connect, retryMs);
-    retryMs = Math.min(retryMs * 2, 5000);
-  });
+  ws.addEventListener("close", (e) => void closed(e, opened));
+}
+
+/** Whether the gateway answers HTTP now (then a refused WebSocket handshake was about the token). */
+async function gatewayAnswers(): Promise<boolean> {
+  try {
+    await api("GET", "/api/status", undefined, 3000);
+    return true;
+  } catch {
+    return false;
+  }
+}
+
+async function closed(e: CloseEvent, opened: boolean): Promise<void> {
+  wsUp = false;
+  live = null;
+  renderLink();
+  // The gateway refuses a WebSocket without its token before accepting it, which reaches the page
+  // as a failed handshake (1006, no reason); 1008 with a reason if it closes one it accepted.
+  const forToken =
+    (e.code === 1008 && e.reason.includes("token")) || (!opened && e.code !== 1008 && (await gatewayAnswers()));
+  if ((e.code === 1008 || forToken) && !tokenRefused) {
+    notify(sentence(forToken ? "The live data needs this gateway's access token" : e.reason || "The gateway refused the live stream"));
+    if (forToken) showTokenForm();
+  }
+  tokenRefused = forToken;
+  renderLink();
+  if (forToken) return; // the same token would be refused again: connect() when a new one is entered
+  window.setTimeout(connect, retryMs);
+  retryMs = Math.min(retryMs * 2, 5000);
 }
 
 // -- emergency stop ----------------------------------------------------------------------------
 async function emergencyStop(): Promise<void> {
   held.clear();
+  joystick.release();
   step.cancel();
   try {
     await api("POST", "/api/stop", undefined, 3000);
@@ -345,29 +420,53 @@ const held = new Set<Dir>();
 const speedInput = $<HTMLInputElement>("drive-speed");
 let driveTimer: number | null = null;
 let driveInFlight = false;
+let pendingDrive: [number, number] | null = null; // the latest command asked for while one was in flight
+let stick: Stick = null;
 
 speedInput.addEventListener("input", () => {
   $("drive-speed-out").textContent = `${Number(speedInput.value).toFixed(2)} m/s`;
 });
 
 async function sendDrive(v: number, omega: number): Promise<void> {
-  if (driveInFlight) return;
+  if (driveInFlight) {
+    pendingDrive = [v, omega]; // sent when the one in flight is answered: the final stop is never lost
+    return;
+  }
   driveInFlight = true;
   try {
     await api("POST", "/api/drive", { v, omega }, 2000);
   } catch (err) {
     held.clear();
+    joystick.release();
     notify(errorText(err));
+    if (pendingDrive && (pendingDrive[0] !== 0 || pendingDrive[1] !== 0)) pendingDrive = null;
   } finally {
     driveInFlight = false;
   }
+  const next = pendingDrive;
+  pendingDrive = null;
+  if (next) await sendDrive(next[0], next[1]);
+}
+
+/** The firmware's max speeds (the tuning table, else its defaults) scaled by the speed slider. */
+function stickLimits(): { v: number; omega: number } {
+  const vMax = tuning.value("v_max_mps") ?? 0.5;
+  const wMax = tuning.value("w_max_radps") ?? Math.PI;
+  const fraction = Math.min(1, Number(speedInput.value) / vMax);
+  return { v: vMax * fraction, omega: wMax * fraction };
 }
 
 function driveTick(): void {
-  if (held.size === 0) {
+  if (held.size === 0 && stick === null) {
     if (driveTimer !== null) window.clearInterval(driveTimer);
     driveTimer = null;
     void sendDrive(0, 0);
+    return;
+  }
+  if (stick) {
+    const limits = stickLimits();
+    const round = (x: number): number => Math.round(x * 1000) / 1000;
+    void sendDrive(round(stick.y * limits.v), round(-stick.x * limits.omega));
     return;
   }
   const speed = Number(speedInput.value);
@@ -376,13 +475,23 @@ function driveTick(): void {
   void sendDrive(v, omega);
 }
 
-function press(dir: Dir): void {
-  held.add(dir);
+function startDriving(): void {
   if (driveTimer === null) {
     driveTick();
     driveTimer = window.setInterval(driveTick, 150);
   }
 }
+
+function press(dir: Dir): void {
+  held.add(dir);
+  startDriving();
+}
+
+const joystick = new Joystick($("joystick"), $("joystick-knob"), (s) => {
+  const first = stick === null && s !== null;
+  stick = s;
+  if (first) startDriving(); // then every 150 ms while held; the tick after release stops
+});
 
 function release(dir: Dir): void {
   held.delete(dir);
@@ -411,7 +520,10 @@ window.addEventListener("keyup", (e) => {
   const dir = KEYS[e.code];
   if (dir) release(dir);
 });
-window.addEventListener("blur", () => held.clear());
+window.addEventListener("blur", () => {
+  held.clear();
+  joystick.release();
+});
 
 for (const button of document.querySelectorAll<HTMLButtonElement>("[data-drive]")) {
   const dir = button.dataset["drive"] as Dir;

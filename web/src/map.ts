@@ -4,9 +4,10 @@
 //
 // The canvas publishes its world-to-screen transform as data attributes (data-origin-x,
 // data-origin-y: CSS pixels of the world's (0, 0); data-scale: CSS pixels per metre), so tools
-// and tests can find a node without reverse-engineering the drawing.
+// and tests can find a node without reverse-engineering the drawing; data-arena is the walls it
+// draws ("x_min y_min x_max y_max", metres), all inside the drawn extent.
 
-import type { MapView, Plan, Point } from "./api";
+import type { Arena, MapView, Plan, Point } from "./api";
 
 export interface Pose {
   x: number;
@@ -16,7 +17,8 @@ export interface Pose {
 
 const TRAIL_MAX = 3000;
 const TRAIL_MIN_STEP_M = 0.004;
-const PAD_M = 0.3; // room around the nodes for the footprint and the walls beyond
+const PAD_M = 0.3; // room around the nodes when the gateway gives no walls
+const WALL_PAD_M = 0.04; // room outside the walls for their line width
 
 function cssVar(name: string, fallback: string): string {
   const v = getComputedStyle(document.documentElement).getPropertyValue(name).trim();
@@ -104,16 +106,32 @@ export class LiveMap {
     return `${Math.round(x / step)},${Math.round(y / step)}`;
   }
 
-  private extent(): { w: number; h: number } {
+  /** The walls, or (an older gateway) the nodes' bounding box with PAD_M around it. */
+  private arena(): Arena {
     const m = this.map;
-    if (!m) return { w: 2 + 2 * PAD_M, h: 2 + 2 * PAD_M };
-    return { w: (m.cols - 1) * m.step_m + 2 * PAD_M, h: (m.rows - 1) * m.step_m + 2 * PAD_M };
+    if (m?.arena) return m.arena;
+    const w = m ? (m.cols - 1) * m.step_m : 2;
+    const h = m ? (m.rows - 1) * m.step_m : 2;
+    return { x_min: -PAD_M, y_min: -PAD_M, x_max: w + PAD_M, y_max: h + PAD_M };
+  }
+
+  /** The world rectangle drawn: the arena and a little room for the walls' line. */
+  private extent(): Arena {
+    const a = this.arena();
+    return {
+      x_min: a.x_min - WALL_PAD_M,
+      y_min: a.y_min - WALL_PAD_M,
+      x_max: a.x_max + WALL_PAD_M,
+      y_max: a.y_max + WALL_PAD_M,
+    };
   }
 
   private resize(): void {
     const parent = this.canvas.parentElement;
     if (!parent) return;
-    const { w, h } = this.extent();
+    const e = this.extent();
+    const w = e.x_max - e.x_min;
+    const h = e.y_max - e.y_min;
     const cssW = Math.max(200, parent.clientWidth);
     const cssH = Math.min(cssW * (h / w), Math.max(260, window.innerHeight * 0.7));
     const dpr = window.devicePixelRatio || 1;
@@ -123,8 +141,10 @@ export class LiveMap {
     this.canvas.height = Math.round(cssH * dpr);
     this.scale = Math.min(cssW / w, cssH / h);
     // centre the world in the canvas; y grows upwards
-    this.ox = (cssW - w * this.scale) / 2 + PAD_M * this.scale;
-    this.oy = cssH - (cssH - h * this.scale) / 2 - PAD_M * this.scale;
+    this.ox = (cssW - w * this.scale) / 2 - e.x_min * this.scale;
+    this.oy = cssH - (cssH - h * this.scale) / 2 + e.y_min * this.scale;
+    const a = this.arena();
+    this.canvas.dataset["arena"] = [a.x_min, a.y_min, a.x_max, a.y_max].map((v) => v.toFixed(3)).join(" ");
     this.canvas.dataset["originX"] = this.ox.toFixed(2);
     this.canvas.dataset["originY"] = this.oy.toFixed(2);
     this.canvas.dataset["scale"] = this.scale.toFixed(4);
@@ -170,9 +190,19 @@ export class LiveMap {
       robot: cssVar("--map-robot", "#1d4ed8"),
       truth: cssVar("--map-truth", "#e76f51"),
       border: cssVar("--map-border", "#cbd5e1"),
+      wall: cssVar("--map-wall", "#475569"),
     };
 
     if (m) {
+      // the arena's walls: a solid outline, its inner edge on the wall
+      const a = this.arena();
+      const [wx0, wy0] = this.toScreen(a.x_min, a.y_min);
+      const [wx1, wy1] = this.toScreen(a.x_max, a.y_max);
+      const wallPx = 3;
+      ctx.strokeStyle = colors.wall;
+      ctx.lineWidth = wallPx;
+      ctx.strokeRect(wx0 - wallPx / 2, wy1 - wallPx / 2, wx1 - wx0 + wallPx, wy0 - wy1 + wallPx);
+
       const [x0, y0] = this.toScreen(0, 0);
       const [x1, y1] = this.toScreen((m.cols - 1) * m.step_m, (m.rows - 1) * m.step_m);
       // the area the cart's centre may reach (the nodes' bounding box)

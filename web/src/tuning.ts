@@ -46,6 +46,11 @@ export class Tuning {
     this.msg.className = error ? "form-msg form-error" : "form-msg";
   }
 
+  /** A firmware setting's value as last read or applied, if the table is loaded. */
+  value(name: string): number | undefined {
+    return this.settings.find((s) => s.name === name)?.value;
+  }
+
   async load(): Promise<void> {
     try {
       this.settings = await api<FirmwareSetting[]>("GET", "/api/firmware/settings");

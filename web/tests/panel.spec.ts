@@ -1,8 +1,11 @@
 // The panel in Chromium against a real gateway and simulator (tests/global-setup.ts). The
 // robot is shared: the tests run in order, each leaving it stopped.
 
-import { mkdirSync } from "node:fs";
-import { resolve } from "node:path";
+import { spawn } from "node:child_process";
+import { mkdirSync, mkdtempSync, readFileSync, rmSync } from "node:fs";
+import { createServer } from "node:net";
+import { tmpdir } from "node:os";
+import { join, resolve } from "node:path";
 import { expect, test, type Page } from "@playwright/test";
 
 const BASE = process.env["CART2D_URL"] ?? "";
@@ -248,6 +251,73 @@ test("holding an arrow key drives the robot; releasing it stops", async ({ page 
   expect(w.pageErrors).toEqual([]);
 });
 
+test("the map draws the arena's walls, and its extent includes them", async ({ page }) => {
+  const w = await open(page);
+  const a = ((await (await page.request.get(`${BASE}/api/map`)).json()) as { arena: { x_min: number; y_min: number; x_max: number; y_max: number } }).arena;
+  expect(a.x_min).toBeLessThan(0);
+  await expect(page.locator("#map")).toHaveAttribute("data-arena", [a.x_min, a.y_min, a.x_max, a.y_max].map((v) => v.toFixed(3)).join(" "));
+  const box = await page.locator("#map").boundingBox();
+  if (!box) throw new Error("no map");
+  const [left, bottom] = await screenOf(page, [a.x_min, a.y_min]);
+  const [right, top] = await screenOf(page, [a.x_max, a.y_max]);
+  expect(left).toBeGreaterThanOrEqual(3);
+  expect(top).toBeGreaterThanOrEqual(3);
+  expect(right).toBeLessThanOrEqual(box.width - 3);
+  expect(bottom).toBeLessThanOrEqual(box.height - 3);
+  // the 3 px wall line lies just outside each wall: 1.5 px out is opaque
+  const out = 1.5 / Number(await page.locator("#map").getAttribute("data-scale"));
+  const mx = (a.x_min + a.x_max) / 2;
+  const my = (a.y_min + a.y_max) / 2;
+  for (const p of [[mx, a.y_min - out], [mx, a.y_max + out], [a.x_min - out, my], [a.x_max + out, my]] as Point[]) {
+    expect((await pixel(page, p))[3]).toBeGreaterThan(200);
+  }
+  expect(w.consoleErrors).toEqual([]);
+});
+
+test("the joystick on a phone drives forward while its knob is held up, and stops on release", async ({ browser }) => {
+  const context = await browser.newContext({ viewport: { width: 390, height: 844 }, deviceScaleFactor: 2, hasTouch: true });
+  const page = await context.newPage();
+  const w = await open(page);
+  await gotoAndWait(page, [0.8, 0.8]); // room all round
+  const drives: { v: number; omega: number }[] = [];
+  page.on("request", (r) => {
+    if (r.method() === "POST" && new URL(r.url()).pathname === "/api/drive") drives.push(r.postDataJSON() as { v: number; omega: number });
+  });
+  const pad = page.locator("#joystick");
+  await pad.scrollIntoViewIfNeeded();
+  const box = await pad.boundingBox();
+  if (!box) throw new Error("no joystick");
+  expect(box.x >= 0 && box.x + box.width <= 390.5).toBe(true);
+  const cx = box.x + box.width / 2;
+  const cy = box.y + box.height / 2;
+  const start = await pose(page);
+  await page.mouse.move(cx, cy);
+  await page.mouse.down();
+  await page.mouse.move(cx, cy - box.height / 2, { steps: 5 }); // to the top edge: full forward
+  await expect(pad).toHaveAttribute("data-y", "1.000");
+  await page.waitForTimeout(1500);
+  const moved = await pose(page);
+  expect(Math.hypot(moved[0] - start[0], moved[1] - start[1])).toBeGreaterThan(0.05);
+  await page.mouse.up();
+  await expect(pad).toHaveAttribute("data-y", "0");
+  await page.waitForTimeout(600);
+  const a = await pose(page);
+  await page.waitForTimeout(600);
+  const b = await pose(page);
+  expect(Math.hypot(a[0] - b[0], a[1] - b[1])).toBeLessThan(0.003);
+  const forward = drives.filter((d) => d.v > 0);
+  expect(forward.length).toBeGreaterThanOrEqual(6); // every 150 ms while held
+  const speed = Number(await page.locator("#drive-speed").inputValue());
+  for (const d of forward) {
+    expect(d.v).toBeLessThanOrEqual(speed + 1e-9); // within the slider (and the firmware's v_max)
+    expect(Math.abs(d.omega)).toBeLessThan(1e-9);
+  }
+  expect(drives.at(-1)).toEqual({ v: 0, omega: 0 });
+  expect(w.consoleErrors).toEqual([]);
+  expect(w.pageErrors).toEqual([]);
+  await context.close();
+});
+
 interface Setting {
   id: number;
   name: string;
@@ -483,4 +553,114 @@ test("the layout works at a phone's width", async ({ browser }) => {
   expect(w.consoleErrors).toEqual([]);
   expect(w.pageErrors).toEqual([]);
   await context.close();
+});
+
+function freePort(): Promise<number> {
+  return new Promise((ok, fail) => {
+    const server = createServer();
+    server.once("error", fail);
+    server.listen(0, "127.0.0.1", () => {
+      const address = server.address();
+      const port = typeof address === "object" && address ? address.port : 0;
+      server.close(() => ok(port));
+    });
+  });
+}
+
+test("off loopback: read-only without the token, a change asks for it, a wrong one changes nothing, the right one works", async ({ browser }) => {
+  test.setTimeout(60_000);
+  const root = resolve(import.meta.dirname, "..", "..");
+  const home = mkdtempSync(join(tmpdir(), "cart2d-token-"));
+  const port = await freePort();
+  let output = "";
+  const child = spawn(join(root, "build", "venv", "bin", "cart2d"), ["sim", "--speed", "1", "--host", "0.0.0.0", "--port", String(port)], {
+    cwd: root,
+    env: { ...process.env, CART2D_HOME: home },
+    stdio: ["ignore", "pipe", "pipe"],
+  });
+  child.stdout.on("data", (d: Buffer) => (output += d.toString()));
+  child.stderr.on("data", (d: Buffer) => (output += d.toString()));
+  const context = await browser.newContext();
+  try {
+    const tokenOf = (): string => /access token \(needed off this machine\): (\S+)/.exec(output)?.[1] ?? "";
+    await expect.poll(tokenOf, { timeout: 20_000, message: output }).not.toBe("");
+    const secret = tokenOf();
+    expect((JSON.parse(readFileSync(join(home, "settings.json"), "utf8")) as { token: string }).token).toBe(secret);
+    const base = `http://127.0.0.1:${port}`;
+    const state = async (): Promise<string> => {
+      try {
+        const s = (await (await fetch(`${base}/api/status`)).json()) as { link: { state: string }; pose?: unknown };
+        return s.pose ? s.link.state : "starting";
+      } catch {
+        return "down";
+      }
+    };
+    await expect.poll(state, { timeout: 30_000 }).toBe("connected");
+    const mapObstacles = async (): Promise<Point[]> =>
+      ((await (await fetch(`${base}/api/map`)).json()) as { obstacles: Point[] }).obstacles;
+    const before = await mapObstacles();
+
+    const page = await context.newPage();
+    const consoleErrors: string[] = [];
+    const pageErrors: string[] = [];
+    page.on("console", (m) => {
+      if (m.type() === "error") consoleErrors.push(m.text());
+    });
+    page.on("pageerror", (e) => pageErrors.push(String(e)));
+    await page.goto(`${base}/`);
+    // read-only views work: status, map, firmware settings, protocol
+    await expect(page.locator("#fw-version")).toContainText("0.1.0");
+    await expect(page.locator("#map")).toHaveAttribute("data-arena", /\d/);
+    await expect(page.locator("#tune-table")).toHaveAttribute("data-count", /^[1-9]/);
+    await expect(page.locator("#cmd-name option")).not.toHaveCount(0);
+    // the live data is refused without the token: the page says so and offers the form
+    await expect(page.locator("#link-state")).toHaveText("live data needs the access token");
+    await page.click("#token-later");
+    await expect(page.locator("#token-form")).toBeHidden();
+
+    // a change asks for the token
+    const node: Point = [1.0, 1.0];
+    const [x, y] = await screenOf(page, node);
+    await page.locator("#map").click({ position: { x, y } });
+    await expect(page.locator("#token-form")).toBeVisible();
+    await expect(page.locator("#messages")).toContainText("needs its access token");
+    expect(await mapObstacles()).toEqual(before);
+
+    // a wrong token: a message, nothing changes, the form stays
+    await page.fill("#token-form input[name=token]", "x".repeat(32));
+    await page.click("#token-form button[type=submit]");
+    await expect(page.locator("#token-msg")).toContainText("not this gateway's access token");
+    await expect(page.locator("#token-form")).toBeVisible();
+    expect(await page.evaluate(() => localStorage.getItem("cart2d-token"))).toBeNull();
+    await page.locator("#map").click({ position: { x, y } });
+    await page.waitForTimeout(300);
+    expect(await mapObstacles()).toEqual(before);
+
+    // the right one: the live data connects and the change goes through
+    await page.fill("#token-form input[name=token]", secret);
+    await page.click("#token-form button[type=submit]");
+    await expect(page.locator("#token-form")).toBeHidden();
+    await expect(page.locator("body")).toHaveAttribute("data-link", "connected");
+    await expect(page.locator("#pose-x")).toHaveAttribute("data-value", /\d/);
+    const present = !before.some((p) => near(p, node, 1e-6));
+    await page.locator("#map").click({ position: { x, y } });
+    await expect.poll(async () => (await mapObstacles()).some((p) => near(p, node, 1e-6))).toBe(present);
+    // the only console errors are the browser's own lines about the refused requests
+    const unexpected = consoleErrors.filter(
+      (t) => !/status of 401|WebSocket connection to .* failed/.test(t),
+    );
+    expect(unexpected).toEqual([]);
+    expect(pageErrors).toEqual([]);
+  } finally {
+    await context.close();
+    const exited = new Promise<void>((ok) => {
+      if (child.exitCode !== null) ok();
+      else child.once("exit", () => ok());
+    });
+    child.kill("SIGINT");
+    const timer = setTimeout(() => child.kill("SIGKILL"), 5000);
+    await exited;
+    clearTimeout(timer);
+    rmSync(home, { recursive: true, force: true });
+  }
 });
