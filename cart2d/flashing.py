@@ -20,6 +20,14 @@ from cart2d.simulator import Simulator
 
 # ATmega328P: 32 KiB of flash, the top 512 bytes hold the Optiboot bootloader.
 APPLICATION_BYTES = 32768 - 512
+# Its interrupt vector table: 26 vectors of 4 bytes at address 0, each a jump: JMP (0x940C), or
+# RJMP (0xCxxx) where the linker relaxed it. A file without it is not an ATmega328P program and
+# would leave the MCU lost (in simulation, a fuzzer's random HEX did exactly that).
+VECTORS = 26
+
+
+def _is_jump(low: int, high: int) -> bool:
+    return (low, high) == (0x0C, 0x94) or (high & 0xF0) == 0xC0
 
 
 def check_hex(data: bytes) -> int:
@@ -35,6 +43,11 @@ def check_hex(data: bytes) -> int:
     if end > APPLICATION_BYTES:
         raise ValueError(
             f"the program ends at byte {end}, beyond the {APPLICATION_BYTES} bytes below the bootloader"
+        )
+    if not all(_is_jump(image[4 * v], image[4 * v + 1]) for v in range(VECTORS)):
+        raise ValueError(
+            "not an ATmega328P program: it does not start with the interrupt vector table's 26 jumps "
+            "(build it with make firmware)"
         )
     return sum(stop - start for start, stop in segments)
 
@@ -94,15 +107,12 @@ class Flasher:
         job = self.job
         try:
             if self.sim is not None:
-                job.log.append("restarting the simulator with the new firmware")
-                self.sim.restart(path)
-                if not self.link.connected.wait(10.0):
-                    raise RuntimeError("the simulator did not come back")
+                self._reload_simulator(path, job)
             else:
                 self._avrdude(path, job)
-            if self.after is not None:
-                job.log.append("checking the new firmware")
-                self.after()
+                if self.after is not None:
+                    job.log.append("checking the new firmware")
+                    self.after()
             job.log.append("done")
             job.state = "done"
         except Exception as exc:  # the job reports any failure instead of dying silently
@@ -110,6 +120,26 @@ class Flasher:
             job.state = "failed"
         finally:
             job.ended_s = time.monotonic()
+
+    def _reload_simulator(self, path: Path, job: UpdateJob) -> None:
+        """Restarts the simulator on the new file; if that firmware does not pass the check,
+        restarts it on the previous one again (a real chip would need reflashing)."""
+        assert self.sim is not None
+        previous = self.sim.options.firmware
+        job.log.append("restarting the simulator with the new firmware")
+        self.sim.restart(path)
+        try:
+            if not self.link.connected.wait(10.0):
+                raise RuntimeError("the simulator did not come back")
+            if self.after is not None:
+                job.log.append("checking the new firmware")
+                self.after()
+        except Exception as exc:
+            job.log.append(f"the new firmware does not answer ({exc}): restoring the previous one")
+            self.sim.restart(previous)
+            if self.after is not None:
+                self.after()
+            raise RuntimeError("the new firmware was rejected; the previous firmware runs again") from exc
 
     def _avrdude(self, path: Path, job: UpdateJob) -> None:
         avrdude = shutil.which("avrdude")

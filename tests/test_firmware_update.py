@@ -20,6 +20,16 @@ def record(address: int, data: bytes, kind: int = 0) -> str:
     return ":" + (body + bytes([(-sum(body)) & 0xFF])).hex().upper()
 
 
+# 26 vectors: a JMP (0C 94 ..) and an RJMP (.. C0 + NOP), as avr-gcc writes them with -mrelax.
+VECTOR_TABLE = (
+    "\n".join(record(16 * k, (b"\x0c\x94\x34\x00" + b"\x09\xc1\x00\x00") * 2) for k in range(6))
+    + "\n"
+    + record(96, b"\x0c\x94\x34\x00" * 2)
+    + "\n"
+    + record(0, b"", 1)
+)
+
+
 def test_the_built_firmware_passes_the_check() -> None:
     size = check_hex(HEX.read_bytes())
     assert 10_000 < size < APPLICATION_BYTES
@@ -29,7 +39,9 @@ def test_the_built_firmware_passes_the_check() -> None:
     ("text", "fragment"),
     [
         ("", "no program"),
-        (record(0, b"\x0c\x94") + "\n" + record(0, b"", 1), ""),  # valid: must not raise
+        (VECTOR_TABLE, ""),  # valid: must not raise
+        (record(0, b"\x0c\x94" * 2) + "\n" + record(0, b"", 1), "vector table"),  # too short
+        (record(0, b"\x00" * 16) + "\n" + record(0, b"", 1), "vector table"),  # no jumps: not a program
         (record(0, b"\x0c\x94")[:-2] + "00\n" + record(0, b"", 1), "Intel HEX"),  # bad checksum
         ("hello, world\n", "Intel HEX"),
         (record(0x7F00, b"\x00" * 16) + "\n" + record(0, b"", 1), "bootloader"),
@@ -39,7 +51,7 @@ def test_the_built_firmware_passes_the_check() -> None:
 def test_hex_files_are_checked(text: str, fragment: str) -> None:
     data = text.encode("latin-1")
     if not fragment:
-        assert check_hex(data) == 2
+        assert check_hex(data) == 104
         return
     with pytest.raises(ValueError, match=fragment):
         check_hex(data)
@@ -73,3 +85,14 @@ def test_uploading_a_hex_restarts_the_simulator_on_it_and_keeps_the_eeprom(rig: 
     assert status["pose"] == {"x": 0.0, "y": 0.0, "theta": 0.0}  # a freshly started MCU
     settings = {s["name"]: s["value"] for s in rig.client.get("/api/firmware/settings").json()}
     assert settings["tol_final_m"] == pytest.approx(0.02)  # loaded from the kept EEPROM
+
+
+def test_a_firmware_that_does_not_answer_is_rolled_back_in_simulation(rig: Rig) -> None:
+    response = rig.client.post("/api/firmware/update", content=VECTOR_TABLE.encode())
+    assert response.status_code == 202  # it looks like an AVR program...
+    wait_for(lambda: rig.client.get("/api/firmware/update").json()["state"] != "running", 60)
+    job = rig.client.get("/api/firmware/update").json()
+    assert job["state"] == "failed" and "previous firmware runs again" in job["log"][-1]
+    status = rig.client.get("/api/status").json()  # ...but the robot answers again
+    assert status["link"]["state"] == "connected" and status["firmware"]["firmware"] == "0.1.0"
+    assert rig.client.post("/api/command", json={"name": "POSE", "args": []}).json()["status"] == "CONTROL_OK"
