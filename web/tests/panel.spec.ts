@@ -1,12 +1,11 @@
 // The panel in Chromium against a real gateway and simulator (tests/global-setup.ts). The
 // robot is shared: the tests run in order, each leaving it stopped.
 
-import { spawn } from "node:child_process";
-import { mkdirSync, mkdtempSync, readFileSync, rmSync } from "node:fs";
-import { createServer } from "node:net";
-import { tmpdir } from "node:os";
+import { mkdirSync, readFileSync } from "node:fs";
 import { join, resolve } from "node:path";
 import { expect, test, type Page } from "@playwright/test";
+
+import { startGateway } from "./gateway";
 
 const BASE = process.env["CART2D_URL"] ?? "";
 const SHOTS = resolve(import.meta.dirname, "..", "..", "build", "screenshots");
@@ -555,47 +554,18 @@ test("the layout works at a phone's width", async ({ browser }) => {
   await context.close();
 });
 
-function freePort(): Promise<number> {
-  return new Promise((ok, fail) => {
-    const server = createServer();
-    server.once("error", fail);
-    server.listen(0, "127.0.0.1", () => {
-      const address = server.address();
-      const port = typeof address === "object" && address ? address.port : 0;
-      server.close(() => ok(port));
-    });
-  });
-}
-
 test("off loopback: read-only without the token, a change asks for it, a wrong one changes nothing, the right one works", async ({ browser }) => {
   test.setTimeout(60_000);
-  const root = resolve(import.meta.dirname, "..", "..");
-  const home = mkdtempSync(join(tmpdir(), "cart2d-token-"));
-  const port = await freePort();
-  let output = "";
-  const child = spawn(join(root, "build", "venv", "bin", "cart2d"), ["sim", "--speed", "1", "--host", "0.0.0.0", "--port", String(port)], {
-    cwd: root,
-    env: { ...process.env, CART2D_HOME: home },
-    stdio: ["ignore", "pipe", "pipe"],
-  });
-  child.stdout.on("data", (d: Buffer) => (output += d.toString()));
-  child.stderr.on("data", (d: Buffer) => (output += d.toString()));
+  const gateway = await startGateway("0.0.0.0", "cart2d-token-");
+  const { base, home } = gateway;
   const context = await browser.newContext();
   try {
-    const tokenOf = (): string => /access token \(needed off this machine\): (\S+)/.exec(output)?.[1] ?? "";
-    await expect.poll(tokenOf, { timeout: 20_000, message: output }).not.toBe("");
+    const tokenOf = (): string =>
+      /access token \(needed off this machine\): (\S+)/.exec(gateway.output())?.[1] ?? "";
+    await expect.poll(tokenOf, { timeout: 20_000, message: gateway.output() }).not.toBe("");
     const secret = tokenOf();
     expect((JSON.parse(readFileSync(join(home, "settings.json"), "utf8")) as { token: string }).token).toBe(secret);
-    const base = `http://127.0.0.1:${port}`;
-    const state = async (): Promise<string> => {
-      try {
-        const s = (await (await fetch(`${base}/api/status`)).json()) as { link: { state: string }; pose?: unknown };
-        return s.pose ? s.link.state : "starting";
-      } catch {
-        return "down";
-      }
-    };
-    await expect.poll(state, { timeout: 30_000 }).toBe("connected");
+    await gateway.waitConnected();
     const mapObstacles = async (): Promise<Point[]> =>
       ((await (await fetch(`${base}/api/map`)).json()) as { obstacles: Point[] }).obstacles;
     const before = await mapObstacles();
@@ -653,14 +623,6 @@ test("off loopback: read-only without the token, a change asks for it, a wrong o
     expect(pageErrors).toEqual([]);
   } finally {
     await context.close();
-    const exited = new Promise<void>((ok) => {
-      if (child.exitCode !== null) ok();
-      else child.once("exit", () => ok());
-    });
-    child.kill("SIGINT");
-    const timer = setTimeout(() => child.kill("SIGKILL"), 5000);
-    await exited;
-    clearTimeout(timer);
-    rmSync(home, { recursive: true, force: true });
+    await gateway.stop();
   }
 });

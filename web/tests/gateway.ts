@@ -1,0 +1,82 @@
+// A real `cart2d sim` for the browser tests: the simulator and the gateway serving the built
+// panel, on a free port with a fresh CART2D_HOME; stopped gracefully (SIGINT, then SIGKILL).
+
+import { type ChildProcess, spawn } from "node:child_process";
+import { existsSync, mkdtempSync, rmSync } from "node:fs";
+import { createServer } from "node:net";
+import { tmpdir } from "node:os";
+import { join, resolve } from "node:path";
+
+export const ROOT = resolve(import.meta.dirname, "..", "..");
+
+export interface Gateway {
+  base: string; // http://127.0.0.1:<port>
+  home: string; // its CART2D_HOME (settings.json, the simulator's EEPROM)
+  output: () => string; // what it printed so far (stdout and stderr)
+  waitConnected: (timeoutMs?: number) => Promise<void>;
+  stop: () => Promise<void>;
+}
+
+function freePort(): Promise<number> {
+  return new Promise((ok, fail) => {
+    const server = createServer();
+    server.once("error", fail);
+    server.listen(0, "127.0.0.1", () => {
+      const address = server.address();
+      const port = typeof address === "object" && address ? address.port : 0;
+      server.close(() => ok(port));
+    });
+  });
+}
+
+async function stopChild(child: ChildProcess): Promise<void> {
+  const exited = new Promise<void>((ok) => {
+    if (child.exitCode !== null) ok();
+    else child.once("exit", () => ok());
+  });
+  child.kill("SIGINT");
+  const timer = setTimeout(() => child.kill("SIGKILL"), 5000);
+  await exited;
+  clearTimeout(timer);
+}
+
+// Starts `cart2d sim --speed 1` bound to `host` (127.0.0.1 unless given).
+export async function startGateway(host = "127.0.0.1", prefix = "cart2d-panel-"): Promise<Gateway> {
+  const cart2d = join(ROOT, "build", "venv", "bin", "cart2d");
+  if (!existsSync(cart2d)) throw new Error(`${cart2d} is missing: run make python-env sim firmware`);
+  const home = mkdtempSync(join(tmpdir(), prefix));
+  const port = await freePort();
+  let output = "";
+  const child = spawn(cart2d, ["sim", "--speed", "1", "--host", host, "--port", String(port)], {
+    cwd: ROOT,
+    env: { ...process.env, CART2D_HOME: home },
+    stdio: ["ignore", "pipe", "pipe"],
+  });
+  child.stdout?.on("data", (d: Buffer) => (output += d.toString()));
+  child.stderr?.on("data", (d: Buffer) => (output += d.toString()));
+  const base = `http://127.0.0.1:${port}`;
+
+  // Until GET /api/status (allowed without a token) says the robot is connected and answering.
+  const waitConnected = async (timeoutMs = 30_000): Promise<void> => {
+    const deadline = Date.now() + timeoutMs;
+    while (Date.now() < deadline) {
+      try {
+        const r = await fetch(`${base}/api/status`);
+        if (r.ok) {
+          const s = (await r.json()) as { link: { state: string }; pose?: unknown };
+          if (s.link.state === "connected" && s.pose) return;
+        }
+      } catch {
+        /* not listening yet */
+      }
+      await new Promise((r) => setTimeout(r, 200));
+    }
+    throw new Error(`cart2d sim did not come up at ${base}:\n${output}`);
+  };
+
+  const stop = async (): Promise<void> => {
+    await stopChild(child);
+    rmSync(home, { recursive: true, force: true });
+  };
+  return { base, home, output: () => output, waitConnected, stop };
+}
