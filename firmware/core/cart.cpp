@@ -92,18 +92,20 @@ __attribute__((noinline)) bool Cart::follow_path(float& v_mps, float& omega_radp
   // Intermediate waypoints are passed at the coarser tolerance, without slowing down; one
   // overshot a little (beyond it along its segment) counts as passed rather than being chased.
   const float tol_pass = setting(tol_pass_m);
+  const float tol_final = setting(tol_final_m);
   PolarOutput cmd;
   for (;;) {
     cmd = polar_control(pose, heading, path_.approach(limits.v_max_mps), gains, limits);
     const float distance_m = fabsf(cmd.rho_m);
-    const bool passed = distance_m < tol_pass || (distance_m < kOvershootPassFactor * tol_pass && path_.passed(pose));
+    const bool passed = distance_m < path_.pass_radius(tol_pass, tol_final) ||
+                        (distance_m < kOvershootPassFactor * tol_pass && path_.passed(pose));
     if (path_.at_last() || !passed) break;
     path_.advance();
   }
   distance_to_waypoint_m_ = fabsf(cmd.rho_m);
   // Arrival is judged on the distance between robot and waypoint (the seed compared
   // distances from the origin) and only once the cart has nearly stopped on it.
-  if (path_.at_last() && distance_to_waypoint_m_ < setting(tol_final_m) &&
+  if (path_.at_last() && distance_to_waypoint_m_ < tol_final &&
       fabsf(odometry_.v_mps()) < params::control::arrive_speed_mps) {
     path_.advance();
     safe_stop(proto::FLAG_ARRIVED);

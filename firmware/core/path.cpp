@@ -23,7 +23,7 @@ uint8_t Path::append(float index, const float* xy, uint8_t n) {
   if (first + n > count_) return proto::REASON_OVER_CAPACITY;
   for (uint8_t i = 0; i < n; ++i) points_[first + i] = Point{xy[2 * i], xy[2 * i + 1]};
   if (first + n > received_) received_ = first + n;
-  if (!upload_open()) update_exit_factor();
+  if (!upload_open()) update_segment();
   return 0;
 }
 
@@ -32,34 +32,45 @@ void Path::set_single(const Point& point) {
   count_ = received_ = 1;
   index_ = 0;
   exit_factor_ = 0.0f;
+  dir_ = Point{0.0f, 0.0f};
 }
 
 void Path::start_from(const Pose& pose) {
   start_.x_m = pose.x_m;
   start_.y_m = pose.y_m;
-  if (!upload_open()) update_exit_factor();  // the first corner's angle depends on the start
+  if (!upload_open()) update_segment();  // the first corner's angle depends on the start
 }
 
 void Path::advance() {
   if (index_ < count_) ++index_;
-  update_exit_factor();
+  update_segment();
 }
 
 void Path::clear() { count_ = received_ = index_ = 0; }
 
-// Called when the current waypoint changes: how fast the cart may pass it. The exit speed
-// shrinks with the turn: full speed straight on, zero from 45 degrees on.
-void Path::update_exit_factor() {
+// Called when the current waypoint changes: the direction of the segment that leads to it,
+// and how fast the cart may pass it: the follower's speed law just after the switch, when the
+// heading error is the turn (full speed straight on, zero from 45 degrees on).
+void Path::update_segment() {
   exit_factor_ = 0.0f;
-  if (index_ + 1 >= count_) return;
+  dir_ = Point{0.0f, 0.0f};
+  if (index_ >= count_) return;
   const Point& here = points_[index_];
   const Point& from = previous();
-  const Point& next = points_[index_ + 1];
   const float in_x = here.x_m - from.x_m, in_y = here.y_m - from.y_m;
+  const float in_sq = in_x * in_x + in_y * in_y;
+  if (in_sq > 1e-12f) {
+    const float inverse = 1.0f / sqrtf(in_sq);
+    dir_ = Point{in_x * inverse, in_y * inverse};
+  }
+  if (index_ + 1 >= count_) return;
+  const Point& next = points_[index_ + 1];
   const float out_x = next.x_m - here.x_m, out_y = next.y_m - here.y_m;
-  const float norms = sqrtf((in_x * in_x + in_y * in_y) * (out_x * out_x + out_y * out_y));
-  // The follower's speed law just after the switch (heading error = the turn), as the exit speed.
-  exit_factor_ = norms > 1e-9f ? heading_speed_factor((in_x * out_x + in_y * out_y) / norms) : 0.0f;
+  exit_factor_ = heading_speed_factor(in_x * out_x + in_y * out_y, in_x * out_y - in_y * out_x);
+}
+
+float Path::pass_radius(float tol_pass_m, float tol_final_m) const {
+  return fmaxf(tol_final_m, tol_pass_m * exit_factor_);
 }
 
 bool Path::passed(const Pose& pose) const {
@@ -74,6 +85,8 @@ Approach Path::approach(float v_max_mps) const {
   a.y_m = points_[index_].y_m;
   a.final = at_last();
   a.exit_speed_mps = v_max_mps * exit_factor_;
+  a.dir_x = dir_.x_m;
+  a.dir_y = dir_.y_m;
   return a;
 }
 

@@ -48,13 +48,19 @@ class Path {
   // The current waypoint with what lies beyond it, for the polar controller.
   Approach approach(float v_max_mps) const;
 
+  // Within this distance the current waypoint counts as passed: tol_pass where the cart may
+  // keep its speed, shrinking to tol_final at a corner it must stop for. Turning early into a
+  // sharp corner would cut it, towards the obstacle the planner went around.
+  float pass_radius(float tol_pass_m, float tol_final_m) const;
+
  private:
-  void update_exit_factor();
+  void update_segment();
   const Point& previous() const { return index_ > 0 ? points_[index_ - 1] : start_; }
 
   Point points_[kWaypointCapacity] = {};
   Point start_ = {0.0f, 0.0f};
   float exit_factor_ = 0.0f;    // exit speed at the current waypoint / v_max (corner angle)
+  Point dir_ = {0.0f, 0.0f};    // unit direction of the segment into the current waypoint
   uint8_t count_ = 0;
   uint8_t received_ = 0;
   uint8_t index_ = 0;

@@ -11,16 +11,24 @@ static float capped_speed(float distance_m, float exit_speed_mps, const MotionLi
   return reach_sq >= limits.v_max_mps * limits.v_max_mps ? limits.v_max_mps : sqrtf(reach_sq);
 }
 
-// The target in the cart's frame: `along` ahead (negative: behind), `cross` to the left. The
+// The aim point in the cart's frame: `along` ahead (negative: behind), `cross` to the left. The
 // seed's angle arithmetic becomes: heading error = atan2(cross, along), folded by pi when the
-// target is behind (then the cart drives backwards), and cos(heading error) = |along| / distance.
+// aim is behind (then the cart drives backwards).
+// Speeds follow the distance to the waypoint itself.
 PolarOutput polar_control(const Pose& pose, const Heading& heading, const Approach& target,
                           const PolarGains& gains, const MotionLimits& limits) {
   const float dx = target.x_m - pose.x_m;
   const float dy = target.y_m - pose.y_m;
-  const float along_m = dx * heading.cos_theta + dy * heading.sin_theta;
-  const float cross_m = dy * heading.cos_theta - dx * heading.sin_theta;
   const float distance_m = sqrtf(dx * dx + dy * dy);
+  // The aim: the waypoint, or the look-ahead point when the waypoint lies beyond it.
+  float aim_x = dx, aim_y = dy;
+  const float beyond_m = dx * target.dir_x + dy * target.dir_y - kLookahead_m;
+  if (beyond_m > 0.0f) {
+    aim_x -= beyond_m * target.dir_x;
+    aim_y -= beyond_m * target.dir_y;
+  }
+  const float along_m = aim_x * heading.cos_theta + aim_y * heading.sin_theta;
+  const float cross_m = aim_y * heading.cos_theta - aim_x * heading.sin_theta;
 
   PolarOutput out;
   out.behind = along_m < 0.0f;  // |heading error| > pi/2: the seed's reverse case
@@ -41,7 +49,7 @@ PolarOutput polar_control(const Pose& pose, const Heading& heading, const Approa
   float speed = capped_speed(distance_m, target.exit_speed_mps, limits);
   if (target.final) speed = fminf(speed, gains.rho_kp * distance_m);
   // Do not drive off sideways while the heading is still wrong; turn on the spot when far off.
-  if (distance_m > 1e-6f) speed *= heading_speed_factor(fabsf(along_m) / distance_m);
+  speed *= heading_speed_factor(direction * along_m, cross_m);
   out.v_mps = direction * speed;
   out.omega_radps = clamp(gains.phase_kp * heading_error, -limits.w_max_radps, limits.w_max_radps);
   return out;

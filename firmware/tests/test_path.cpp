@@ -209,16 +209,17 @@ TEST(PathBuffer, ExitSpeedFollowsTheTurnAngle) {
   struct Case {
     const char* name;
     core::Point next;     // after the waypoint (1, 0), reached from the start (0, 0)
-    float expected_exit;  // v_max * max(0, (cos(turn) - cos 45) / (1 - cos 45))
+    float expected_exit;  // v_max * (1 - |tan(turn)|), 0 from 45 deg on and when turning back
   };
   const Case cases[] = {
-      {"collinear", {2.0f, 0.0f}, kVmax},                   // cos 0 = 1
-      {"gentle_26.6deg", {3.0f, 1.0f}, kVmax * 0.63955f},   // cos = 2/sqrt 5: (0.89443 - 0.70711) / 0.29289
-      {"45deg_turns_on_the_spot", {2.0f, 1.0f}, 0.0f},       // (c45 - c45) / ... = 0
-      {"right_angle_left", {1.0f, 1.0f}, 0.0f},             // cos 90 = 0
+      {"collinear", {2.0f, 0.0f}, kVmax},                   // tan 0 = 0
+      {"gentle_26.6deg", {3.0f, 1.0f}, kVmax * 0.5f},       // tan = 1/2
+      {"45deg_turns_on_the_spot", {2.0f, 1.0f}, 0.0f},       // tan 45 = 1
+      {"right_angle_left", {1.0f, 1.0f}, 0.0f},
       {"right_angle_right", {1.0f, -3.0f}, 0.0f},
-      {"sharp_135deg", {0.0f, 1.0f}, 0.0f},                 // cos 135 < 0 -> 0
-      {"u_turn", {0.0f, 0.0f}, 0.0f},                       // cos 180 = -1 -> 0
+      {"sharp_135deg", {0.0f, 1.0f}, 0.0f},                 // |tan 135| = 1, but turning back anyway
+      {"nearly_back_170deg", {-4.67f, 1.0f}, 0.0f},         // |tan| ~ 0.18: still 0, it turns back
+      {"u_turn", {0.0f, 0.0f}, 0.0f},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
@@ -231,6 +232,33 @@ TEST(PathBuffer, ExitSpeedFollowsTheTurnAngle) {
     EXPECT_EQ(a.x_m, 1.0f);
     EXPECT_EQ(a.y_m, 0.0f);
   }
+}
+
+TEST(PathBuffer, ApproachCarriesTheDirectionOfTheSegmentIntoTheWaypoint) {
+  core::Path path;
+  upload(path, {{3.0f, 4.0f}, {3.0f, 0.0f}});
+  path.start_from(core::Pose{});
+  core::Approach a = path.approach(kVmax);
+  EXPECT_NEAR(a.dir_x, 0.6f, 1e-6f);  // (3, 4) / 5
+  EXPECT_NEAR(a.dir_y, 0.8f, 1e-6f);
+  path.advance();
+  a = path.approach(kVmax);
+  EXPECT_NEAR(a.dir_x, 0.0f, 1e-6f);
+  EXPECT_NEAR(a.dir_y, -1.0f, 1e-6f);
+}
+
+TEST(PathBuffer, ThePassRadiusShrinksToTheFinalToleranceAtCornersToStopFor) {
+  const float tol_pass = 0.05f, tol_final = 0.005f;
+  core::Path path;
+  upload(path, {{1.0f, 0.0f}, {2.0f, 0.0f}, {2.0f, 1.0f}, {2.5f, 2.0f}});
+  path.start_from(core::Pose{});
+  EXPECT_NEAR(path.pass_radius(tol_pass, tol_final), tol_pass, 1e-7f);  // straight on
+  path.advance();
+  EXPECT_NEAR(path.pass_radius(tol_pass, tol_final), tol_final, 1e-7f);  // 90 deg: stop on it
+  path.advance();
+  EXPECT_NEAR(path.pass_radius(tol_pass, tol_final), tol_pass * 0.5f, 1e-7f);  // tan = 1/2
+  path.advance();
+  EXPECT_NEAR(path.pass_radius(tol_pass, tol_final), tol_final, 1e-7f);  // the end
 }
 
 TEST(PathBuffer, ExitSpeedUsesThePreviousWaypointAfterAdvancing) {

@@ -192,8 +192,8 @@ TEST(PolarController, ViaPointNearbyStillSteers) {
 
 TEST(PolarController, SpeedFallsWithTheHeadingErrorAndIsZeroFrom45Degrees) {
   // Same distance 0.3 m (v before the heading factor = min(0.3, 0.5, 0.775) = 0.3). The factor
-  // is (cos e - cos 45) / (1 - cos 45): at 20 deg (0.93969 - 0.70711) / 0.29289 = 0.79409,
-  // so v = 0.23823; from 45 deg on the cart turns on the spot (v = 0).
+  // is 1 - |tan e|: at 20 deg 1 - 0.36397 = 0.63603, so v = 0.19081; from 45 deg on the cart
+  // turns on the spot (v = 0).
   const auto at = [](double degrees) {
     const double a = degrees * kPiD / 180.0;
     return core::polar_control(
@@ -201,11 +201,29 @@ TEST(PolarController, SpeedFallsWithTheHeadingErrorAndIsZeroFrom45Degrees) {
         kLimits);
   };
   EXPECT_NEAR(at(0).v_mps, 0.3f, 1e-5f);
-  EXPECT_NEAR(at(20).v_mps, 0.3 * 0.79409, 1e-4);
+  EXPECT_NEAR(at(20).v_mps, 0.3 * 0.63603, 1e-4);
   EXPECT_GT(at(40).v_mps, 0.0f);
   EXPECT_NEAR(at(50).v_mps, 0.0f, 1e-6f);
   EXPECT_NEAR(at(90).v_mps, 0.0f, 1e-6f);
   EXPECT_GT(at(50).omega_radps, 1.0f);  // turning towards it meanwhile
+}
+
+TEST(PolarController, OffTheLineItSteersForTheLookAheadPointOnTheSegment) {
+  // Segment along +x into (1, 0); the cart at (0.2, 0.1) heading +x. The waypoint lies 0.8 m
+  // ahead along the segment, beyond the 0.15 m look-ahead: the aim is (0.35, 0), i.e. 0.15 m
+  // ahead and 0.1 m to the right: omega = 4 * atan2(-0.1, 0.15) = -2.3522 rad/s (towards the
+  // line; steering for the waypoint would give only 4 * atan2(-0.1, 0.8) = -0.4974).
+  core::Approach target = final_point(1.0f, 0.0f);
+  target.dir_x = 1.0f;
+  target.dir_y = 0.0f;
+  const core::Pose off{0.2f, 0.1f, 0.0f};
+  const core::PolarOutput out = core::polar_control(off, target, kGains, kLimits);
+  EXPECT_NEAR(out.omega_radps, 4.0 * std::atan2(-0.1, 0.15), kOmegaTolerance);
+  EXPECT_NEAR(out.rho_m, std::hypot(0.8, 0.1), 1e-5);  // speeds still follow the waypoint
+  // Within the look-ahead of the waypoint it steers for the waypoint itself.
+  const core::Pose near{0.9f, 0.05f, 0.0f};
+  EXPECT_NEAR(core::polar_control(near, target, kGains, kLimits).omega_radps, 4.0 * std::atan2(-0.05, 0.1),
+              kOmegaTolerance);
 }
 
 }  // namespace
