@@ -8,6 +8,7 @@ every case; an invalid or unreachable goal is reported with its reason and nothi
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import sys
@@ -15,15 +16,17 @@ import tempfile
 import threading
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from tqdm import tqdm
 
+from cart2d import firmware
+from cart2d.baseline import SEED_SETTINGS, seed_path
 from cart2d.gateway import Gateway
 from cart2d.link import Link, LinkError
-from cart2d.params import settings_table
-from cart2d.planner import Grid, PlanError
+from cart2d.params import robot, settings_table
+from cart2d.planner import Grid, PlanError, Point
 from cart2d.simulator import SimOptions, Simulator
 from cart2d.store import GatewaySettings, MapSettings, Store
 
@@ -46,26 +49,44 @@ class MissionSpec(BaseModel):
     settings: dict[str, float] = Field(default_factory=dict, description="firmware settings by name")
     faults: dict[str, float] = Field(default_factory=dict, description="simulator faults (sim/README.md)")
     timeout_s: float = Field(120.0, gt=0.0, le=1e5, allow_inf_nan=False, description="simulated seconds")
+    behaviour: Literal["cart2d", "seed"] = Field(
+        "cart2d",
+        description="'seed': the seed's planner and settings (cart2d/baseline.py), to compare against",
+    )
 
 
-class Odometer:
-    """Integrates the true path length from the simulator's truth stream."""
+class Recorder:
+    """Keeps the ground truth (t, x, y) and the firmware's (tick, mode) from the gateway's stream."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
-        self._last: tuple[float, float] | None = None
-        self.length_m = 0.0
+        self.truth: list[tuple[float, float, float]] = []
+        self.modes: list[tuple[int, str]] = []
 
-    def __call__(self, truth: dict[str, Any]) -> None:
+    def __call__(self, message: dict[str, Any]) -> None:
         with self._lock:
-            here = (truth["x"], truth["y"])
-            if self._last is not None:
-                self.length_m += math.dist(self._last, here)
-            self._last = here
+            if message.get("type") == "truth":
+                self.truth.append((message["t"], message["x"], message["y"]))
+            elif message.get("type") == "telemetry":
+                self.modes.append((message["tick"], message["mode_name"]))
 
-    def read(self) -> float:
+    def mark(self) -> tuple[int, int]:
         with self._lock:
-            return self.length_m
+            return len(self.truth), len(self.modes)
+
+    def driving_ticks(self, since: int) -> tuple[int, int] | None:
+        """The ticks of the first telemetry frame in PATH mode after `since` and of the first
+        frame out of it after the last PATH frame; None until both have arrived."""
+        with self._lock:
+            frames = self.modes[since:]
+        path = [k for k, (_, mode) in enumerate(frames) if mode == "PATH"]
+        if not path or path[-1] + 1 >= len(frames):
+            return None
+        return frames[path[0]][0], frames[path[-1] + 1][0]
+
+    def samples(self, since: int) -> list[tuple[float, float, float]]:
+        with self._lock:
+            return self.truth[since:]
 
 
 def _apply_settings(link: Link, settings: dict[str, float]) -> None:
@@ -76,24 +97,93 @@ def _apply_settings(link: Link, settings: dict[str, float]) -> None:
         link.call("PARAM_SET", ids[name], value)
 
 
-def _drive_to(
-    gateway: Gateway, sim: Simulator, goal: tuple[float, float], deadline_t: float
-) -> dict[str, Any]:
-    result: dict[str, Any] = {"goal": list(goal), "reached": False}
-    try:
-        plan = gateway.go_to(*goal)
-    except PlanError as exc:
-        return {**result, "reason": str(exc)}
-    result["planned_length_m"] = plan.length_m
+def _point_polyline_distance(p: Point, line: list[Point]) -> float:
+    if len(line) == 1:
+        return math.dist(p, line[0])
+    best = math.inf
+    for (ax, ay), (bx, by) in itertools.pairwise(line):
+        dx, dy = bx - ax, by - ay
+        span = dx * dx + dy * dy
+        t = 0.0 if span == 0.0 else min(1.0, max(0.0, ((p[0] - ax) * dx + (p[1] - ay) * dy) / span))
+        best = min(best, math.hypot(p[0] - ax - t * dx, p[1] - ay - t * dy))
+    return best
+
+
+def _wait_for_path_end(link: Link, sim: Simulator, deadline_t: float) -> str:
+    """Polls STATUS until the firmware leaves PATH mode: '' when it arrived, else why not."""
+    while True:
+        status = firmware.read_status(link)
+        if status.mode != "PATH":
+            return "" if status.has("ARRIVED") else f"the firmware stopped the path (mode {status.mode})"
+        if sim.truth()["t"] > deadline_t:
+            link.call("STOP")
+            return "timeout: the mission's time ran out"
+        time.sleep(0.005)
+
+
+def _drive_like_the_seed(
+    gateway: Gateway, sim: Simulator, goal: Point, deadline_t: float
+) -> tuple[list[Point], str]:
+    """The seed's way: a waypoint at every node, sent as many buffers-full as it takes."""
+    x, y, _ = gateway.link.call("POSE")
+    m = gateway.settings.map
+    waypoints = seed_path(gateway.planner.grid, m.obstacles, (x, y), goal)
+    capacity = gateway.version.waypoint_capacity if gateway.version else 32
+    for first in range(0, len(waypoints), capacity):
+        firmware.upload_path(gateway.link, waypoints[first : first + capacity])
+        reason = _wait_for_path_end(gateway.link, sim, deadline_t)
+        if reason:
+            break
+    return [(x, y), *waypoints], reason
+
+
+def _drive_with_cart2d(
+    gateway: Gateway, sim: Simulator, goal: Point, deadline_t: float
+) -> tuple[list[Point], str]:
+    plan = gateway.go_to(*goal)
     while gateway.mission_view()["state"] == "driving":
         if sim.truth()["t"] > deadline_t:
             gateway.stop()
-            return {**result, "reason": "timeout: the mission's time ran out"}
-        time.sleep(0.01)
+            return [plan.start, *plan.waypoints], "timeout: the mission's time ran out"
+        time.sleep(0.005)
     mission = gateway.mission_view()
-    if mission["state"] != "arrived":
-        return {**result, "reason": mission["reason"]}
-    return {**result, "reached": True}
+    return [plan.start, *plan.waypoints], "" if mission["state"] == "arrived" else mission["reason"]
+
+
+def _drive_to(
+    gateway: Gateway, sim: Simulator, recorder: Recorder, goal: Point, deadline_t: float, seed: bool
+) -> dict[str, Any]:
+    result: dict[str, Any] = {"goal": list(goal), "reached": False}
+    truth_mark, modes_mark = recorder.mark()
+    t_goal = sim.truth()["t"]
+    drive = _drive_like_the_seed if seed else _drive_with_cart2d
+    try:
+        planned, reason = drive(gateway, sim, goal, deadline_t)
+    except PlanError as exc:
+        return {**result, "reason": str(exc), "time_s": 0.0, "path_length_m": 0.0}
+    result["planned_path"] = [list(p) for p in planned]
+    result["planned_length_m"] = math.fsum(math.dist(p, q) for p, q in itertools.pairwise(planned))
+    if reason:
+        result["reason"] = reason
+    else:
+        result["reached"] = True
+    # The time to goal counts firmware ticks, from the first telemetry frame in PATH mode to the
+    # first one after it (25 Hz: each end within 40 ms); a wall-clock poll would add latency.
+    wait_until = time.monotonic() + 2.0
+    ticks = recorder.driving_ticks(modes_mark)
+    while ticks is None and time.monotonic() < wait_until:
+        time.sleep(0.005)
+        ticks = recorder.driving_ticks(modes_mark)
+    if ticks is not None:
+        result["time_s"] = (ticks[1] - ticks[0]) / robot()["control"]["tick_hz"]
+    else:
+        result["time_s"] = sim.truth()["t"] - t_goal
+    trace = recorder.samples(truth_mark)
+    points = [(x, y) for _, x, y in trace]
+    result["path_length_m"] = math.fsum(math.dist(p, q) for p, q in itertools.pairwise(points))
+    result["max_deviation_m"] = max((_point_polyline_distance(p, planned) for p in points), default=0.0)
+    result["trace"] = [[round(t, 3), round(x, 4), round(y, 4)] for t, x, y in trace]
+    return result
 
 
 def run_mission(
@@ -116,14 +206,15 @@ def run_mission(
         settings = GatewaySettings(map=MapSettings(cols=g.cols, rows=g.rows, step_m=g.step, obstacles=nodes))
         wall_start = time.monotonic()
         with Simulator(options) as sim, Link(sim.pty) as link:
-            odometer = Odometer()
-            assert sim.side is not None
-            sim.side.subscribe(odometer)
             sim.control("obstacles", step=g.step, size=max(g.cols, g.rows), cells=[list(n) for n in nodes])
             if spec.faults:
                 sim.control("faults", **spec.faults)
             gateway = Gateway(link, store, settings, sim)
+            recorder = Recorder()
+            gateway.subscribe(recorder)
             gateway.check_firmware()
+            if spec.behaviour == "seed":
+                _apply_settings(link, SEED_SETTINGS)
             _apply_settings(link, spec.settings)
             link.call("SET_POSE", *spec.start)
             gateway.start()
@@ -132,15 +223,12 @@ def run_mission(
             goals: list[dict[str, Any]] = []
             try:
                 for goal in tqdm(spec.goals, desc="goals", unit="goal", disable=not progress):
-                    t_goal, length_before = sim.truth()["t"], odometer.read()
-                    result = _drive_to(gateway, sim, goal, deadline)
+                    result = _drive_to(gateway, sim, recorder, goal, deadline, spec.behaviour == "seed")
                     truth = sim.truth()
                     x, y, _ = link.call("POSE")
                     result.update(
-                        time_s=truth["t"] - t_goal,
                         final_error_m=math.dist((truth["x"], truth["y"]), goal),
                         odometry_error_m=math.dist((truth["x"], truth["y"]), (x, y)),
-                        path_length_m=odometer.read() - length_before,
                     )
                     goals.append(result)
             finally:
@@ -148,6 +236,7 @@ def run_mission(
             truth = sim.truth()
         sim_time = truth["t"] - t0
         return {
+            "behaviour": spec.behaviour,
             "goals": goals,
             "collisions": truth["collisions"],
             "wall_contacts": truth["wall_contacts"],
