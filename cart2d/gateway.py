@@ -4,7 +4,10 @@ command line use. It owns the link to the firmware, the map and its planner, the
 
 from __future__ import annotations
 
+import dataclasses
+import itertools
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable
@@ -14,10 +17,11 @@ from typing import Any
 from cart2d import firmware
 from cart2d.flashing import Flasher
 from cart2d.link import CommandRefused, Link, LinkError
-from cart2d.params import footprint_radius_m, robot
+from cart2d.params import footprint_radius_m, planning_radius_m, robot
 from cart2d.planner import Grid, Plan, PlanError, Planner
 from cart2d.protocol import Telemetry
 from cart2d.simulator import Simulator
+from cart2d.smoothing import round_corners
 from cart2d.spec import load_spec
 from cart2d.store import GatewaySettings, MapSettings, Store
 
@@ -120,7 +124,7 @@ class Gateway:
     # -- map ---------------------------------------------------------------------------------
     def _planner_for(self, m: MapSettings) -> Planner:
         grid = Grid(cols=m.cols, rows=m.rows, step_m=m.step_m)
-        return Planner(grid, footprint_radius_m(), obstacles=m.obstacles)
+        return Planner(grid, planning_radius_m(), obstacles=m.obstacles)
 
     def map_view(self) -> dict[str, Any]:
         with self._lock:
@@ -137,7 +141,8 @@ class Gateway:
                     "x_max": width + margin,
                     "y_max": height + margin,
                 },
-                "footprint_radius_m": self.planner.footprint_radius_m,
+                "footprint_radius_m": footprint_radius_m(),
+                "planning_radius_m": self.planner.footprint_radius_m,
                 "obstacles": [list(g.node_xy(i, j)) for i, j in sorted(self.planner.obstacles)],
             }
 
@@ -175,12 +180,20 @@ class Gateway:
                     f"the path needs {len(plan.waypoints)} waypoints and the firmware holds {capacity}: "
                     "remove obstacles or pick a nearer goal"
                 )
+            plan = self._rounded(plan, capacity)
             firmware.upload_path(self.link, plan.waypoints)
             self.mission = Mission(
                 state="driving", goal=(x, y), started_s=time.monotonic(), plan=self.plan_view(plan)
             )
         self._publish({"type": "mission", **self.mission_view()})
         return plan
+
+    def _rounded(self, plan: Plan, capacity: int) -> Plan:
+        """The plan with its corners rounded where there is room (cart2d/smoothing.py)."""
+        graph = self.planner.graph
+        waypoints = round_corners(plan.start, plan.waypoints, graph.segment_free, capacity)
+        length = math.fsum(math.dist(p, q) for p, q in itertools.pairwise([plan.start, *waypoints]))
+        return dataclasses.replace(plan, waypoints=tuple(waypoints), length_m=length)
 
     @staticmethod
     def plan_view(plan: Plan) -> dict[str, Any]:

@@ -23,3 +23,10 @@ def settings_table() -> list[dict[str, Any]]:
 
 def footprint_radius_m() -> float:
     return float(robot()["body"]["footprint_radius_m"])
+
+
+def planning_radius_m() -> float:
+    """The disc the planner keeps clear of obstacles: the footprint plus the clearance that
+    absorbs the path-following error."""
+    body = robot()["body"]
+    return float(body["footprint_radius_m"]) + float(body["clearance_m"])

@@ -8,7 +8,7 @@
 // part carried, as a real quadrature counter would. The counts feed the next Cart::tick.
 //
 // Settings are the defaults of config/robot.toml: v_max 0.5 m/s, a_max 1 m/s^2, alpha_max
-// 12 rad/s^2, rho_kp 1 /s, phase_kp 4 /s, tol_final 0.005 m, tol_pass 0.05 m, manual timeout
+// 12 rad/s^2, rho_kp 6 /s, phase_kp 8 /s, tol_final 0.005 m, tol_pass 0.05 m, manual timeout
 // 0.5 s, reset pose (1.88, 0, 0).
 #include <gtest/gtest.h>
 

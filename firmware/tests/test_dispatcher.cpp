@@ -65,7 +65,7 @@ TEST_F(Dispatcher, KpidSetIsAllOrNothing) {
   Firmware fw;
   expect_error(call(fw, proto::COMMAND_KPID_SET, {2.0f, 5.0f, 1500.0f, -1.0f}), proto::REASON_OUT_OF_RANGE);
   const Reply r = call(fw, proto::COMMAND_KPID_GET);
-  EXPECT_EQ((std::vector<float>{4.0f, 4.0f, 1000.0f, 3000.0f}), r.results);
+  EXPECT_EQ((std::vector<float>{6.0f, 8.0f, 1000.0f, 3000.0f}), r.results);
   EXPECT_EQ((std::vector<float>{2.0f, 5.0f, 1500.0f, 2500.0f}),
             call(fw, proto::COMMAND_KPID_SET, {2.0f, 5.0f, 1500.0f, 2500.0f}).results);
 }

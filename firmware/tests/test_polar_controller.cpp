@@ -1,8 +1,10 @@
 // The polar position controller (core/polar_controller): forward and reverse approach,
-// saturation, the braking cap, the final approach and the cos(heading error) scaling.
+// saturation, the braking cap, the final approach, the 1 - |tan(heading error)| scaling and
+// the look-ahead point.
 //
-// Gains and limits are the defaults of config/robot.toml: rho_kp = 1 /s, phase_kp = 4 /s,
-// v_max = 0.5 m/s, w_max = pi rad/s, a_max = 1 m/s^2. The cart is at the origin heading +x
+// Gains are round numbers for hand computation, rho_kp = 1 /s, phase_kp = 4 /s (the defaults
+// are in config/robot.toml); limits are the defaults: v_max = 0.5 m/s, w_max = pi rad/s,
+// a_max = 1 m/s^2. The cart is at the origin heading +x
 // unless a case says otherwise.
 #include <gtest/gtest.h>
 
