@@ -7,7 +7,7 @@ from __future__ import annotations
 import random
 from dataclasses import dataclass
 
-from cart2d.params import footprint_radius_m
+from cart2d.params import planning_radius_m
 from cart2d.planner import Grid, Node, PlanError, Planner
 
 Pose = tuple[float, float, float]
@@ -52,7 +52,7 @@ def _random_field(grid: Grid, density: float, seed: int, start: Pose, goal: tupl
         cells = {(i, j) for i in range(grid.cols) for j in range(grid.rows) if rng.random() < density}
         cells -= _near(grid, start, goal)
         try:
-            Planner(grid, footprint_radius_m(), cells).plan(start[:2], goal)
+            Planner(grid, planning_radius_m(), cells).plan(start[:2], goal)
         except PlanError:
             continue
         return cells
@@ -138,7 +138,7 @@ def scenes() -> list[Scene]:
 
 def _near(grid: Grid, start: Pose, goal: tuple[float, float]) -> set[Node]:
     """Nodes too close to the start or the goal for an obstacle (the cart must fit there)."""
-    reach = footprint_radius_m() + grid.step_m
+    reach = planning_radius_m() + grid.step_m
     return {
         (i, j)
         for i in range(grid.cols)
