@@ -27,8 +27,12 @@ def test_missions_through_obstacles_reach_every_goal_without_collision() -> None
     for goal in report["goals"]:
         assert goal["final_error_m"] < 0.01
         assert goal["odometry_error_m"] < 0.002
-        # Driven (ground truth) close to planned: the cart follows its plan.
-        assert goal["planned_length_m"] <= goal["path_length_m"] < 1.15 * goal["planned_length_m"] + 0.05
+        # Driven (ground truth) close to planned: the cart follows its plan (and may cut the
+        # chords of a rounded corner by millimetres).
+        assert (
+            0.98 * goal["planned_length_m"] <= goal["path_length_m"] < 1.15 * goal["planned_length_m"] + 0.05
+        )
+        assert goal["max_deviation_m"] < 0.03  # within the planner's clearance margin
     assert report["real_time_factor"] > 5
 
 
@@ -81,3 +85,23 @@ def test_cli_writes_a_report_for_an_invalid_mission_file(tmp_path: Path) -> None
 def test_cli_succeeds_when_every_goal_is_reached(tmp_path: Path) -> None:
     code, report = run_cli(tmp_path, {"goals": [[0.6, 0.4]], "settings": {"v_max_mps": 0.3}})
     assert code == 0 and report["goals"][0]["reached"]
+
+
+def test_the_seeds_behaviour_sends_every_node_in_buffers_full_and_is_slower() -> None:
+    # 40 nodes in a row on a 0.1 m grid: more than the firmware's 32, so two uploads.
+    mission = {
+        "grid": {"cols": 41, "rows": 41, "step": 0.1},
+        "start": [0.0, 0.0, 0.0],
+        "goals": [[4.0, 0.0]],
+    }
+    seed = run_mission(MissionSpec.model_validate({**mission, "behaviour": "seed"}))
+    ours = run_mission(MissionSpec.model_validate(mission))
+    (s,), (o,) = seed["goals"], ours["goals"]
+    assert s["reached"] and o["reached"]
+    assert len(s["planned_path"]) == 41 and len(o["planned_path"]) == 2  # start + every node / the goal
+    assert s["final_error_m"] < 0.1 and o["final_error_m"] < 0.01
+    # both drove about the 4 m; the seed's unit gains creep and stop between the two buffers
+    assert 3.9 < s["path_length_m"] < 4.1 and 3.9 < o["path_length_m"] < 4.1
+    assert o["time_s"] < 0.8 * s["time_s"]
+    assert 8.5 - 0.08 < o["time_s"] < 1.1 * 8.5  # 4 m / 0.5 m/s + 0.5 s, ticks counted to 40 ms
+    assert o["max_deviation_m"] < 0.01
