@@ -1,5 +1,5 @@
 """The `cart2d` command line: `sim` (simulator + gateway), `serve` (a real robot on a serial
-port), `mission` (a headless mission run with a report)."""
+port), `mission` (a headless mission run with a report), `calibrate` (odometry, UMBmark)."""
 
 from __future__ import annotations
 
@@ -12,6 +12,8 @@ from pathlib import Path
 
 import uvicorn
 
+from cart2d.calibrate import add_arguments as add_calibrate_arguments
+from cart2d.calibrate import main_calibrate
 from cart2d.gateway import Gateway
 from cart2d.link import Link, LinkError
 from cart2d.server import create_app, is_loopback
@@ -139,6 +141,10 @@ def build_parser() -> argparse.ArgumentParser:
     mission.add_argument("--speed", default="max", help="simulated seconds per second, or 'max' (default)")
     mission.add_argument("--seed", type=int, default=1)
     mission.set_defaults(run=cmd_mission)
+
+    calibrate = sub.add_parser("calibrate", help="odometry calibration (UMBmark): wheel radii and track")
+    add_calibrate_arguments(calibrate)
+    calibrate.set_defaults(run=main_calibrate)
     return parser
 
 
