@@ -16,7 +16,7 @@ PY := $(VENV)/bin/python
 PANEL := cart2d/panel/index.html
 PANEL_SOURCES := $(shell find web/src -type f 2>/dev/null) web/index.html web/vite.config.ts web/tsconfig.json
 
-.PHONY: help deps firmware flash host-tests fuzz fuzz-quick sim sim-tests python-env python-checks python-tests panel panel-tests test bench-firmware bench-sim profile-firmware run clean
+.PHONY: help deps firmware flash host-tests fuzz fuzz-quick sim sim-tests python-env python-checks python-tests panel panel-tests test bench-firmware bench-sim profile-firmware bench bench-quick run clean
 
 help:
 	@echo "make run             install what is missing, build, start cart2d"
@@ -25,8 +25,10 @@ help:
 	@echo "make sim             build the simulator ($(SIM_BIN))"
 	@echo "make flash PORT=...  flash the Nano with avrdude"
 	@echo "make bench-firmware  flash, RAM and CPU per control tick against the budgets"
-	@echo "make bench-sim       the same, with the simulator's real-time factor"
+	@echo "make bench-sim       the simulator's speed, API round trip, telemetry latency, 50 viewers"
 	@echo "make profile-firmware  cycles per control tick by function (simavr)"
+	@echo "make bench           every benchmark (~15 min): bench/results/REPORT.md with plots"
+	@echo "make bench-quick     the benchmarks' CI subset, into build/bench-quick/"
 	@echo "make panel           build the control panel (web/) into cart2d/panel/"
 	@echo "make panel-tests     the panel in headless Chromium against the simulator"
 	@echo "make fuzz            fuzz the packet parser and dispatcher for $(FUZZ_SECONDS) s"
@@ -96,10 +98,16 @@ fuzz: host-tests
 test: deps firmware host-tests sim-tests python-checks python-tests panel-tests fuzz-quick bench-firmware
 
 bench-firmware: $(AVR_ELF) sim python-env
-	@python3 tools/firmware_size.py $(AVR_ELF)
-	@$(PY) -m bench.sim_bench
+	@$(PY) -m bench.firmware --quick --out build/bench-firmware
 
-bench-sim: bench-firmware
+bench-sim: $(AVR_ELF) sim python-env panel
+	@$(PY) -m bench.system --quick --out build/bench-system
+
+bench: $(AVR_ELF) sim python-env panel
+	$(PY) -m bench.report --out bench/results
+
+bench-quick: $(AVR_ELF) sim python-env panel
+	$(PY) -m bench.report --quick --out build/bench-quick
 
 profile-firmware: $(AVR_ELF) sim python-env
 	@$(PY) -m bench.firmware_profile

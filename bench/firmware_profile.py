@@ -1,6 +1,6 @@
 """Where the firmware's control-tick cycles go, measured exactly in simavr.
 
-Drives the bench square (see sim_bench.py) with the simulator's cycle profile on, then
+Drives the bench square (see firmware.py) with the simulator's cycle profile on, then
 attributes every cycle spent inside control-tick windows to the innermost function (inlined
 functions included, via avr-addr2line) and prints cycles per tick by function.
 """
@@ -13,7 +13,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from bench.sim_bench import drive_square
+from bench.firmware import drive_square
 from cart2d.link import Link
 from cart2d.simulator import SimOptions, Simulator
 

@@ -45,6 +45,9 @@ constexpr uint8_t kPacketExpiryTicks = 2;
 constexpr uint8_t kTelemetryRecheckTicks = 25;
 
 void send_telemetry() {
+  // A frame due at a tick that ran the position loop waits for the next tick: the two together
+  // made the heaviest ticks (31 % of the tick while turning at speed).
+  if (telemetry_countdown == 1 && cart.position_loop_ran()) return;
   if (--telemetry_countdown > 0) return;
   const uint8_t divider = core::telemetry_divider(settings.get(params::settings::telemetry_hz));
   telemetry_countdown = divider == 0 ? kTelemetryRecheckTicks : divider;

@@ -89,17 +89,17 @@ __attribute__((noinline)) bool Cart::follow_path(float& v_mps, float& omega_radp
   const MotionLimits limits{setting(v_max_mps), setting(w_max_radps), setting(a_max_mps2)};
   const Pose& pose = odometry_.pose();
   const Heading heading{odometry_.cos_theta(), odometry_.sin_theta()};
-  // Intermediate waypoints are passed at the coarser tolerance, without slowing down; one
-  // overshot a little (beyond it along its segment) counts as passed rather than being chased.
+  // An intermediate waypoint is passed within its pass radius (tol_pass, shrinking to tol_final
+  // at a corner the cart stops for); one overshot a little (beyond it along its segment) counts
+  // as passed rather than being chased.
   const float tol_pass = setting(tol_pass_m);
   const float tol_final = setting(tol_final_m);
-  PolarOutput cmd;
-  for (;;) {
-    cmd = polar_control(pose, heading, path_.approach(limits.v_max_mps), gains, limits);
-    const float distance_m = fabsf(cmd.rho_m);
-    const bool passed = distance_m < path_.pass_radius(tol_pass, tol_final) ||
-                        (distance_m < kOvershootPassFactor * tol_pass && path_.passed(pose));
-    if (path_.at_last() || !passed) break;
+  const PolarOutput cmd = polar_control(pose, heading, path_.approach(limits.v_max_mps), gains, limits);
+  const float distance_m = fabsf(cmd.rho_m);
+  if (!path_.at_last() && (distance_m < path_.pass_radius(tol_pass, tol_final) ||
+                           (distance_m < kOvershootPassFactor * tol_pass && path_.passed(pose)))) {
+    // Passed. The next waypoint is steered for from the next position tick (16 ms) on: steering
+    // for it at once as well made this the heaviest tick of all.
     path_.advance();
   }
   distance_to_waypoint_m_ = fabsf(cmd.rho_m);

@@ -56,6 +56,8 @@ class Cart {
   void set_settings_defaulted(bool defaulted);
 
   proto::Mode mode() const { return mode_; }
+  // Whether the last tick ran the position loop (every kPositionDivider-th tick in PATH mode).
+  bool position_loop_ran() const { return mode_ == proto::MODE_PATH && position_countdown_ != 0; }
   uint16_t flags() const;
   const Odometry& odometry() const { return odometry_; }
   const Path& path() const { return path_; }
