@@ -7,6 +7,7 @@ convex distance along the segment), its own graph and Floyd-Warshall all-pairs s
 
 from __future__ import annotations
 
+import heapq
 import itertools
 import math
 import random
@@ -14,7 +15,11 @@ from dataclasses import dataclass
 from functools import cache
 
 import pytest
+from numpy import array as np_array
+from numpy import int64 as np_int64
+from numpy import isfinite as np_isfinite
 
+from cart2d import planner as planner_module
 from cart2d.planner import (
     GoalBlocked,
     Grid,
@@ -29,6 +34,7 @@ from cart2d.planner import (
     Unreachable,
     plan_path,
     segment_square_distance,
+    shortest_path,
 )
 
 STEP = 0.2
@@ -581,3 +587,320 @@ def test_footprint_radius_is_validated(radius: float) -> None:
 def test_a_grid_far_finer_than_the_footprint_is_refused_not_exhausted() -> None:
     with pytest.raises(PlanError, match="too fine"):
         Planner(Grid(cols=10, rows=10, step_m=0.001), 0.17)
+
+
+# --- large grids: the array-built graph, scipy's search, the array segment checks ---------------
+
+
+def heap_dijkstra(graph: GridGraph, sources: dict[Node, float]) -> dict[Node, float]:
+    """Textbook Dijkstra (heapq, no scipy) over the edges that `edge_free` reports."""
+    grid = graph.grid
+    dist = dict(sources)
+    heap = [(cost, node) for node, cost in sources.items()]
+    heapq.heapify(heap)
+    done: set[Node] = set()
+    while heap:
+        d, a = heapq.heappop(heap)
+        if a in done:
+            continue
+        done.add(a)
+        for di, dj in itertools.product((-1, 0, 1), repeat=2):
+            b = (a[0] + di, a[1] + dj)
+            if b != a and grid.has_node(*b) and graph.edge_free(a, b):
+                nd = d + math.hypot(di, dj) * grid.step_m
+                if nd < dist.get(b, math.inf):
+                    dist[b] = nd
+                    heapq.heappush(heap, (nd, b))
+    return dist
+
+
+def maze_obstacles(cells: int, seed: int) -> tuple[int, set[Node]]:
+    """A perfect maze (depth-first) of cells x cells rooms, 3 nodes wide, behind walls 1 node
+    thick: (nodes per side, obstacle nodes)."""
+    rng = random.Random(seed)
+    n = 4 * cells + 1
+    free: set[Node] = set()
+    seen = {(0, 0)}
+    stack = [(0, 0)]
+    while stack:
+        ci, cj = stack[-1]
+        free.update((4 * ci + 1 + a, 4 * cj + 1 + b) for a in range(3) for b in range(3))
+        options = [
+            (ci + di, cj + dj)
+            for di, dj in ((1, 0), (-1, 0), (0, 1), (0, -1))
+            if 0 <= ci + di < cells and 0 <= cj + dj < cells and (ci + di, cj + dj) not in seen
+        ]
+        if not options:
+            stack.pop()
+            continue
+        ni, nj = rng.choice(options)
+        wall_i, wall_j = 4 * max(ci, ni), 4 * max(cj, nj)
+        if ni != ci:
+            free.update((wall_i, 4 * cj + 1 + b) for b in range(3))
+        else:
+            free.update((4 * ci + 1 + a, wall_j) for a in range(3))
+        seen.add((ni, nj))
+        stack.append((ni, nj))
+    return n, {(i, j) for i in range(n) for j in range(n) if (i, j) not in free}
+
+
+@dataclass
+class Scene:
+    name: str
+    grid: Grid
+    radius: float
+    obstacles: set[Node]
+
+
+@cache
+def large_scenes() -> list[Scene]:
+    rng = random.Random(12)
+    n = 90
+    field = {(i, j) for i in range(n) for j in range(n) if rng.random() < 0.2}
+    cells = 20
+    size, maze = maze_obstacles(cells, 3)
+    return [
+        Scene("random 20 %", Grid(n, n, 0.4), 0.17, field),
+        Scene("maze", Grid(size, size, 0.2), 0.17, maze),
+    ]
+
+
+@pytest.mark.parametrize("case", range(2))
+def test_large_grid_plans_are_optimal_against_a_heap_dijkstra(
+    case: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    scene = large_scenes()[case]
+    planner = Planner(scene.grid, scene.radius, scene.obstacles)
+    graph = planner.graph
+    grid = scene.grid
+    free = [(i, j) for j in range(grid.rows) for i in range(grid.cols) if graph.node_free(i, j)]
+    # the two free nodes nearest the corners, then random pairs
+    corner = min(free, key=lambda n: n[0] + n[1]), max(free, key=lambda n: n[0] + n[1])
+    rng = random.Random(case)
+    pairs = [corner, *(tuple(rng.sample(free, 2)) for _ in range(3))]
+    searches: list[float] = []
+    run = planner_module._Search.run
+
+    def counting_run(self: planner_module._Search, sources: dict[int, float], limit: float) -> object:
+        searches.append(limit)
+        return run(self, sources, limit)
+
+    monkeypatch.setattr(planner_module._Search, "run", counting_run)
+    for s, g in pairs:
+        dist = heap_dijkstra(graph, {s: 0.0})
+        start, goal = grid.node_xy(*s), grid.node_xy(*g)
+        if g not in dist:
+            with pytest.raises(Unreachable):
+                planner.plan(start, goal)
+            continue
+        plan = planner.plan(start, goal)
+        assert plan.grid_length_m == pytest.approx(dist[g], rel=1e-12), (scene.name, s, g)
+        inner = [grid.nearest_node(*p) for p in plan.path]
+        assert inner[0] == s and inner[-1] == g
+        assert all(graph.edge_free(a, b) for a, b in itertools.pairwise(inner))
+        for p, q in itertools.pairwise(polyline(plan)):
+            assert graph.segment_free(p, q)
+        assert math.dist(start, goal) - TOL <= plan.length_m <= plan.grid_length_m + TOL
+    if scene.name == "maze":  # its detours exceed the first, bounded search: it widened
+        assert any(limit == math.inf for limit in searches) and any(limit < math.inf for limit in searches)
+
+
+def test_large_footprints_match_the_reference_nodes_and_edges() -> None:
+    """Footprints of several steps: stencils of many rows, runs of any width, obstacles at the
+    map's border; exact ties (a radius of a whole or half number of steps) included."""
+    rng = random.Random(21)
+    for radius_steps in (0.5, 1.0, 1.5, 2.3, 3.0):
+        cols, rows = 15, 13
+        grid = Grid(cols, rows, STEP)
+        radius = radius_steps * STEP
+        obstacles = {(i, j) for i in range(cols) for j in range(rows) if rng.random() < 0.04}
+        obstacles |= {(0, rng.randrange(rows)), (cols - 1, rng.randrange(rows)), (rng.randrange(cols), 0)}
+        graph = GridGraph(grid, obstacles, radius)
+        centres = ref_centres(grid, obstacles)
+        for i, j in itertools.product(range(cols), range(rows)):
+            p = grid.node_xy(i, j)
+            expected = all(ref_point_distance(p, c, STEP / 2) > radius + TOL for c in centres)
+            assert graph.node_free(i, j) == expected, (radius_steps, (i, j))
+            for di, dj in ((1, 0), (1, 1), (0, 1), (-1, 1)):
+                b = (i + di, j + dj)
+                if grid.has_node(*b):
+                    q = grid.node_xy(*b)
+                    free_edge = expected and not ref_segment_blocked(p, q, centres, radius, STEP / 2)
+                    assert graph.edge_free((i, j), b) == free_edge, (radius_steps, (i, j), b)
+                    assert graph.edge_free(b, (i, j)) == free_edge
+
+
+def test_array_segment_checks_agree_with_the_one_by_one_checks() -> None:
+    rng = random.Random(8)
+    grid = Grid(25, 20, STEP)
+    obstacles = {(i, j) for i in range(25) for j in range(20) if rng.random() < 0.12}
+    for radius in (0.0, 0.1, 0.17, 0.2, 0.26):  # 0.1 and 0.2: half and one step, exact ties
+        graph = GridGraph(grid, obstacles, radius)
+        a, b = [], []
+        for k in range(400):
+            p = (rng.uniform(-0.5, 24.5), rng.uniform(-0.5, 19.5))
+            q = (p[0] + rng.uniform(-4, 4), p[1] + rng.uniform(-4, 4))
+            if k % 4 == 0:  # between nodes
+                p, q = (round(p[0]), round(p[1])), (round(q[0]), round(q[1]))
+            elif k % 4 == 1:  # upright, level, or a point
+                q = rng.choice([(p[0], q[1]), (q[0], p[1]), p])
+            a.append(p)
+            b.append(q)
+        batch = graph._segments_clear(np_array(a, dtype=float), np_array(b, dtype=float))
+        one_by_one = [graph._segment_clear(p, q) for p, q in zip(a, b, strict=True)]
+        assert batch.tolist() == one_by_one, radius
+        assert 40 < sum(one_by_one) < 360, radius  # both outcomes well represented
+
+
+def test_shortest_path_takes_any_number_of_sources() -> None:
+    graph = GridGraph(Grid(), {(5, j) for j in range(9)}, 0.0)  # a wall with a gap at the top
+    sources = {(i, j): 0.1 * j for i in range(3) for j in range(10)}  # 30 of them
+    expected = heap_dijkstra(graph, sources)[(9, 0)]
+    found = shortest_path(graph, {i + 10 * j: c for (i, j), c in sources.items()}, {9: 0.0})
+    assert found is not None
+    cost, path = found
+    assert cost == pytest.approx(expected, abs=1e-12) and cost > 1.5  # through the gap
+    assert graph.grid.node(path[0]) in sources and path[-1] == 9
+    assert shortest_path(graph, {0: 0.0}, {9: 0.0}, bound=1.0) is None
+    assert shortest_path(graph, {k: 0.0 for k in range(3)}, {9: 0.0}, bound=expected) is None
+
+
+def test_a_near_goal_on_a_large_map_is_planned_without_searching_it_all(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    grid = Grid(400, 400, 0.2)
+    planner = Planner(grid, 0.17, {(200, j) for j in range(195, 206)})  # a wall 2 m long
+    searches: list[tuple[float, int]] = []
+    run = planner_module._Search.run
+
+    def spy(self: planner_module._Search, sources: dict[int, float], limit: float) -> object:
+        dist, pred = run(self, sources, limit)
+        searches.append((limit, int(np_isfinite(dist).sum())))
+        return dist, pred
+
+    monkeypatch.setattr(planner_module._Search, "run", spy)
+    plan = planner.plan((39.0, 40.03), (41.6, 40.0))  # across the wall's middle
+    assert 3.0 < plan.grid_length_m < 5.0  # around the wall
+    # one search, within twice the octile distance (plus the ends), that reached few nodes
+    ((limit, reached),) = searches
+    assert limit == pytest.approx(2 * (13 + 0.15 * (math.sqrt(2) - 1) + 4) * 0.2)
+    assert reached < grid.node_count / 20
+    with pytest.raises(Unreachable):
+        Planner(grid, 0.17, {(i, 2) for i in range(400)}).plan((0.0, 0.0), (70.0, 70.0))
+
+
+def test_obstacles_are_taken_as_any_iterable_of_integer_pairs() -> None:
+    expected = {(1, 2), (3, 4)}
+    assert Planner(Grid(), 0.0, [[1, 2], [3, 4]]).obstacles == expected  # type: ignore[list-item]
+    assert Planner(Grid(), 0.0, ((i, i + 1) for i in (1, 3))).obstacles == expected
+    planner = Planner(Grid(), 0.0, expected)
+    for bad in [(True, 2), (np_int64(1), 2), ("1", 2)]:
+        with pytest.raises(ValueError, match="integer"):
+            planner.set_obstacles([(0, 0), bad])  # type: ignore[list-item]
+    for off in [(2**70, 0), (0, -(2**70)), (10, 0)]:
+        with pytest.raises(OffMap, match="not on the 10 x 10 grid"):
+            planner.set_obstacles([(0, 0), off])
+    with pytest.raises(ValueError):
+        planner.set_obstacles([(1, 2, 3)])  # type: ignore[list-item]
+    assert planner.obstacles == expected
+
+
+def farthest_in_sight(graph: GridGraph, points: list[Point], window: int) -> list[int]:
+    """String pulling as specified: from each point kept, on to the farthest of the next `window`
+    points that it sees; when it sees them all, on as long as it sees every point."""
+    keep = [0]
+    last = len(points) - 1
+    while keep[-1] < last:
+        i = keep[-1]
+        end = min(i + window, last)
+        seen = [j for j in range(i + 2, end + 1) if graph._segment_clear(points[i], points[j])]
+        j = max(seen, default=i + 1)
+        if j == end == i + window and len(seen) == window - 1:  # all of the window: on
+            while j < last and graph._segment_clear(points[i], points[j + 1]):
+                j += 1
+        keep.append(j)
+    return keep
+
+
+def pulled_path(planner: Planner, plan: Plan) -> tuple[list[Point], list[int]]:
+    """The plan's points after the collinear ones are dropped (grid units), and the indices of
+    those that string pulling keeps."""
+    grid = planner.grid
+    inner = [grid.nearest_node(*p) for p in plan.path[1:-1]]
+    points = np_array([grid.to_grid(*plan.path[0]), *inner, grid.to_grid(*plan.path[-1])], dtype=float)
+    corners = points[planner_module._drop_collinear(points)]
+    pulled = planner_module._string_pull(planner.graph, corners)
+    return [(float(u), float(v)) for u, v in corners.tolist()], pulled
+
+
+@pytest.mark.parametrize("scene", ["sparse", "dense", "maze"])
+def test_string_pulling_on_long_paths_follows_its_specification(
+    scene: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    rng = random.Random(4)
+    if scene == "maze":
+        n, obstacles = maze_obstacles(12, 5)
+        grid, start, goal = Grid(n, n, 0.2), (0.4, 0.4), ((n - 3) * 0.2, (n - 3) * 0.2)
+    else:
+        n, density = {"sparse": (100, 0.04), "dense": (60, 0.2)}[scene]
+        obstacles = {(i, j) for i in range(n) for j in range(n) if rng.random() < density}
+        obstacles -= {(0, 0), (1, 0), (0, 1), (n - 1, n - 1), (n - 2, n - 1), (n - 1, n - 2)}
+        grid, start, goal = Grid(n, n, 0.4), (0.0, 0.0), ((n - 1) * 0.4, (n - 1) * 0.4)
+    planner = Planner(grid, 0.17, obstacles)
+    plan = planner.plan(start, goal)
+    corners, pulled = pulled_path(planner, plan)
+    assert len(corners) > planner_module._PULL_WINDOW + 1
+    assert pulled == farthest_in_sight(planner.graph, corners, planner_module._PULL_WINDOW)
+    monkeypatch.setattr(planner_module, "_PULL_CELLS", 40)  # a few segments at a time: the same
+    assert planner_module._string_pull(planner.graph, np_array(corners)) == pulled
+    assert [corners[k] for k in pulled[1:]] == [
+        tuple(map(float, grid.nearest_node(*w))) for w in plan.waypoints
+    ]
+
+
+def test_string_pulling_on_small_maps_keeps_the_farthest_point_in_sight() -> None:
+    """Paths of up to _PULL_WINDOW + 1 points: from each point kept, on to the farthest point
+    reached by a free segment, wherever the points in between are."""
+    rng = random.Random(9)
+    checked = 0
+    for ref in maps():
+        planner = Planner(ref.grid, ref.radius, ref.obstacles)
+        free_nodes = sorted(ref.free)
+        for _ in range(4):
+            if len(free_nodes) < 2:
+                break
+            s, g = rng.sample(free_nodes, 2)
+            try:
+                plan = planner.plan(ref.grid.node_xy(*s), ref.grid.node_xy(*g))
+            except Unreachable:
+                continue
+            corners, pulled = pulled_path(planner, plan)
+            if len(corners) > planner_module._PULL_WINDOW + 1:
+                continue
+            keep = [0]
+            while keep[-1] < len(corners) - 1:
+                i = keep[-1]
+                keep.append(
+                    max(
+                        j
+                        for j in range(i + 1, len(corners))
+                        if j == i + 1 or planner.graph._segment_clear(corners[i], corners[j])
+                    )
+                )
+            assert pulled == keep
+            checked += 1
+    assert checked >= 100
+
+
+def test_string_pulling_follows_a_long_line_of_sight() -> None:
+    # a zigzag that stays in sight of its start (beyond the look-ahead window), around an
+    # obstacle on the line, and on: kept are the last point in sight, and the end
+    graph = GridGraph(Grid(60, 30, 0.2), {(30, 10)}, 0.0)
+    zigzag = [(float(k), 10.0 + 0.5 * (k % 2)) for k in range(26)]
+    points = np_array([*zigzag, (28.0, 10.0), (29.0, 11.0), (31.0, 11.0), (32.0, 10.0), (40.0, 10.0)])
+    assert len(zigzag) + 2 > planner_module._PULL_WINDOW
+    assert planner_module._string_pull(graph, points) == [0, len(zigzag) + 2, len(points) - 1]
+    assert planner_module._string_pull(graph, points[:2]) == [0, 1]
+    # from (29, 11): (31, 11) in sight, (32, 10) not (the segment touches the obstacle's corner),
+    # (40, 10) again
+    assert planner_module._string_pull(graph, points[-4:]) == [0, 3]
