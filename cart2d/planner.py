@@ -31,7 +31,7 @@ import functools
 import itertools
 import math
 import threading
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -523,8 +523,9 @@ class GridGraph:
     def _point_clear(self, u: float, v: float) -> bool:
         return self._segment_clear((u, v), (u, v))
 
-    def _segment_clear(self, a: Point, b: Point) -> bool:
-        """Whether the capsule of radius r around ab misses every obstacle square (grid units).
+    def _segment_clear(self, a: Point, b: Point, margin: float = 0.0) -> bool:
+        """Whether the capsule of radius r (+ margin) around ab misses every obstacle square
+        (grid units).
 
         Only the cells near the segment are visited: column by column, the rows that the
         segment, widened by r, can reach inside that column's slab."""
@@ -532,7 +533,7 @@ class GridGraph:
             return True
         occ = self._occ
         cols, rows = self.grid.cols, self.grid.rows
-        reach = self._r + EPS
+        reach = self._r + margin + EPS
         reach2 = reach * reach
         pad = reach + 0.5 + 1e-7  # half a cell plus the radius, with room for rounding
         ax, ay = a
@@ -848,6 +849,113 @@ def _string_pull(graph: GridGraph, points: FloatArray) -> list[int]:
     return keep
 
 
+# Tightening: at most this many sweeps over the corners, each corner found by this many halvings;
+# paths with more corners than _TIGHTEN_MAX (mazes, not a path the cart can hold) stay as pulled.
+_TIGHTEN_SWEEPS = 30
+_TIGHTEN_HALVINGS = 12
+_TIGHTEN_MAX = 100
+_TIGHTEN_MARGIN = 1e-4  # grid units
+
+
+def _slide(pts: list[Point], k: int, clear: Callable[[Point, Point], bool]) -> float:
+    """Slides corner k towards the chord of its neighbours as far as both of its segments stay
+    free (deleting it when it reaches the chord); returns how far it moved."""
+    (ax, ay), (vx, vy), (bx, by) = pts[k - 1], pts[k], pts[k + 1]
+    dx, dy = bx - ax, by - ay
+    span = dx * dx + dy * dy
+    t = 0.0 if span == 0.0 else min(1.0, max(0.0, ((vx - ax) * dx + (vy - ay) * dy) / span))
+    px, py = ax + t * dx, ay + t * dy  # the nearest point of the chord
+    if clear(pts[k - 1], (px, py)) and clear((px, py), pts[k + 1]):
+        del pts[k]
+        return math.hypot(px - vx, py - vy)
+    lo, hi = 0.0, 1.0
+    for _ in range(_TIGHTEN_HALVINGS):
+        mid = (lo + hi) / 2
+        q = (vx + mid * (px - vx), vy + mid * (py - vy))
+        if clear(pts[k - 1], q) and clear(q, pts[k + 1]):
+            lo = mid
+        else:
+            hi = mid
+    if lo > 0.0:
+        pts[k] = (vx + lo * (px - vx), vy + lo * (py - vy))
+    return lo * math.hypot(px - vx, py - vy)
+
+
+def _clear_with_margin(graph: GridGraph) -> Callable[[Point, Point], bool]:
+    # a hair more than the radius: a corner pulled up to the obstacle must stay free whatever
+    # the rounding of any later check
+    return functools.partial(graph._segment_clear, margin=_TIGHTEN_MARGIN)
+
+
+def _tighten(graph: GridGraph, points: list[Point]) -> list[Point]:
+    """The pulled path (grid units) pulled taut: each corner slides towards the chord of its
+    neighbours as far as both of its segments stay free, sweep after sweep, until nothing moves
+    by more than a thousandth of a step. Every move shortens the path (the two segments' length
+    only falls on the way to the chord), and a corner that reaches the chord is dropped. Grid
+    corners sit on nodes, up to a step further from the obstacles than the disc needs: taut, the
+    path touches them as the true shortest path does, only with one corner per bend."""
+    pts = list(points)
+    if len(pts) < 3 or len(pts) > _TIGHTEN_MAX:
+        return pts
+    clear = _clear_with_margin(graph)
+    for _ in range(_TIGHTEN_SWEEPS):
+        moved = 0.0
+        k = 1
+        while k < len(pts) - 1:
+            before = len(pts)
+            moved = max(moved, _slide(pts, k, clear))
+            k += len(pts) == before  # a deleted corner's successor is now at k
+        if moved < 1e-3:
+            break
+    return pts
+
+
+# A bend sharper than this gets two more corners before it is pulled taut again, twice over: one
+# corner per bend leaves the path up to r (2 tan(a/2) - a) longer than the arc of radius r it
+# stands for (9 cm for r = 0.2 m and a = 90 deg); three corners leave less than a centimetre.
+_BEND_RAD = math.radians(30.0)
+_BEND_ROUNDS = 2
+_BEND_SHARE = 0.3  # where the new corners go: this share of each segment from the bend
+# Corners are added for length only while the path keeps at most this many points, so that it
+# still goes to the firmware in one piece (it holds 32) with room for rounded corners.
+_SPLIT_MAX = 24
+
+
+def _split_bends(graph: GridGraph, points: list[Point]) -> list[Point]:
+    """The points with two more on the segments next to every bend sharper than _BEND_RAD; the
+    bend itself then slides towards the chord of the new pair (before anything else can: the
+    new points lie on the old segments, so a sweep would drop them at once)."""
+    out = [points[0]]
+    bends = []
+    for k in range(1, len(points) - 1):
+        (ax, ay), (vx, vy), (bx, by) = points[k - 1], points[k], points[k + 1]
+        ux, uy, wx, wy = vx - ax, vy - ay, bx - vx, by - vy
+        cos_turn = (ux * wx + uy * wy) / max(math.hypot(ux, uy) * math.hypot(wx, wy), 1e-12)
+        if cos_turn < math.cos(_BEND_RAD):
+            out.append((vx - _BEND_SHARE * ux, vy - _BEND_SHARE * uy))
+            bends.append(len(out))
+            out += [points[k], (vx + _BEND_SHARE * wx, vy + _BEND_SHARE * wy)]
+        else:
+            out.append(points[k])
+    out.append(points[-1])
+    clear = _clear_with_margin(graph)
+    for k in reversed(bends):  # from the end: a deletion does not shift the bends before it
+        _slide(out, k, clear)
+    return out
+
+
+def _taut(graph: GridGraph, points: list[Point]) -> list[Point]:
+    """The pulled path pulled taut, its sharp bends given more corners so that they wrap the
+    obstacles' rounded corners closely (see _tighten and _split_bends)."""
+    pts = _tighten(graph, points)
+    for _ in range(_BEND_ROUNDS):
+        split = _split_bends(graph, pts)
+        if len(split) == len(pts) or len(split) > _SPLIT_MAX:
+            break
+        pts = _tighten(graph, split)
+    return pts
+
+
 def plan_path(graph: GridGraph, start: Point, goal: Point) -> Plan:
     """The shortest grid path from the measured `start` to the exact `goal` (metres), and its
     simplification. Raises OffMap, StartBlocked, GoalBlocked or Unreachable; changes nothing."""
@@ -910,7 +1018,9 @@ def plan_path(graph: GridGraph, start: Point, goal: Point) -> Plan:
 
     kept = _drop_collinear(path_g)
     pulled = kept[_string_pull(graph, path_g[kept])]
-    simple = path_m[pulled]
+    taut = np.array(_taut(graph, [(float(u), float(v)) for u, v in path_g[pulled]]))
+    simple = np.asarray(grid.origin) + taut * grid.step_m
+    simple[0], simple[-1] = path_m[0], path_m[-1]  # exactly the measured start and the goal
     points = tuple(zip(path_m[:, 0].tolist(), path_m[:, 1].tolist(), strict=True))
     waypoints = tuple(zip(simple[1:, 0].tolist(), simple[1:, 1].tolist(), strict=True))
     return Plan(

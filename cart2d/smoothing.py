@@ -69,7 +69,7 @@ def _round_one(
 ) -> list[Point]:
     u_in, _ = _unit(before, corner)
     u_out, _ = _unit(corner, after)
-    turn = math.acos(max(-1.0, min(1.0, u_in[0] * u_out[0] + u_in[1] * u_out[1])))
+    turn = _turn(before, corner, after)
     if turn < MIN_TURN_RAD or turn > math.radians(170.0):
         return [corner]  # nearly straight, or a U-turn better made on the spot
     tan_half = math.tan(turn / 2)
@@ -82,28 +82,55 @@ def _round_one(
     return [corner]
 
 
+def _arcs(points: list[Point], free: SegmentFree, chord_turn: float) -> list[list[Point]]:
+    """For every inner point, what replaces it: an arc, or the point itself."""
+    arcs = []
+    for k in range(1, len(points) - 1):
+        # A segment is shared by the corners at its two ends, except the first and the last.
+        _, len_in = _unit(points[k - 1], points[k])
+        _, len_out = _unit(points[k], points[k + 1])
+        room_in = len_in * (1.0 if k == 1 else 0.5)
+        room_out = len_out * (1.0 if k == len(points) - 2 else 0.5)
+        arcs.append(_round_one(points[k - 1], points[k], points[k + 1], room_in, room_out, free, chord_turn))
+    return arcs
+
+
+def _joined(arcs: list[list[Point]], goal: Point) -> list[Point]:
+    out: list[Point] = []
+    for arc in arcs:
+        out += [p for p in arc if not out or math.dist(p, out[-1]) > 1e-4]
+    return [*out, goal]
+
+
 def round_corners(
     start: Point,
     waypoints: Sequence[Point],
     free: SegmentFree,
     capacity: int,
 ) -> list[Point]:
-    """The waypoints with their corners rounded where there is room, at most `capacity` of them
-    (coarser arcs first, then the plain waypoints if even those do not fit)."""
+    """The waypoints with their corners rounded where there is room, at most `capacity` of them:
+    coarser arcs if the fine ones do not fit, and if even those do not, the coarse arcs of the
+    sharpest corners that fit (a gentle corner costs the cart least when left sharp)."""
     points = [start, *waypoints]
     if len(points) < 3:
         return list(waypoints)
+    coarse: list[list[Point]] = []
     for chord_turn in (CHORD_TURN_RAD, 2 * CHORD_TURN_RAD, 3 * CHORD_TURN_RAD):
-        out: list[Point] = []
-        for k in range(1, len(points) - 1):
-            # A segment is shared by the corners at its two ends, except the first and the last.
-            _, len_in = _unit(points[k - 1], points[k])
-            _, len_out = _unit(points[k], points[k + 1])
-            room_in = len_in * (1.0 if k == 1 else 0.5)
-            room_out = len_out * (1.0 if k == len(points) - 2 else 0.5)
-            arc = _round_one(points[k - 1], points[k], points[k + 1], room_in, room_out, free, chord_turn)
-            out += [p for p in arc if not out or math.dist(p, out[-1]) > 1e-4]
-        out.append(points[-1])
+        coarse = _arcs(points, free, chord_turn)
+        out = _joined(coarse, points[-1])
         if len(out) <= capacity:
             return out
-    return list(waypoints)
+    chosen = [[p] for p in points[1:-1]]
+    spare = capacity - len(waypoints)
+    by_turn = sorted(range(len(chosen)), key=lambda k: -_turn(points[k], points[k + 1], points[k + 2]))
+    for k in by_turn:
+        extra = len(coarse[k]) - 1
+        if extra <= spare:
+            chosen[k], spare = coarse[k], spare - extra
+    return _joined(chosen, points[-1]) if spare >= 0 else list(waypoints)
+
+
+def _turn(before: Point, corner: Point, after: Point) -> float:
+    u_in, _ = _unit(before, corner)
+    u_out, _ = _unit(corner, after)
+    return math.acos(max(-1.0, min(1.0, u_in[0] * u_out[0] + u_in[1] * u_out[1])))

@@ -387,7 +387,7 @@ def test_paths_keep_the_footprint_clear_of_obstacles() -> None:
     centres = ref_centres(planner.grid, obstacles)
     assert min_clearance(polyline(plan), centres, STEP / 2) >= 0.17 - 1e-9
     assert min_clearance(list(plan.path), centres, STEP / 2) >= 0.17 - 1e-9
-    assert 2 <= len(plan.waypoints) <= 3  # around the block: one or two bends
+    assert 2 <= len(plan.waypoints) <= 11  # around the block: two bends, up to five corners each
     assert math.dist((0.2, 1.0), (1.8, 0.9)) < plan.length_m <= plan.grid_length_m
 
 
@@ -509,8 +509,13 @@ def test_an_l_shaped_corridor_keeps_only_its_corner() -> None:
     plan = Planner(Grid(), 0.0, walls).plan((0.0, 0.4), (1.6, 1.8))
     assert plan.grid_length_m == pytest.approx(8 * STEP + 7 * STEP, abs=1e-12)
     assert len(plan.path) == 16
-    assert plan.waypoints == ((1.6, 0.4), (1.6, 1.8))
-    assert plan.length_m == pytest.approx(plan.grid_length_m, abs=1e-12)
+    # pulled taut, the one corner slides from the node (1.6, 0.4) to the wall's corner (1.5, 0.5)
+    corner, goal = plan.waypoints
+    assert goal == (1.6, 1.8)
+    assert math.dist(corner, (1.5, 0.5)) < 0.02
+    graph = Planner(Grid(), 0.0, walls).graph
+    assert graph.segment_free((0.0, 0.4), corner) and graph.segment_free(corner, goal)
+    assert plan.length_m < plan.grid_length_m - 0.05
 
 
 def test_shortcuts_never_lengthen_a_path() -> None:
@@ -527,7 +532,8 @@ def test_shortcuts_never_lengthen_a_path() -> None:
             continue
         assert plan.length_m <= plan.grid_length_m + 1e-12
         assert plan.length_m >= math.dist(start, goal) - 1e-12
-        assert len(plan.waypoints) <= len(plan.path) - 1
+        # taut corners only replace or drop pulled ones; sharp bends get more, up to a bound
+        assert len(plan.waypoints) <= max(len(plan.path) - 1, planner_module._SPLIT_MAX)
 
 
 # --- obstacles by metres ------------------------------------------------------------------------
@@ -847,6 +853,8 @@ def test_string_pulling_on_long_paths_follows_its_specification(
         obstacles -= {(0, 0), (1, 0), (0, 1), (n - 1, n - 1), (n - 2, n - 1), (n - 1, n - 2)}
         grid, start, goal = Grid(n, n, 0.4), (0.0, 0.0), ((n - 1) * 0.4, (n - 1) * 0.4)
     planner = Planner(grid, 0.17, obstacles)
+    # string pulling alone: the plan's waypoints are then the pulled corners, not pulled taut
+    monkeypatch.setattr(planner_module, "_taut", lambda _graph, points: points)
     plan = planner.plan(start, goal)
     corners, pulled = pulled_path(planner, plan)
     assert len(corners) > planner_module._PULL_WINDOW + 1
@@ -904,3 +912,21 @@ def test_string_pulling_follows_a_long_line_of_sight() -> None:
     # from (29, 11): (31, 11) in sight, (32, 10) not (the segment touches the obstacle's corner),
     # (40, 10) again
     assert planner_module._string_pull(graph, points[-4:]) == [0, 3]
+
+
+def test_pulled_taut_the_path_nears_the_true_shortest_and_stays_free() -> None:
+    # Out of a U-shaped wall: the pulled path turns at nodes, up to a step off the wall; taut,
+    # its corners touch the grown wall, so it is shorter, and every segment is still free.
+    grid = Grid(10, 10, 0.2)
+    wall = {(i, 6) for i in range(2, 7)} | {(2, j) for j in range(2, 7)} | {(6, j) for j in range(2, 7)}
+    planner = Planner(grid, 0.17, wall)
+    plan = planner.plan((0.8, 0.6), (0.8, 1.6))
+    points = [plan.start, *plan.waypoints]
+    for p, q in itertools.pairwise(points):
+        assert planner.graph.segment_free(p, q)
+    pulled = planner_module._string_pull(
+        planner.graph, np_array([grid.to_grid(*p) for p in plan.path], dtype=float)
+    )
+    pulled_length = math.fsum(math.dist(plan.path[a], plan.path[b]) for a, b in itertools.pairwise(pulled))
+    assert plan.length_m < pulled_length - 0.1
+    assert plan.length_m > 1.0  # it still goes round the wall
