@@ -45,12 +45,20 @@ constexpr uint8_t kPacketExpiryTicks = 2;
 constexpr uint8_t kTelemetryRecheckTicks = 25;
 
 void send_telemetry() {
-  // A frame due at a tick that ran the position loop waits for the next tick: the two together
-  // made the heaviest ticks (31 % of the tick while turning at speed).
-  if (telemetry_countdown == 1 && cart.position_loop_ran()) return;
-  if (--telemetry_countdown > 0) return;
+  if (telemetry_countdown > 1) {
+    --telemetry_countdown;
+    return;
+  }
+  // Due. A frame due at a tick that ran the position loop waits for the next tick (0: one tick
+  // late): the two together made the heaviest ticks (31 % of the tick while turning at speed).
+  // The next one is then due a tick sooner, so the rate stays the set one.
+  if (telemetry_countdown == 1 && cart.position_loop_ran()) {
+    telemetry_countdown = 0;
+    return;
+  }
+  const uint8_t late = telemetry_countdown == 0;
   const uint8_t divider = core::telemetry_divider(settings.get(params::settings::telemetry_hz));
-  telemetry_countdown = divider == 0 ? kTelemetryRecheckTicks : divider;
+  telemetry_countdown = divider == 0 ? kTelemetryRecheckTicks : divider - late;
   if (divider == 0) return;
   // Telemetry is lossy by design: skip a frame rather than delay a reply.
   if (uart::tx_free() < core::wire::kTelemetrySize + core::wire::kMaxReply) return;
