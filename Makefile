@@ -95,7 +95,7 @@ fuzz-quick: host-tests
 fuzz: host-tests
 	tools/run-fuzz.sh $(HOST_BUILD)/fuzz_packets $(FUZZ_SECONDS)
 
-test: deps firmware host-tests sim-tests python-checks python-tests panel-tests fuzz-quick bench-firmware
+test: deps firmware host-tests sim-tests python-checks python-tests panel-tests fuzz-quick bench-quick
 
 bench-firmware: $(AVR_ELF) sim python-env
 	@$(PY) -m bench.firmware --quick --out build/bench-firmware
