@@ -924,7 +924,8 @@ _SPLIT_MAX = 24
 def _split_bends(graph: GridGraph, points: list[Point]) -> list[Point]:
     """The points with two more on the segments next to every bend sharper than _BEND_RAD; the
     bend itself then slides towards the chord of the new pair (before anything else can: the
-    new points lie on the old segments, so a sweep would drop them at once)."""
+    new points lie on the old segments, so a sweep would drop them at once). The points as they
+    are if that would make more than _SPLIT_MAX."""
     out = [points[0]]
     bends = []
     for k in range(1, len(points) - 1):
@@ -938,6 +939,8 @@ def _split_bends(graph: GridGraph, points: list[Point]) -> list[Point]:
         else:
             out.append(points[k])
     out.append(points[-1])
+    if len(out) > _SPLIT_MAX:
+        return points
     clear = _clear_with_margin(graph)
     for k in reversed(bends):  # from the end: a deletion does not shift the bends before it
         _slide(out, k, clear)
@@ -950,7 +953,7 @@ def _taut(graph: GridGraph, points: list[Point]) -> list[Point]:
     pts = _tighten(graph, points)
     for _ in range(_BEND_ROUNDS):
         split = _split_bends(graph, pts)
-        if len(split) == len(pts) or len(split) > _SPLIT_MAX:
+        if len(split) == len(pts):
             break
         pts = _tighten(graph, split)
     return pts
