@@ -852,7 +852,7 @@ def _string_pull(graph: GridGraph, points: FloatArray) -> list[int]:
 # Tightening: at most this many sweeps over the corners, each corner found by this many halvings;
 # paths with more corners than _TIGHTEN_MAX (mazes, not a path the cart can hold) stay as pulled.
 _TIGHTEN_SWEEPS = 30
-_TIGHTEN_HALVINGS = 12
+_TIGHTEN_HALVINGS = 8
 _TIGHTEN_MAX = 100
 _TIGHTEN_MARGIN = 1e-4  # grid units
 
@@ -890,7 +890,7 @@ def _clear_with_margin(graph: GridGraph) -> Callable[[Point, Point], bool]:
 def _tighten(graph: GridGraph, points: list[Point]) -> list[Point]:
     """The pulled path (grid units) pulled taut: each corner slides towards the chord of its
     neighbours as far as both of its segments stay free, sweep after sweep, until nothing moves
-    by more than a thousandth of a step. Every move shortens the path (the two segments' length
+    by more than a hundredth of a step. Every move shortens the path (the two segments' length
     only falls on the way to the chord), and a corner that reaches the chord is dropped. Grid
     corners sit on nodes, up to a step further from the obstacles than the disc needs: taut, the
     path touches them as the true shortest path does, only with one corner per bend."""
@@ -905,7 +905,7 @@ def _tighten(graph: GridGraph, points: list[Point]) -> list[Point]:
             before = len(pts)
             moved = max(moved, _slide(pts, k, clear))
             k += len(pts) == before  # a deleted corner's successor is now at k
-        if moved < 1e-3:
+        if moved < 1e-2:
             break
     return pts
 
