@@ -15,7 +15,11 @@ not at the previous goal) and ends exactly at the requested goal: both connect t
 nodes within √2·step that they see through a free segment. Dijkstra finds the optimal grid
 path; it is then simplified into a few straight segments, each of them checked free: collinear
 points are dropped, then the string is pulled (from each point kept, on to the farthest later
-point such that it and every point before it are reached by a free segment).
+point such that it and every point before it are reached by a free segment), then the path is
+pulled taut off the nodes (each corner slides towards its neighbours' chord while its segments
+stay free; sharp bends get two more corners, twice), so that it hugs the obstacles as the true
+shortest path does: within 4 % of it on the benchmark scenes, where the pulled path was up to
+16 % longer.
 
 Nothing here does I/O or knows the robot beyond the numbers passed in. The graph (`GridGraph`)
 is built with numpy whole-array operations and searched (`shortest_path`) by scipy's compiled

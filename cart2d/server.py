@@ -395,7 +395,7 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
             raise HTTPException(413, f"request body over {MAX_BODY_BYTES} bytes")
         try:
             imported = parse_settings(body)
-            # a new planner for the map: seconds for a 1000 x 1000 grid, so off the event loop
+            # a new planner for the map: up to half a second for a 1000 x 1000 grid, so off the event loop
             await asyncio.to_thread(
                 gateway.update_settings, imported.model_copy(update={"token": gateway.settings.token})
             )
