@@ -446,8 +446,8 @@ class GridGraph:
         if r > MAX_FOOTPRINT_STEPS * grid.step_m:
             # The clearance stencils grow with (radius / step)^2: refuse instead of exhausting memory.
             raise PlanError(
-                f"the grid step {grid.step_m:g} m is too fine for the cart's footprint ({r:g} m): "
-                f"use a step of at least {r / MAX_FOOTPRINT_STEPS:g} m"
+                f"the grid step {grid.step_m:g} m is too fine for the cart, which keeps {r:g} m "
+                f"from obstacles: use a step of at least {r / MAX_FOOTPRINT_STEPS:g} m"
             )
         self.grid = grid
         self.footprint_radius_m = float(r)
@@ -987,12 +987,12 @@ def plan_path(graph: GridGraph, start: Point, goal: Point) -> Plan:
     if not graph._point_clear(*s):
         raise StartBlocked(
             f"the cart's position {_fmt(sx, sy)} is inside an obstacle or too close to one for the "
-            f"cart's footprint ({r:g} m): remove that obstacle or move the cart"
+            f"cart, which keeps {r:g} m from obstacles: remove that obstacle or move the cart"
         )
     if not graph._point_clear(*g):
         raise GoalBlocked(
             f"the goal {_fmt(gx, gy)} is inside an obstacle or too close to one "
-            f"for the cart's footprint ({r:g} m)"
+            f"for the cart, which keeps {r:g} m from obstacles"
         )
 
     direct_m = math.dist((sx, sy), (gx, gy))
@@ -1020,7 +1020,7 @@ def plan_path(graph: GridGraph, start: Point, goal: Point) -> Plan:
     else:
         raise Unreachable(
             f"the goal {_fmt(gx, gy)} cannot be reached from the cart's position {_fmt(sx, sy)}: "
-            f"obstacles wall it off for the cart's footprint ({r:g} m)"
+            f"obstacles wall it off for the cart, which keeps {r:g} m from obstacles"
         )
 
     kept = _drop_collinear(path_g)
