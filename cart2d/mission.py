@@ -8,6 +8,7 @@ every case; an invalid or unreachable goal is reported with its reason and nothi
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import json
 import math
@@ -15,6 +16,7 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, Literal
 
@@ -109,6 +111,18 @@ def _point_polyline_distance(p: Point, line: list[Point]) -> float:
     return best
 
 
+@contextlib.contextmanager
+def _in_real_time(sim: Simulator) -> Iterator[None]:
+    """Paces the simulator to the wall clock while the gateway plans and uploads, as a real cart
+    would be: in fast mode a gateway slowed by a busy machine would otherwise cost the cart
+    seconds of simulated time with the path half uploaded."""
+    sim.control("speed", factor=1)
+    try:
+        yield
+    finally:
+        sim.control("speed", factor="max" if sim.options.speed == "max" else float(sim.options.speed))
+
+
 def _wait_for_path_end(link: Link, sim: Simulator, deadline_t: float) -> str:
     """Polls STATUS until the firmware leaves PATH mode: '' when it arrived, else why not."""
     while True:
@@ -130,7 +144,8 @@ def _drive_like_the_seed(
     waypoints = seed_path(gateway.planner.grid, m.obstacles, (x, y), goal)
     capacity = gateway.version.waypoint_capacity if gateway.version else 32
     for first in range(0, len(waypoints), capacity):
-        firmware.upload_path(gateway.link, waypoints[first : first + capacity])
+        with _in_real_time(sim):
+            firmware.upload_path(gateway.link, waypoints[first : first + capacity])
         reason = _wait_for_path_end(gateway.link, sim, deadline_t)
         if reason:
             break
@@ -140,7 +155,8 @@ def _drive_like_the_seed(
 def _drive_with_cart2d(
     gateway: Gateway, sim: Simulator, goal: Point, deadline_t: float
 ) -> tuple[list[Point], str]:
-    plan = gateway.go_to(*goal)
+    with _in_real_time(sim):
+        plan = gateway.go_to(*goal)
     while gateway.mission_view()["state"] == "driving":
         if sim.truth()["t"] > deadline_t:
             gateway.stop()
