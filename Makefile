@@ -27,7 +27,7 @@ help:
 	@echo "make bench-firmware  flash, RAM and CPU per control tick against the budgets"
 	@echo "make bench-sim       the simulator's speed, API round trip, telemetry latency, 50 viewers"
 	@echo "make profile-firmware  cycles per control tick by function (simavr)"
-	@echo "make bench           every benchmark (~15 min): bench/results/REPORT.md with plots"
+	@echo "make bench           every benchmark (~7 min): bench/results/REPORT.md with plots"
 	@echo "make bench-quick     the benchmarks' CI subset, into build/bench-quick/"
 	@echo "make panel           build the control panel (web/) into cart2d/panel/"
 	@echo "make panel-tests     the panel in headless Chromium against the simulator"
