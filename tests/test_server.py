@@ -193,7 +193,12 @@ def test_settings_file_export_and_import(rig: Rig) -> None:
 def test_websocket_streams_telemetry_and_truth(rig: Rig) -> None:
     with rig.client.websocket_connect("/ws") as ws:
         assert json.loads(ws.receive_text())["type"] == "hello"
-        kinds = {json.loads(ws.receive_text())["type"] for _ in range(40)}
+        kinds: set[str] = set()
+        # truth comes at 50 Hz, telemetry at 25 Hz once the link is up: both within ~3 s
+        for _ in range(200):
+            kinds.add(json.loads(ws.receive_text())["type"])
+            if {"telemetry", "truth"} <= kinds:
+                break
     assert {"telemetry", "truth"} <= kinds
 
 

@@ -85,6 +85,9 @@ def test_kill_9_during_saves_never_leaves_a_broken_file(tmp_path: Path) -> None:
     rng = random.Random(4)
     for _ in range(15):
         child = subprocess.Popen([sys.executable, "-c", WRITER, str(tmp_path)], env={**os.environ})
+        deadline = time.monotonic() + 30
+        while not Store(tmp_path).path.exists() and time.monotonic() < deadline:
+            time.sleep(0.01)  # the first save (a slow machine takes a while to import)
         time.sleep(0.3 + rng.random() * 0.2)  # let it write for a while, then kill it anywhere
         os.kill(child.pid, signal.SIGKILL)
         child.wait()
