@@ -48,7 +48,7 @@ from typing import Any, Literal, Protocol
 
 from cart2d import firmware
 from cart2d.link import CommandRefused, Link, LinkError
-from cart2d.params import robot, settings_table
+from cart2d.params import robot, setting_id
 from cart2d.simulator import SimOptions, Simulator, SimulatorError
 
 Point = tuple[float, float]
@@ -203,10 +203,11 @@ class Runner(Protocol):
 def _wait_arrived(link: Link, expired: Callable[[], bool], poll_s: float) -> None:
     while True:
         status = firmware.read_status(link)
-        if status.mode == "IDLE":
-            if not status.has("ARRIVED"):
-                raise RunError(f"the cart stopped before the corner ({', '.join(status.flags) or 'STOP'})")
+        outcome = status.path_outcome()
+        if outcome == "":
             return
+        if outcome is not None:
+            raise RunError(f"the cart stopped before the corner ({', '.join(status.flags) or 'STOP'})")
         if expired():
             raise RunError("the square took too long: stopped")
         time.sleep(poll_s)
@@ -343,8 +344,8 @@ class Measurement:
 
 
 def setting_ids() -> tuple[int, int, int]:
-    ids = {s["name"]: int(s["id"]) for s in settings_table()}
-    return (ids[SETTING_NAMES[0]], ids[SETTING_NAMES[1]], ids[SETTING_NAMES[2]])
+    left, right, track = (setting_id(name) for name in SETTING_NAMES)
+    return left, right, track
 
 
 def read_geometry(link: Link) -> Geometry:

@@ -47,6 +47,16 @@ class Status:
     def has(self, flag: str) -> bool:
         return flag in self.flags
 
+    def path_outcome(self) -> str | None:
+        """None while the firmware drives a path; "" once it has arrived; else why it stopped."""
+        if self.mode == "PATH":
+            return None
+        if self.has("ARRIVED"):
+            return ""
+        if self.has("STALLED"):
+            return "a wheel stalled: the cart is blocked"
+        return f"the firmware stopped the path (mode {self.mode})"
+
 
 def flag_names(word: int) -> list[str]:
     return [name for name, bit in load_spec().flags.items() if word & bit]

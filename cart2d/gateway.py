@@ -5,9 +5,7 @@ command line use. It owns the link to the firmware, the map and its planner, the
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import logging
-import math
 import threading
 import time
 from collections.abc import Callable
@@ -18,7 +16,7 @@ from cart2d import firmware
 from cart2d.flashing import Flasher
 from cart2d.link import CommandRefused, Link, LinkError
 from cart2d.params import footprint_radius_m, planning_radius_m, robot
-from cart2d.planner import Grid, Plan, PlanError, Planner
+from cart2d.planner import Grid, Plan, PlanError, Planner, polyline_length
 from cart2d.protocol import Telemetry
 from cart2d.simulator import Simulator
 from cart2d.smoothing import round_corners
@@ -174,7 +172,7 @@ class Gateway:
         pose = self.link.call("POSE")
         with self._lock:
             plan = self.planner.plan((pose[0], pose[1]), (x, y))
-            capacity = self.version.waypoint_capacity if self.version else 32
+            capacity = self.waypoint_capacity
             if len(plan.waypoints) > capacity:
                 raise PathTooLong(
                     f"the path needs {len(plan.waypoints)} waypoints and the firmware holds {capacity}: "
@@ -188,11 +186,16 @@ class Gateway:
         self._publish({"type": "mission", **self.mission_view()})
         return plan
 
+    @property
+    def waypoint_capacity(self) -> int:
+        """Points the firmware's path buffer holds (32 until its version has been read)."""
+        return self.version.waypoint_capacity if self.version else 32
+
     def _rounded(self, plan: Plan, capacity: int) -> Plan:
         """The plan with its corners rounded where there is room (cart2d/smoothing.py)."""
         graph = self.planner.graph
         waypoints = round_corners(plan.start, plan.waypoints, graph.segment_free, capacity)
-        length = math.fsum(math.dist(p, q) for p, q in itertools.pairwise([plan.start, *waypoints]))
+        length = polyline_length([plan.start, *waypoints])
         return dataclasses.replace(plan, waypoints=tuple(waypoints), length_m=length)
 
     @staticmethod
@@ -247,17 +250,12 @@ class Gateway:
                 status = firmware.read_status(self.link)
             except (LinkError, CommandRefused):
                 continue  # the link is reconnecting: the firmware keeps driving on its own
-            if status.mode == "PATH":
+            outcome = status.path_outcome()
+            if outcome is None:
                 continue
             with self._lock:
-                if self.mission.state != "driving":
-                    continue
-                if status.has("ARRIVED"):
-                    self._end_mission("arrived", "")
-                elif status.has("STALLED"):
-                    self._end_mission("failed", "a wheel stalled: the cart is blocked")
-                else:
-                    self._end_mission("failed", f"the firmware stopped the path (mode {status.mode})")
+                if self.mission.state == "driving":
+                    self._end_mission("failed" if outcome else "arrived", outcome)
 
     def status_view(self) -> dict[str, Any]:
         link_state = "connected" if self.link.connected.is_set() else "reconnecting"

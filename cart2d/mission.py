@@ -27,8 +27,8 @@ from cart2d import firmware
 from cart2d.baseline import SEED_SETTINGS, seed_path
 from cart2d.gateway import Gateway
 from cart2d.link import Link, LinkError
-from cart2d.params import robot, settings_table
-from cart2d.planner import Grid, PlanError, Point
+from cart2d.params import robot, setting_id
+from cart2d.planner import Grid, PlanError, Point, point_segment_distance, polyline_length
 from cart2d.simulator import SimOptions, Simulator
 from cart2d.store import GatewaySettings, MapSettings, Store
 
@@ -92,23 +92,14 @@ class Recorder:
 
 
 def _apply_settings(link: Link, settings: dict[str, float]) -> None:
-    ids = {s["name"]: s["id"] for s in settings_table()}
     for name, value in settings.items():
-        if name not in ids:
-            raise ValueError(f"unknown firmware setting {name!r} (config/robot.toml lists them)")
-        link.call("PARAM_SET", ids[name], value)
+        firmware.write_setting(link, setting_id(name), value)
 
 
 def _point_polyline_distance(p: Point, line: list[Point]) -> float:
     if len(line) == 1:
         return math.dist(p, line[0])
-    best = math.inf
-    for (ax, ay), (bx, by) in itertools.pairwise(line):
-        dx, dy = bx - ax, by - ay
-        span = dx * dx + dy * dy
-        t = 0.0 if span == 0.0 else min(1.0, max(0.0, ((p[0] - ax) * dx + (p[1] - ay) * dy) / span))
-        best = min(best, math.hypot(p[0] - ax - t * dx, p[1] - ay - t * dy))
-    return best
+    return min(point_segment_distance(p, a, b) for a, b in itertools.pairwise(line))
 
 
 @contextlib.contextmanager
@@ -126,9 +117,9 @@ def _in_real_time(sim: Simulator) -> Iterator[None]:
 def _wait_for_path_end(link: Link, sim: Simulator, deadline_t: float) -> str:
     """Polls STATUS until the firmware leaves PATH mode: '' when it arrived, else why not."""
     while True:
-        status = firmware.read_status(link)
-        if status.mode != "PATH":
-            return "" if status.has("ARRIVED") else f"the firmware stopped the path (mode {status.mode})"
+        outcome = firmware.read_status(link).path_outcome()
+        if outcome is not None:
+            return outcome
         if sim.truth()["t"] > deadline_t:
             link.call("STOP")
             return "timeout: the mission's time ran out"
@@ -142,7 +133,7 @@ def _drive_like_the_seed(
     x, y, _ = gateway.link.call("POSE")
     m = gateway.settings.map
     waypoints = seed_path(gateway.planner.grid, m.obstacles, (x, y), goal)
-    capacity = gateway.version.waypoint_capacity if gateway.version else 32
+    capacity = gateway.waypoint_capacity
     for first in range(0, len(waypoints), capacity):
         with _in_real_time(sim):
             firmware.upload_path(gateway.link, waypoints[first : first + capacity])
@@ -178,7 +169,7 @@ def _drive_to(
     except PlanError as exc:
         return {**result, "reason": str(exc), "time_s": 0.0, "path_length_m": 0.0}
     result["planned_path"] = [list(p) for p in planned]
-    result["planned_length_m"] = math.fsum(math.dist(p, q) for p, q in itertools.pairwise(planned))
+    result["planned_length_m"] = polyline_length(planned)
     if reason:
         result["reason"] = reason
     else:
@@ -196,7 +187,7 @@ def _drive_to(
         result["time_s"] = sim.truth()["t"] - t_goal
     trace = recorder.samples(truth_mark)
     points = [(x, y) for _, x, y in trace]
-    result["path_length_m"] = math.fsum(math.dist(p, q) for p, q in itertools.pairwise(points))
+    result["path_length_m"] = polyline_length(points)
     result["max_deviation_m"] = max((_point_polyline_distance(p, planned) for p in points), default=0.0)
     result["trace"] = [[round(t, 3), round(x, 4), round(y, 4)] for t, x, y in trace]
     return result

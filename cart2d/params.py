@@ -21,6 +21,14 @@ def settings_table() -> list[dict[str, Any]]:
     return table
 
 
+def setting_id(name: str) -> int:
+    """The stable id of the firmware setting `name`; ValueError if there is none."""
+    for entry in settings_table():
+        if entry["name"] == name:
+            return int(entry["id"])
+    raise ValueError(f"unknown firmware setting {name!r} (config/robot.toml lists them)")
+
+
 def footprint_radius_m() -> float:
     return float(robot()["body"]["footprint_radius_m"])
 

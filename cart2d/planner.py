@@ -35,7 +35,7 @@ import functools
 import itertools
 import math
 import threading
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -192,6 +192,11 @@ def _point_segment_d2(px: float, py: float, ax: float, ay: float, bx: float, by:
     t = 0.0 if length2 == 0.0 else min(max(((px - ax) * dx + (py - ay) * dy) / length2, 0.0), 1.0)
     ex, ey = ax + t * dx - px, ay + t * dy - py
     return ex * ex + ey * ey
+
+
+def point_segment_distance(p: Point, a: Point, b: Point) -> float:
+    """Distance from p to the segment ab."""
+    return math.sqrt(_point_segment_d2(p[0], p[1], a[0], a[1], b[0], b[1]))
 
 
 def _point_box_d2(px: float, py: float, x0: float, x1: float, y0: float, y1: float) -> float:
@@ -766,8 +771,9 @@ class Plan:
     length_m: float
 
 
-def _polyline_length(points: np.ndarray) -> float:
-    steps = np.diff(points, axis=0)
+def polyline_length(points: Sequence[Point] | np.ndarray) -> float:
+    """The length of the polyline through the points (0 for fewer than two)."""
+    steps = np.diff(np.asarray(points, dtype=np.float64).reshape(-1, 2), axis=0)
     return math.fsum(np.hypot(steps[:, 0], steps[:, 1]).tolist())
 
 
@@ -1035,8 +1041,8 @@ def plan_path(graph: GridGraph, start: Point, goal: Point) -> Plan:
         goal=(gx, gy),
         path=points,
         waypoints=waypoints,
-        grid_length_m=_polyline_length(path_m),
-        length_m=_polyline_length(simple),
+        grid_length_m=polyline_length(path_m),
+        length_m=polyline_length(simple),
     )
 
 
