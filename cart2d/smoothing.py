@@ -69,7 +69,7 @@ def _round_one(
 ) -> list[Point]:
     u_in, _ = _unit(before, corner)
     u_out, _ = _unit(corner, after)
-    turn = _turn(before, corner, after)
+    turn = _angle_between(u_in, u_out)
     if turn < MIN_TURN_RAD or turn > math.radians(170.0):
         return [corner]  # nearly straight, or a U-turn better made on the spot
     tan_half = math.tan(turn / 2)
@@ -130,7 +130,10 @@ def round_corners(
     return _joined(chosen, points[-1]) if spare >= 0 else list(waypoints)
 
 
+def _angle_between(u: Point, w: Point) -> float:
+    """The angle between two unit vectors."""
+    return math.acos(max(-1.0, min(1.0, u[0] * w[0] + u[1] * w[1])))
+
+
 def _turn(before: Point, corner: Point, after: Point) -> float:
-    u_in, _ = _unit(before, corner)
-    u_out, _ = _unit(corner, after)
-    return math.acos(max(-1.0, min(1.0, u_in[0] * u_out[0] + u_in[1] * u_out[1])))
+    return _angle_between(_unit(before, corner)[0], _unit(corner, after)[0])
