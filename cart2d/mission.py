@@ -9,7 +9,6 @@ every case; an invalid or unreachable goal is reported with its reason and nothi
 from __future__ import annotations
 
 import contextlib
-import itertools
 import json
 import math
 import sys
@@ -28,7 +27,7 @@ from cart2d.baseline import SEED_SETTINGS, seed_path
 from cart2d.gateway import Gateway
 from cart2d.link import Link, LinkError
 from cart2d.params import robot, setting_id
-from cart2d.planner import Grid, PlanError, Point, point_segment_distance, polyline_length
+from cart2d.planner import Grid, PlanError, Point, point_polyline_distance, polyline_length
 from cart2d.simulator import SimOptions, Simulator
 from cart2d.store import GatewaySettings, MapSettings, Store
 
@@ -94,12 +93,6 @@ class Recorder:
 def _apply_settings(link: Link, settings: dict[str, float]) -> None:
     for name, value in settings.items():
         firmware.write_setting(link, setting_id(name), value)
-
-
-def _point_polyline_distance(p: Point, line: list[Point]) -> float:
-    if len(line) == 1:
-        return math.dist(p, line[0])
-    return min(point_segment_distance(p, a, b) for a, b in itertools.pairwise(line))
 
 
 @contextlib.contextmanager
@@ -188,7 +181,7 @@ def _drive_to(
     trace = recorder.samples(truth_mark)
     points = [(x, y) for _, x, y in trace]
     result["path_length_m"] = polyline_length(points)
-    result["max_deviation_m"] = max((_point_polyline_distance(p, planned) for p in points), default=0.0)
+    result["max_deviation_m"] = max((point_polyline_distance(p, planned) for p in points), default=0.0)
     result["trace"] = [[round(t, 3), round(x, 4), round(y, 4)] for t, x, y in trace]
     return result
 

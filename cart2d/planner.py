@@ -199,6 +199,13 @@ def point_segment_distance(p: Point, a: Point, b: Point) -> float:
     return math.sqrt(_point_segment_d2(p[0], p[1], a[0], a[1], b[0], b[1]))
 
 
+def point_polyline_distance(p: Point, line: Sequence[Point]) -> float:
+    """Distance from p to the nearest point of a polyline (of one point or more)."""
+    if len(line) == 1:
+        return math.dist(p, line[0])
+    return min(point_segment_distance(p, a, b) for a, b in itertools.pairwise(line))
+
+
 def _point_box_d2(px: float, py: float, x0: float, x1: float, y0: float, y1: float) -> float:
     dx = x0 - px if px < x0 else (px - x1 if px > x1 else 0.0)
     dy = y0 - py if py < y0 else (py - y1 if py > y1 else 0.0)
