@@ -52,9 +52,8 @@ from scipy.sparse.csgraph import dijkstra
 from bench.common import Section, section_main, spread, table
 from bench.scenes import scenes as seed_scenes
 from bench.visibility import QUAD_SEGMENTS, node_bounds, true_shortest
-from cart2d import planner as planner_module
 from cart2d.params import planning_radius_m
-from cart2d.planner import DIRECTIONS, Grid, GridGraph, Node, Plan, Planner, Point, Unreachable
+from cart2d.planner import DIRECTIONS, Grid, GridGraph, Node, Plan, Planner, Point, Unreachable, simplify
 
 FULL_SIZES = (10, 20, 50, 100, 200, 500, 1000)
 QUICK_SIZES = (10, 20, 50, 100, 200)
@@ -207,8 +206,7 @@ def measure_ours(result: Result, repeats: int) -> None:
         graph = planner.graph
         path = np.array([graph.grid.to_grid(*p) for p in plan.path])
         t0 = time.perf_counter()
-        kept = planner_module._drop_collinear(path)
-        planner_module._string_pull(graph, path[kept])
+        simplify(graph, path)
         result.simplify_s.append(time.perf_counter() - t0)
     result.plan = plan
     result.grid_m, result.simple_m, result.waypoints = plan.grid_length_m, plan.length_m, len(plan.waypoints)

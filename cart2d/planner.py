@@ -976,6 +976,14 @@ def _taut(graph: GridGraph, points: list[Point]) -> list[Point]:
     return pts
 
 
+def simplify(graph: GridGraph, path_g: FloatArray) -> FloatArray:
+    """A grid path (grid units) with as few corners as stay clear: collinear nodes dropped, the
+    rest string-pulled, then pulled taut off the nodes."""
+    kept = _drop_collinear(path_g)
+    pulled = kept[_string_pull(graph, path_g[kept])]
+    return np.array(_taut(graph, [(float(u), float(v)) for u, v in path_g[pulled]]))
+
+
 def plan_path(graph: GridGraph, start: Point, goal: Point) -> Plan:
     """The shortest grid path from the measured `start` to the exact `goal` (metres), and its
     simplification. Raises OffMap, StartBlocked, GoalBlocked or Unreachable; changes nothing."""
@@ -1036,10 +1044,7 @@ def plan_path(graph: GridGraph, start: Point, goal: Point) -> Plan:
             f"obstacles wall it off for the cart, which keeps {r:g} m from obstacles"
         )
 
-    kept = _drop_collinear(path_g)
-    pulled = kept[_string_pull(graph, path_g[kept])]
-    taut = np.array(_taut(graph, [(float(u), float(v)) for u, v in path_g[pulled]]))
-    simple = np.asarray(grid.origin) + taut * grid.step_m
+    simple = np.asarray(grid.origin) + simplify(graph, path_g) * grid.step_m
     simple[0], simple[-1] = path_m[0], path_m[-1]  # exactly the measured start and the goal
     points = tuple(zip(path_m[:, 0].tolist(), path_m[:, 1].tolist(), strict=True))
     waypoints = tuple(zip(simple[1:, 0].tolist(), simple[1:, 1].tolist(), strict=True))
