@@ -45,15 +45,11 @@ constexpr uint8_t kPacketExpiryTicks = 2;
 constexpr uint8_t kTelemetryRecheckTicks = 25;
 
 void send_telemetry() {
-  if (telemetry_countdown > 1) {
+  // A frame due at a tick that ran the position loop waits for the next tick (countdown 0: one
+  // tick late): the two together made the heaviest ticks (31 % of the tick while turning at
+  // speed). The next one is then due a tick sooner, so the rate stays the set one.
+  if (telemetry_countdown > 1 || (telemetry_countdown == 1 && cart.position_loop_ran())) {
     --telemetry_countdown;
-    return;
-  }
-  // Due. A frame due at a tick that ran the position loop waits for the next tick (0: one tick
-  // late): the two together made the heaviest ticks (31 % of the tick while turning at speed).
-  // The next one is then due a tick sooner, so the rate stays the set one.
-  if (telemetry_countdown == 1 && cart.position_loop_ran()) {
-    telemetry_countdown = 0;
     return;
   }
   const uint8_t late = telemetry_countdown == 0;

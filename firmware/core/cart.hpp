@@ -57,7 +57,9 @@ class Cart {
 
   proto::Mode mode() const { return mode_; }
   // Whether the last tick ran the position loop (every kPositionDivider-th tick in PATH mode).
-  bool position_loop_ran() const { return mode_ == proto::MODE_PATH && position_countdown_ != 0; }
+  bool position_loop_ran() const {
+    return mode_ == proto::MODE_PATH && position_countdown_ == kPositionDivider - 1;
+  }
   uint16_t flags() const;
   const Odometry& odometry() const { return odometry_; }
   const Path& path() const { return path_; }

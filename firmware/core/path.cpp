@@ -75,8 +75,7 @@ float Path::pass_radius(float tol_pass_m, float tol_final_m) const {
 
 bool Path::passed(const Pose& pose) const {
   const Point& here = points_[index_];
-  const Point& from = previous();
-  return (pose.x_m - here.x_m) * (here.x_m - from.x_m) + (pose.y_m - here.y_m) * (here.y_m - from.y_m) > 0.0f;
+  return (pose.x_m - here.x_m) * dir_.x_m + (pose.y_m - here.y_m) * dir_.y_m > 0.0f;
 }
 
 Approach Path::approach(float v_max_mps) const {
