@@ -124,6 +124,14 @@ class SettingIn(Strict):
     value: Number
 
 
+async def read_body(request: Request) -> bytes:
+    """The request's body, or 413 when over MAX_BODY_BYTES (a chunked body has no Content-Length)."""
+    body = await request.body()
+    if len(body) > MAX_BODY_BYTES:
+        raise HTTPException(413, f"request body over {MAX_BODY_BYTES} bytes")
+    return body
+
+
 def is_loopback(host: str) -> bool:
     if host == "localhost":
         return True
@@ -343,9 +351,7 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
         },
     )
     async def update_firmware(request: Request) -> dict[str, object]:
-        body = await request.body()
-        if len(body) > MAX_BODY_BYTES:
-            raise HTTPException(413, f"request body over {MAX_BODY_BYTES} bytes")
+        body = await read_body(request)
         try:
             return gateway.flasher.start(body).view()
         except ValueError as exc:
@@ -390,9 +396,7 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
         },
     )
     async def import_settings(request: Request) -> dict[str, Any]:
-        body = await request.body()
-        if len(body) > MAX_BODY_BYTES:
-            raise HTTPException(413, f"request body over {MAX_BODY_BYTES} bytes")
+        body = await read_body(request)
         try:
             imported = parse_settings(body)
             # a new planner for the map: up to half a second for a 1000 x 1000 grid, so off the event loop

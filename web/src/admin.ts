@@ -2,23 +2,13 @@
 // (download and upload) and the firmware update (upload a .hex, follow its job to the end).
 
 import { api, Raw, type GatewaySettings, type UpdateJob } from "./api";
+import { byId, say } from "./dom";
 import type { PanelContext } from "./tuning";
 
 const MAX_BYTES = 256 * 1024; // the gateway's largest request body
 
-function byId<T extends HTMLElement>(id: string): T {
-  const found = document.getElementById(id);
-  if (!found) throw new Error(`the page has no #${id}`);
-  return found as T;
-}
-
-function say(out: HTMLOutputElement, text: string, error = false): void {
-  out.textContent = text;
-  out.className = error ? "form-msg form-error" : "form-msg";
-}
-
 /** The host and port typed, or a sentence saying what is wrong with them. */
-export function checkNetwork(host: string, port: string): { host: string; port: number } | { error: string } {
+function checkNetwork(host: string, port: string): { host: string; port: number } | { error: string } {
   const h = host.trim();
   if (h === "") return { error: "The host is empty: type an address such as 127.0.0.1 or 0.0.0.0." };
   if (h.length > 253 || /[\s/]/.test(h)) return { error: `The host “${h}” is not an address or host name.` };

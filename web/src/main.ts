@@ -20,14 +20,9 @@ import { Joystick, type Stick } from "./joystick";
 import { LiveMap } from "./map";
 import { parseNumber } from "./parse";
 import { GatewayPanel } from "./admin";
+import { byId as $, say } from "./dom";
 import { LivePlots } from "./plots";
 import { StepResponse, Tuning, type PanelContext } from "./tuning";
-
-function $<T extends HTMLElement = HTMLElement>(id: string): T {
-  const el = document.getElementById(id);
-  if (!el) throw new Error(`the page has no #${id}`);
-  return el as T;
-}
 
 // -- messages ----------------------------------------------------------------------------------
 const messages = $("messages");
@@ -68,17 +63,18 @@ let tokenRefused = false; // the live stream was refused for the token: wait for
 function showTokenForm(): void {
   tokenForm.hidden = false;
 }
-function sayToken(text: string, error: boolean): void {
-  tokenMsg.textContent = text;
-  tokenMsg.className = error ? "form-msg form-error" : "form-msg";
+
+/** The URL of the gateway's live stream, with `accessToken` if there is one. */
+function wsUrl(accessToken: string | null): string {
+  const proto = location.protocol === "https:" ? "wss:" : "ws:";
+  return `${proto}//${location.host}/ws${accessToken ? `?token=${encodeURIComponent(accessToken)}` : ""}`;
 }
 
 /** Whether the gateway takes `value`: a WebSocket with it opens. The gateway refuses one before
  * accepting it, which a browser sees as a failed handshake (403, close code 1006), not as 1008. */
 function checkToken(value: string): Promise<"ok" | "refused" | "unreachable"> {
   return new Promise((done) => {
-    const proto = location.protocol === "https:" ? "wss:" : "ws:";
-    const ws = new WebSocket(`${proto}//${location.host}/ws?token=${encodeURIComponent(value)}`);
+    const ws = new WebSocket(wsUrl(value));
     const timer = window.setTimeout(() => {
       done("unreachable");
       ws.close();
@@ -100,23 +96,23 @@ tokenForm.addEventListener("submit", (e) => {
   const input = tokenForm.elements.namedItem("token") as HTMLInputElement;
   const value = input.value.trim();
   if (value.length < 16) {
-    sayToken("The access token is at least 16 characters: copy it from the gateway's terminal.", true);
+    say(tokenMsg, "The access token is at least 16 characters: copy it from the gateway's terminal.", true);
     return;
   }
-  sayToken("Checking the token…", false);
+  say(tokenMsg, "Checking the token…");
   void checkToken(value).then((verdict) => {
     if (verdict === "refused") {
       input.value = "";
-      sayToken("That is not this gateway's access token: copy it from the terminal where cart2d runs.", true);
+      say(tokenMsg, "That is not this gateway's access token: copy it from the terminal where cart2d runs.", true);
       return;
     }
     if (verdict === "unreachable") {
-      sayToken("The gateway cannot be reached to check the token: try again.", true);
+      say(tokenMsg, "The gateway cannot be reached to check the token: try again.", true);
       return;
     }
     setToken(value);
     input.value = "";
-    sayToken("", false);
+    say(tokenMsg, "");
     tokenForm.hidden = true;
     notify("Token accepted and saved in this browser: changes are allowed now.", "info");
     tokenRefused = false;
@@ -126,7 +122,7 @@ tokenForm.addEventListener("submit", (e) => {
 });
 $("token-later").addEventListener("click", () => {
   tokenForm.hidden = true;
-  sayToken("", false);
+  say(tokenMsg, "");
 });
 
 // -- status bar --------------------------------------------------------------------------------
@@ -196,10 +192,6 @@ const liveMap = new LiveMap(canvas, (world, node) => void mapClick(world, node))
 let mapMode: MapMode = "obstacle";
 let missionState = "";
 
-function mode(): MapMode {
-  return mapMode;
-}
-
 for (const radio of document.querySelectorAll<HTMLInputElement>('input[name="map-mode"]')) {
   radio.addEventListener("change", () => {
     if (!radio.checked) return;
@@ -222,7 +214,7 @@ async function loadMap(): Promise<void> {
 }
 
 async function mapClick(world: Point, node: Point | null): Promise<void> {
-  if (mode() === "goto") {
+  if (mapMode === "goto") {
     await goTo(Math.round(world[0] * 1000) / 1000, Math.round(world[1] * 1000) / 1000);
     return;
   }
@@ -240,15 +232,13 @@ async function mapClick(world: Point, node: Point | null): Promise<void> {
 
 const gotoMsg = $<HTMLOutputElement>("goto-msg");
 async function goTo(x: number, y: number): Promise<void> {
-  gotoMsg.textContent = `Planning to (${x.toFixed(2)}, ${y.toFixed(2)})…`;
-  gotoMsg.className = "form-msg";
+  say(gotoMsg, `Planning to (${x.toFixed(2)}, ${y.toFixed(2)})…`);
   try {
     const plan = await api<{ length_m: number; waypoints: Point[] }>("POST", "/api/goto", { x, y });
     gotoMsg.textContent = `Driving to (${x.toFixed(2)}, ${y.toFixed(2)}): ${plan.length_m.toFixed(2)} m, ${plan.waypoints.length} waypoints.`;
   } catch (err) {
     const text = errorText(err);
-    gotoMsg.textContent = text;
-    gotoMsg.className = "form-msg form-error";
+    say(gotoMsg, text, true);
     notify(text);
   }
 }
@@ -261,8 +251,7 @@ gotoForm.addEventListener("submit", (e) => {
   const y = parseNumber(field("y"), "y");
   const bad = [x, y].find((p) => !p.ok);
   if (bad && !bad.ok) {
-    gotoMsg.textContent = bad.message;
-    gotoMsg.className = "form-msg form-error";
+    say(gotoMsg, bad.message, true);
     return;
   }
   if (x.ok && y.ok) void goTo(x.value, y.value);
@@ -340,9 +329,7 @@ function onMessage(msg: LiveMessage): void {
 }
 
 function connect(): void {
-  const proto = location.protocol === "https:" ? "wss:" : "ws:";
-  const t = token();
-  const ws = new WebSocket(`${proto}//${location.host}/ws${t ? `?token=${encodeURIComponent(t)}` : ""}`);
+  const ws = new WebSocket(wsUrl(token()));
   live = ws;
   let opened = false;
   ws.addEventListener("open", () => {
@@ -606,22 +593,19 @@ cmdForm.addEventListener("submit", (e) => {
   e.preventDefault();
   const c = selected();
   if (!c) {
-    cmdMsg.textContent = "Pick a command first.";
-    cmdMsg.className = "form-msg form-error";
+    say(cmdMsg, "Pick a command first.", true);
     return;
   }
   const parsed = commandArgs(c);
   if ("error" in parsed) {
-    cmdMsg.textContent = parsed.error;
-    cmdMsg.className = "form-msg form-error";
+    say(cmdMsg, parsed.error, true);
     return;
   }
   void sendCommand(c, parsed.args);
 });
 
 async function sendCommand(c: ProtocolCommand, args: number[]): Promise<void> {
-  cmdMsg.textContent = `Sending ${c.name}…`;
-  cmdMsg.className = "form-msg";
+  say(cmdMsg, `Sending ${c.name}…`);
   try {
     const reply = await api<CommandReply>("POST", "/api/command", { name: c.name, args });
     $("cmd-status").textContent = reply.status;
@@ -636,9 +620,7 @@ async function sendCommand(c: ProtocolCommand, args: number[]): Promise<void> {
     $("cmd-message").textContent = reply.message || "–";
     cmdMsg.textContent = `${c.name} answered.`;
   } catch (err) {
-    const text = errorText(err);
-    cmdMsg.textContent = text;
-    cmdMsg.className = "form-msg form-error";
+    say(cmdMsg, errorText(err), true);
   }
 }
 

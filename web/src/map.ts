@@ -8,6 +8,7 @@
 // draws ("x_min y_min x_max y_max", metres), all inside the drawn extent.
 
 import type { Arena, MapView, Plan, Point } from "./api";
+import { cssVar } from "./dom";
 
 export interface Pose {
   x: number;
@@ -19,11 +20,6 @@ const TRAIL_MAX = 3000;
 const TRAIL_MIN_STEP_M = 0.004;
 const PAD_M = 0.3; // room around the nodes when the gateway gives no walls
 const WALL_PAD_M = 0.04; // room outside the walls for their line width
-
-function cssVar(name: string, fallback: string): string {
-  const v = getComputedStyle(document.documentElement).getPropertyValue(name).trim();
-  return v || fallback;
-}
 
 export class LiveMap {
   map: MapView | null = null;
@@ -182,15 +178,16 @@ export class LiveMap {
     ctx.clearRect(0, 0, cssW, cssH);
     const m = this.map;
     const s = this.scale;
+    const css = getComputedStyle(document.documentElement); // once per draw: dark mode changes it
     const colors = {
-      node: cssVar("--map-node", "#9aa4b2"),
-      obstacle: cssVar("--map-obstacle", "#333"),
-      keepout: cssVar("--map-keepout", "rgba(200,60,60,0.12)"),
-      path: cssVar("--map-path", "#2a9d8f"),
-      robot: cssVar("--map-robot", "#1d4ed8"),
-      truth: cssVar("--map-truth", "#e76f51"),
-      border: cssVar("--map-border", "#cbd5e1"),
-      wall: cssVar("--map-wall", "#475569"),
+      node: cssVar("--map-node", "#9aa4b2", css),
+      obstacle: cssVar("--map-obstacle", "#333", css),
+      keepout: cssVar("--map-keepout", "rgba(200,60,60,0.12)", css),
+      path: cssVar("--map-path", "#2a9d8f", css),
+      robot: cssVar("--map-robot", "#1d4ed8", css),
+      truth: cssVar("--map-truth", "#e76f51", css),
+      border: cssVar("--map-border", "#cbd5e1", css),
+      wall: cssVar("--map-wall", "#475569", css),
     };
 
     if (m) {

@@ -1,7 +1,7 @@
 // Numbers typed by a person: refused in the page, with a sentence, before anything is sent.
 
 /** The protocol's range (docs/protocol.md): finite, magnitude below 2^20. */
-export const LIMIT = 1048576;
+const LIMIT = 1048576;
 
 const NUMBER = /^[+-]?(\d+\.?\d*|\.\d+)(e[+-]?\d+)?$/i;
 

@@ -5,6 +5,7 @@
 import uPlot from "uplot";
 import "uplot/dist/uPlot.min.css";
 import type { Telemetry } from "./api";
+import { cssVar } from "./dom";
 
 const HEIGHT = 230;
 const CAPACITY = 50 * 120; // two minutes at the firmware's fastest telemetry rate
@@ -28,10 +29,9 @@ export class LivePlots {
 
   constructor(wheels: HTMLElement, body: HTMLElement, pwm: HTMLElement, distance: HTMLElement) {
     const css = getComputedStyle(document.documentElement);
-    const c = (name: string, fallback: string): string => css.getPropertyValue(name).trim() || fallback;
-    const left = c("--plot-a", "#1d4ed8");
-    const right = c("--plot-b", "#e76f51");
-    const axis = { stroke: c("--fg-muted", "#667"), grid: { stroke: c("--grid", "rgba(128,128,128,0.2)") } };
+    const left = cssVar("--plot-a", "#1d4ed8", css);
+    const right = cssVar("--plot-b", "#e76f51", css);
+    const axis = axisStyle(css);
     this.charts.push(
       this.chart(wheels, "wheel speed (m/s)", [
         ["v_left", "left", left, false],
@@ -109,11 +109,6 @@ export class LivePlots {
     }
   }
 
-  /** How many frames are recorded (the last two minutes at most). */
-  get recorded(): number {
-    return this.frames.length;
-  }
-
   /** Everything recorded, as CSV: the page's time, then every telemetry field (tick included). */
   csv(): string {
     const first = this.frames[0];
@@ -149,6 +144,14 @@ export class LivePlots {
       plot.setData(data);
     }
   }
+}
+
+/** The axes' and grid's colours of a uPlot chart, from the page's computed `style`. */
+export function axisStyle(style: CSSStyleDeclaration): uPlot.Axis {
+  return {
+    stroke: cssVar("--fg-muted", "#667", style),
+    grid: { stroke: cssVar("--grid", "rgba(128,128,128,0.2)", style) },
+  };
 }
 
 /** A y range that shows a flat line near zero as ±0.1 rather than uPlot's 0..100. */

@@ -4,7 +4,9 @@
 
 import uPlot from "uplot";
 import { api, type FirmwareSetting, type Telemetry } from "./api";
+import { byId, cssVar, say } from "./dom";
 import { parseNumber } from "./parse";
+import { axisStyle } from "./plots";
 
 export interface PanelContext {
   notify(text: string, kind?: "error" | "info"): void;
@@ -29,21 +31,11 @@ export class Tuning {
     root: HTMLElement,
     private readonly ctx: PanelContext,
   ) {
-    const q = <T extends HTMLElement>(sel: string): T => {
-      const found = root.querySelector<T>(sel);
-      if (!found) throw new Error(`the tuning panel has no ${sel}`);
-      return found;
-    };
-    this.table = q("#tune-table");
-    this.msg = q<HTMLOutputElement>("#tune-msg");
-    q("#tune-save").addEventListener("click", () => void this.eeprom("save"));
-    q("#tune-load").addEventListener("click", () => void this.eeprom("load"));
-    q("#tune-reload").addEventListener("click", () => void this.load());
-  }
-
-  private say(text: string, error = false): void {
-    this.msg.textContent = text;
-    this.msg.className = error ? "form-msg form-error" : "form-msg";
+    this.table = byId("tune-table", root);
+    this.msg = byId<HTMLOutputElement>("tune-msg", root);
+    byId("tune-save", root).addEventListener("click", () => void this.eeprom("save"));
+    byId("tune-load", root).addEventListener("click", () => void this.eeprom("load"));
+    byId("tune-reload", root).addEventListener("click", () => void this.load());
   }
 
   /** A firmware setting's value as last read or applied, if the table is loaded. */
@@ -55,7 +47,7 @@ export class Tuning {
     try {
       this.settings = await api<FirmwareSetting[]>("GET", "/api/firmware/settings");
     } catch (err) {
-      this.say(this.ctx.errorText(err), true);
+      say(this.msg, this.ctx.errorText(err), true);
       return;
     }
     this.table.replaceChildren(...this.settings.map((s) => this.row(s)));
@@ -93,12 +85,12 @@ export class Tuning {
   private async apply(s: FirmwareSetting, input: HTMLInputElement): Promise<void> {
     const p = parseNumber(input.value, s.name);
     if (!p.ok) {
-      this.say(p.message, true);
+      say(this.msg, p.message, true);
       input.setAttribute("aria-invalid", "true");
       return;
     }
     if (p.value < s.min || p.value > s.max) {
-      this.say(`${s.name} must be between ${show(s.min)} and ${show(s.max)} ${s.unit}: ${show(p.value)} is out of range.`, true);
+      say(this.msg, `${s.name} must be between ${show(s.min)} and ${show(s.max)} ${s.unit}: ${show(p.value)} is out of range.`, true);
       input.setAttribute("aria-invalid", "true");
       return;
     }
@@ -107,10 +99,10 @@ export class Tuning {
       const reply = await api<{ value: number }>("PUT", "/api/firmware/settings", { id: s.id, value: p.value });
       s.value = reply.value;
       input.value = show(reply.value);
-      this.say(`${s.name} = ${show(reply.value)} ${s.unit} (applied; “Save to EEPROM” keeps it after a reset).`);
+      say(this.msg, `${s.name} = ${show(reply.value)} ${s.unit} (applied; “Save to EEPROM” keeps it after a reset).`);
     } catch (err) {
       input.setAttribute("aria-invalid", "true");
-      this.say(this.ctx.errorText(err), true);
+      say(this.msg, this.ctx.errorText(err), true);
     }
   }
 
@@ -118,11 +110,11 @@ export class Tuning {
     try {
       await api("POST", `/api/firmware/${what}`);
     } catch (err) {
-      this.say(this.ctx.errorText(err), true);
+      say(this.msg, this.ctx.errorText(err), true);
       return;
     }
     if (what === "load") await this.load();
-    this.say(what === "save" ? "Settings saved to EEPROM." : "Settings loaded from EEPROM.");
+    say(this.msg, what === "save" ? "Settings saved to EEPROM." : "Settings loaded from EEPROM.");
   }
 }
 
@@ -144,12 +136,9 @@ export class StepResponse {
     private readonly root: HTMLElement,
     private readonly ctx: PanelContext,
   ) {
-    const button = root.querySelector<HTMLButtonElement>("#step-run");
-    const msg = root.querySelector<HTMLOutputElement>("#step-msg");
-    if (!button || !msg) throw new Error("the step response has no #step-run or #step-msg");
-    this.button = button;
-    this.msg = msg;
-    button.addEventListener("click", () => void this.run());
+    this.button = byId<HTMLButtonElement>("step-run", root);
+    this.msg = byId<HTMLOutputElement>("step-msg", root);
+    this.button.addEventListener("click", () => void this.run());
   }
 
   get running(): boolean {
@@ -176,8 +165,7 @@ export class StepResponse {
     if (this.running) return;
     this.root.dataset["step"] = "running";
     this.button.disabled = true;
-    this.msg.className = "form-msg";
-    this.msg.textContent = `Driving straight at ${STEP_V} m/s for ${STEP_S} s…`;
+    say(this.msg, `Driving straight at ${STEP_V} m/s for ${STEP_S} s…`);
     this.recording = { t0: performance.now(), t: [], left: [], right: [], target: [] };
     const started = performance.now();
     const send = async (v: number): Promise<boolean> => {
@@ -186,8 +174,7 @@ export class StepResponse {
         return true;
       } catch (err) {
         this.cancel();
-        this.msg.className = "form-msg form-error";
-        this.msg.textContent = this.ctx.errorText(err);
+        say(this.msg, this.ctx.errorText(err), true);
         return false;
       }
     };
@@ -238,8 +225,7 @@ export class StepResponse {
       return;
     }
     const css = getComputedStyle(document.documentElement);
-    const c = (name: string, fallback: string): string => css.getPropertyValue(name).trim() || fallback;
-    const axis = { stroke: c("--fg-muted", "#667"), grid: { stroke: c("--grid", "rgba(128,128,128,0.2)") } };
+    const axis = axisStyle(css);
     this.plot = new uPlot(
       {
         title: "step response: wheel speed (m/s)",
@@ -249,9 +235,9 @@ export class StepResponse {
         axes: [{ ...axis, label: "s" }, { ...axis }],
         series: [
           { label: "t (s)" },
-          { label: "left", stroke: c("--plot-a", "#1d4ed8"), width: 2, points: { show: false } },
-          { label: "right", stroke: c("--plot-b", "#e76f51"), width: 2, points: { show: false } },
-          { label: "target", stroke: c("--fg-muted", "#667"), width: 1, dash: [6, 4], points: { show: false } },
+          { label: "left", stroke: cssVar("--plot-a", "#1d4ed8", css), width: 2, points: { show: false } },
+          { label: "right", stroke: cssVar("--plot-b", "#e76f51", css), width: 2, points: { show: false } },
+          { label: "target", stroke: cssVar("--fg-muted", "#667", css), width: 1, dash: [6, 4], points: { show: false } },
         ],
       },
       data,
