@@ -17,7 +17,7 @@ from cart2d.link import Link
 from cart2d.server import MAX_BODY_BYTES, create_app
 from cart2d.simulator import Simulator, SimulatorError
 from cart2d.store import Store
-from tests.conftest import start_sim, wait_for
+from tests.conftest import run_for, start_sim, wait_for
 
 JSON = {"content-type": "application/json"}
 
@@ -173,6 +173,9 @@ def test_emergency_stop_halts_a_moving_robot(rig: Rig) -> None:
     assert rig.client.post("/api/stop").status_code == 200
     mission = rig.client.get("/api/mission").json()
     assert mission["state"] == "failed" and "stopped" in mission["reason"]
+    # The firmware replies to STOP at once and sets the motors at its next control tick (8 ms):
+    # read them after that tick, not in the race before it (seen on a loaded machine).
+    run_for(rig.sim, 0.008)
     truth = rig.sim.truth()
     assert truth["duty_l"] == 0.0 and truth["duty_r"] == 0.0
 
