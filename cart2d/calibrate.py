@@ -83,9 +83,6 @@ class Corrections:
     radius_m: float  # R: the radius the straight sides curve on (inf: straight)
     e_d: float  # D_R/D_L: true diameter ratio relative to the one the odometry assumed
     e_b: float  # true over assumed wheelbase
-    centroid_cw: Point
-    centroid_ccw: Point
-    e_max_syst_m: float
     geometry: Geometry  # the corrected one
 
 
@@ -145,9 +142,6 @@ def umbmark_corrections(
         radius_m=radius,
         e_d=e_d,
         e_b=e_b,
-        centroid_cw=(x_cw, y_cw),
-        centroid_ccw=(x_ccw, y_ccw),
-        e_max_syst_m=e_max_syst(cw, ccw),
         geometry=corrected,
     )
 
@@ -201,16 +195,11 @@ class Runner(Protocol):
 
 
 def _wait_arrived(link: Link, expired: Callable[[], bool], poll_s: float) -> None:
-    while True:
-        status = firmware.read_status(link)
-        outcome = status.path_outcome()
-        if outcome == "":
-            return
-        if outcome is not None:
-            raise RunError(f"the cart stopped before the corner ({', '.join(status.flags) or 'STOP'})")
-        if expired():
-            raise RunError("the square took too long: stopped")
-        time.sleep(poll_s)
+    status = firmware.wait_path_end(link, expired, poll_s)
+    if status is None:
+        raise RunError("the square took too long: stopped")
+    if status.path_outcome():
+        raise RunError(f"the cart stopped before the corner ({', '.join(status.flags) or 'STOP'})")
 
 
 def _wrap(angle: float) -> float:
@@ -349,7 +338,7 @@ def setting_ids() -> tuple[int, int, int]:
 
 
 def read_geometry(link: Link) -> Geometry:
-    left, right, track = (link.call("PARAM_GET", i)[1] for i in setting_ids())
+    left, right, track = (firmware.read_setting(link, i) for i in setting_ids())
     return Geometry(left, right, track)
 
 
@@ -474,7 +463,7 @@ def calibrate(
         m = measure(runner, geometry, n, say, f"pass {k + 1}/{passes}")
         c = umbmark_corrections(m.cw, m.ccw, side_m, geometry, axes)
         say(
-            f"pass {k + 1}: E_max,syst {c.e_max_syst_m * 1e3:.1f} mm; "
+            f"pass {k + 1}: E_max,syst {m.e_max_syst_m() * 1e3:.1f} mm; "
             f"alpha {math.degrees(c.alpha_rad):+.3f} deg, beta {math.degrees(c.beta_rad):+.3f} deg "
             f"-> E_d {c.e_d:.5f}, E_b {c.e_b:.5f}"
         )

@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
-import time
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -41,17 +40,12 @@ def _settings(store: Store, args: argparse.Namespace) -> GatewaySettings:
 
 def _connect(gateway: Gateway, wait_s: float) -> None:
     """Checks the firmware once it answers (a Nano resets when its port opens: give it time)."""
-    deadline = time.monotonic() + wait_s
-    while True:
-        try:
-            version = gateway.check_firmware()
-            log.info("firmware %s on %s", version.firmware, gateway.link.port)
-            return
-        except LinkError as exc:
-            if time.monotonic() > deadline:
-                log.warning("%s; the gateway starts anyway and keeps trying", exc)
-                return
-            time.sleep(0.5)
+    try:
+        version = gateway.wait_for_firmware(wait_s, 0.5)
+    except LinkError as exc:
+        log.warning("%s; the gateway starts anyway and keeps trying", exc)
+        return
+    log.info("firmware %s on %s", version.firmware, gateway.link.port)
 
 
 def _serve(gateway: Gateway, settings: GatewaySettings) -> None:

@@ -3,7 +3,8 @@ status, settings by stable id, path uploads split into frames. Built on a Link."
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from cart2d.link import Link, LinkError
@@ -58,8 +59,25 @@ class Status:
         return f"the firmware stopped the path (mode {self.mode})"
 
 
+def wait_path_end(link: Link, expired: Callable[[], bool], poll_s: float) -> Status | None:
+    """Polls STATUS until the firmware leaves PATH mode and returns that status (its
+    path_outcome() says how the path ended); None once expired() says the time is up."""
+    while True:
+        status = read_status(link)
+        if status.path_outcome() is not None:
+            return status
+        if expired():
+            return None
+        time.sleep(poll_s)
+
+
 def flag_names(word: int) -> list[str]:
     return [name for name, bit in load_spec().flags.items() if word & bit]
+
+
+def mode_name(code: int) -> str:
+    """The firmware mode's name from the specification; "mode N" for a code it lacks."""
+    return load_spec().modes.get(code, f"mode {code}")
 
 
 def read_version(link: Link) -> Version:
@@ -92,7 +110,7 @@ def read_status(link: Link) -> Status:
     spec = load_spec()
     last_error = int(r[11])
     return Status(
-        mode=spec.modes.get(int(r[0]), f"mode {int(r[0])}"),
+        mode=mode_name(int(r[0])),
         flags=flag_names(int(r[1])),
         waypoint_index=int(r[2]),
         waypoint_count=int(r[3]),
@@ -111,9 +129,13 @@ def read_settings(link: Link) -> list[dict[str, object]]:
     """Every firmware setting with its current value, range and unit (from robot.toml)."""
     out: list[dict[str, object]] = []
     for entry in settings_table():
-        _, value, _low, _high = link.call("PARAM_GET", entry["id"])
-        out.append({**entry, "value": value})
+        out.append({**entry, "value": read_setting(link, entry["id"])})
     return out
+
+
+def read_setting(link: Link, setting_id: int) -> float:
+    _, value, _low, _high = link.call("PARAM_GET", setting_id)
+    return value
 
 
 def write_setting(link: Link, setting_id: int, value: float) -> float:

@@ -20,7 +20,6 @@ from cart2d.planner import Grid, Plan, PlanError, Planner, polyline_length
 from cart2d.protocol import Telemetry
 from cart2d.simulator import Simulator
 from cart2d.smoothing import round_corners
-from cart2d.spec import load_spec
 from cart2d.store import GatewaySettings, MapSettings, Store
 
 log = logging.getLogger(__name__)
@@ -74,15 +73,20 @@ class Gateway:
         self._monitor.join(timeout=2.0)
 
     def _check_after_update(self) -> None:
-        deadline = time.monotonic() + 10.0
-        while True:  # the MCU may still be starting (bootloader, simulator start-up)
+        self.wait_for_firmware(10.0, 0.2)
+
+    def wait_for_firmware(self, wait_s: float, poll_s: float) -> firmware.Version:
+        """check_firmware(), retried every poll_s while the MCU may still be starting
+        (bootloader, simulator start-up, a Nano's reset on opening its port); raises its
+        LinkError once wait_s have passed."""
+        deadline = time.monotonic() + wait_s
+        while True:
             try:
-                self.check_firmware()
-                return
+                return self.check_firmware()
             except LinkError:
                 if time.monotonic() > deadline:
                     raise
-                time.sleep(0.2)
+                time.sleep(poll_s)
 
     def check_firmware(self) -> firmware.Version:
         """Reads the firmware's version and refuses an incompatible one."""
@@ -112,7 +116,7 @@ class Gateway:
 
     def _on_telemetry(self, t: Telemetry) -> None:
         data = asdict(t)
-        data["mode_name"] = load_spec().modes.get(t.mode, str(t.mode))
+        data["mode_name"] = firmware.mode_name(t.mode)
         data["flag_names"] = firmware.flag_names(t.flags)
         self._publish({"type": "telemetry", **data})
 
@@ -128,7 +132,7 @@ class Gateway:
         with self._lock:
             g = self.planner.grid
             margin = float(robot()["sim"]["arena_margin_m"])  # walls outside the grid (the brief)
-            width, height = (g.cols - 1) * g.step_m, (g.rows - 1) * g.step_m
+            width, height = g.size_m
             return {
                 "cols": g.cols,
                 "rows": g.rows,

@@ -109,14 +109,11 @@ def _in_real_time(sim: Simulator) -> Iterator[None]:
 
 def _wait_for_path_end(link: Link, sim: Simulator, deadline_t: float) -> str:
     """Polls STATUS until the firmware leaves PATH mode: '' when it arrived, else why not."""
-    while True:
-        outcome = firmware.read_status(link).path_outcome()
-        if outcome is not None:
-            return outcome
-        if sim.truth()["t"] > deadline_t:
-            link.call("STOP")
-            return "timeout: the mission's time ran out"
-        time.sleep(0.005)
+    status = firmware.wait_path_end(link, lambda: sim.truth()["t"] > deadline_t, 0.005)
+    if status is None:
+        link.call("STOP")
+        return "timeout: the mission's time ran out"
+    return status.path_outcome() or ""
 
 
 def _drive_like_the_seed(

@@ -35,7 +35,7 @@ import functools
 import itertools
 import math
 import threading
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -510,14 +510,6 @@ class GridGraph:
         if move not in DIRECTIONS:
             return False
         return bool(int(self.edges[self.grid.index(*a)]) >> DIRECTIONS.index(move) & 1)
-
-    def neighbours(self, index: int) -> Iterator[tuple[int, float]]:
-        """(node index, edge length in metres) of every edge of the node."""
-        mask = int(self.edges[index])
-        cols, step = self.grid.cols, self.grid.step_m
-        for d, (di, dj) in enumerate(DIRECTIONS):
-            if mask >> d & 1:
-                yield index + di + dj * cols, step * (SQRT2 if di and dj else 1.0)
 
     # geometry queries (metres)
 
