@@ -47,7 +47,7 @@ from cart2d.params import robot
 from cart2d.protocol import Decoder, Reply, Telemetry, decode_reply, encode_request
 from cart2d.simulator import SimOptions, Simulator, default_firmware
 from cart2d.spec import load_spec, repo_file
-from tools.firmware_size import FLASH_BUDGET, RAM_BUDGET, RAM_TOTAL, sections
+from tools.firmware_size import CHIP_FLASH, FLASH_BUDGET, RAM_BUDGET, RAM_TOTAL, sections, usage
 
 NAME = "firmware"
 F_CPU = int(robot()["control"]["f_cpu_hz"])
@@ -56,20 +56,22 @@ PERIOD = F_CPU // TICK_HZ  # cycles per control tick: 128 000
 TIMER2_PRESCALER = 1024  # firmware/board/tick_timer.cpp: clk/1024
 CPU_MEAN_BUDGET = 0.15
 CPU_MAX_BUDGET = 0.30
-CHIP_FLASH = 32 * 1024
 OPTIBOOT = 512  # the Nano's (new) bootloader at the top of the flash
 ENC_STATE_M = (
     2 * math.pi * float(robot()["encoders"]["radius_m"]) / (4 * int(robot()["encoders"]["pulses_per_rev"]))
 )
 RESPONSE_CYCLES = 4  # ATmega328P datasheet, "Interrupt Response Time": 4 cycles to enter a handler
+TICK_VECTOR = 7
 VECTORS = {
     1: "INT0 (left encoder)",
     2: "INT1 (right encoder)",
-    7: "TIMER2_COMPA (tick)",
+    TICK_VECTOR: "TIMER2_COMPA (tick)",
     18: "USART_RX",
     19: "USART_UDRE",
 }
-BACKGROUND_VECTORS = (1, 2, 18, 19)  # their load follows the wheels and the link, not the tick rate
+# the background interrupts, whose load follows the wheels and the link, not the tick rate: the
+# field of Step that counts each one's invocations
+BACKGROUND_COUNTERS = {1: "int0", 2: "int1", 18: "rx", 19: "tx"}
 
 SQUARE = [(1.6, 0.0), (1.6, 1.6), (0.0, 1.6), (0.0, 0.0)]
 
@@ -385,16 +387,24 @@ def calls_out(elf: Path, s: Symbol) -> bool:
     return re.search(r"\s(r|e|i)?call\b", out) is not None
 
 
+def invocations(table: dict[int, tuple[str, int]], profile: list[list[int]]) -> dict[int, float]:
+    """Vector number -> invocations of its handler in the profile: the cycles of the vector
+    table's jump, which executes once per invocation, over the jump's cycles."""
+    by_address = {a: c for a, c in profile}
+    return {vector: by_address.get(4 * vector, 0) / jump_cycles for vector, (_, jump_cycles) in table.items()}
+
+
 def isr_costs(elf: Path, profile: list[list[int]]) -> tuple[dict[int, float], list[str]]:
     """Cycles per invocation of each interrupt handler seen in the profile: the vector table's
     jump, the handler's own instructions and the 4-cycle interrupt response; and the handlers
     that call functions (whose cycles are then left out)."""
-    by_address = {a: c for a, c in profile}
     ranges = {s.name: s for s in symbols(elf)}
     costs: dict[int, float] = {}
     calling: list[str] = []
-    for vector, (handler, jump_cycles) in vector_table(elf).items():
-        count = by_address.get(4 * vector, 0) / jump_cycles
+    jumps = vector_table(elf)
+    counts = invocations(jumps, profile)
+    for vector, (handler, jump_cycles) in jumps.items():
+        count = counts[vector]
         s = ranges.get(handler)
         if count < 1 or s is None:
             continue
@@ -457,8 +467,10 @@ def measure_run(k: int, with_profile: bool, probe: Probe | None = None) -> Run:
 
 def isr_load(step: Step, costs: dict[int, float]) -> float:
     """The background interrupts' share of this step's cycles."""
-    counts = {1: step.int0, 2: step.int1, 18: step.rx, 19: step.tx}
-    return sum(counts[v] * costs.get(v, 0.0) for v in BACKGROUND_VECTORS) / PERIOD
+    return (
+        sum(int(getattr(step, counter)) * costs.get(v, 0.0) for v, counter in BACKGROUND_COUNTERS.items())
+        / PERIOD
+    )
 
 
 def is_straight(s: Step) -> bool:
@@ -499,8 +511,8 @@ def summarize(run: Run, costs: dict[int, float]) -> RunSummary:
                 "max": max(cycles),
             }
     loads = [isr_load(s, costs) for s in run.steps]
-    straight = [isr_load(s, costs) for s in run.steps if is_straight(s)]
-    work = [c * (1 - isr_load(s, costs)) for s in run.steps for c in s.cycles]
+    straight = [load for s, load in zip(run.steps, loads, strict=True) if is_straight(s)]
+    work = [c * (1 - load) for s, load in zip(run.steps, loads, strict=True) for c in s.cycles]
     work_max, isr_max = max(work), max(loads)
     return RunSummary(
         rows=rows,
@@ -731,9 +743,7 @@ def plot_profile(functions: Counter[str], ticks: int, path: Path, top: int = 16)
 def run(out: Path, quick: bool) -> Section:
     started = time.monotonic()
     elf = default_firmware()
-    size = sections(str(elf))
-    flash = size.get(".text", 0) + size.get(".data", 0)
-    ram = size.get(".data", 0) + size.get(".bss", 0)
+    flash, ram = usage(sections(str(elf)))
 
     runs = [measure_run(k, with_profile=k == 0) for k in range(1 if quick else 3)]
     costs, calling = isr_costs(elf, runs[0].profile)
@@ -751,7 +761,8 @@ def run(out: Path, quick: bool) -> Section:
 
     out.mkdir(parents=True, exist_ok=True)
     plot_histogram(runs, out / f"{NAME}_cycles_hist.png")
-    profile_ticks = max(1, round(dict((a, c) for a, c in runs[0].profile).get(4 * 7, 0) / 3))  # Timer2 jumps
+    ticks_profiled = invocations(vector_table(elf), runs[0].profile).get(TICK_VECTOR, 0.0)
+    profile_ticks = max(1, round(ticks_profiled))
     functions = by_function(elf, runs[0].profile)
     plot_profile(functions, profile_ticks, out / f"{NAME}_profile.png")
 
@@ -862,11 +873,11 @@ def run(out: Path, quick: bool) -> Section:
     straight_steps = [s for r in runs for s in r.steps if is_straight(s)]
     for vector, cost in sorted(costs.items()):
         rate = ""
-        if straight_steps and vector in BACKGROUND_VECTORS:
-            attr = {1: "int0", 2: "int1", 18: "rx", 19: "tx"}[vector]
-            per_s = sum(getattr(s, attr) for s in straight_steps) / (len(straight_steps) / TICK_HZ)
+        if straight_steps and vector in BACKGROUND_COUNTERS:
+            counter = BACKGROUND_COUNTERS[vector]
+            per_s = sum(getattr(s, counter) for s in straight_steps) / (len(straight_steps) / TICK_HZ)
             rate = f"{per_s:.0f} /s ({pct(per_s * cost / F_CPU)})"
-        elif vector == 7:
+        elif vector == TICK_VECTOR:
             rate = f"{TICK_HZ} /s (part of the tick)"
         isr_rows.append([VECTORS.get(vector, f"vector {vector}"), f"{cost:.0f}", rate])
     md.append(

@@ -50,7 +50,7 @@ import matplotlib.pyplot as plt
 from matplotlib.ticker import FuncFormatter, NullFormatter
 
 from bench.common import Section, percentile, section_main, spread, table
-from bench.firmware import drive_square
+from bench.firmware import TICK_HZ, drive_square
 from cart2d.gateway import Gateway
 from cart2d.link import Link
 from cart2d.simulator import SideChannel, SimOptions, Simulator
@@ -58,7 +58,6 @@ from cart2d.simulator import SideChannel, SimOptions, Simulator
 NAME = "system"
 RTF_TARGET = 10.0
 RATE_TOLERANCE = 0.10
-TICK_HZ = 125
 GOALS = [(1.6, 1.6), (0.2, 0.2)]  # the cart drives between these during the phases
 COMMANDS = {"POSE": 3, "STATUS": 12}  # what the round trip sends, and how many results each has
 MP = multiprocessing.get_context("spawn")  # a clean interpreter: no threads forked half-way

@@ -17,7 +17,6 @@ Target: E_max,syst at least 10x smaller after calibration, for every fault setti
 
 from __future__ import annotations
 
-import itertools
 import math
 import sys
 import tempfile
@@ -31,14 +30,16 @@ import matplotlib.pyplot as plt
 from bench.common import Section, section_main, spread, table
 from cart2d.calibrate import (
     Calibration,
+    Geometry,
     Measurement,
     calibrate_in_sim,
     drive_square,
     sim_layout,
     square_corners,
+    true_geometry,
 )
 from cart2d.link import Link
-from cart2d.params import robot
+from cart2d.planner import point_polyline_distance
 from cart2d.simulator import SimOptions, Simulator
 
 NAME = "umbmark"
@@ -76,23 +77,17 @@ def _return_errors(m: Measurement) -> list[float]:
     return [math.hypot(*p) for p in (*m.cw, *m.ccw)]
 
 
-def _ideal(faults: dict[str, float]) -> tuple[float, float]:
-    """What UMBmark can find for these faults, relative to the default geometry: E_d = D_R/D_L and
-    the track factor that makes the turns right with the mean radius kept (b_true / (k_mean b))."""
-    scale_l, scale_r = faults.get("enc_radius_scale_l", 1.0), faults.get("enc_radius_scale_r", 1.0)
-    track = float(robot()["encoders"]["track_m"])
-    return scale_r / scale_l, (track + faults.get("enc_track_error_m", 0.0)) / (
-        0.5 * (scale_l + scale_r) * track
-    )
+def _ideal(truth: Geometry) -> tuple[float, float]:
+    """What UMBmark can find for the simulator's true geometry, relative to the default one (the
+    geometry without faults): E_d = D_R/D_L and the track factor that makes the turns right with
+    the mean radius kept (b_true / (k_mean b))."""
+    default = true_geometry({})
+    e_d = (truth.radius_right_m / truth.radius_left_m) / (default.radius_right_m / default.radius_left_m)
+    k_mean = (truth.radius_left_m + truth.radius_right_m) / (default.radius_left_m + default.radius_right_m)
+    return e_d, truth.track_m / (k_mean * default.track_m)
 
 
 # -- the corners, from the truth stream -------------------------------------------------------------
-def _distance_to_segment(p: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
-    ax, ay = b[0] - a[0], b[1] - a[1]
-    t = max(0.0, min(1.0, ((p[0] - a[0]) * ax + (p[1] - a[1]) * ay) / (ax * ax + ay * ay)))
-    return math.hypot(p[0] - a[0] - t * ax, p[1] - a[1] - t * ay)
-
-
 def corner_check() -> dict[str, float]:
     """One CCW square without faults, ground truth at 250 Hz: how fast the cart moves while it
     turns, and how far its true path strays from the square."""
@@ -115,10 +110,7 @@ def corner_check() -> dict[str, float]:
             sim.run_for(0.5)  # the last samples in
     corners = [(sx, sy)] + [(sx + x, sy + y) for x, y in square_corners(SIDE_M, False)]
     turning = [s for s in samples if abs(s["omega"]) > 0.2]
-    deviation = max(
-        min(_distance_to_segment((s["x"], s["y"]), a, b) for a, b in itertools.pairwise(corners))
-        for s in samples
-    )
+    deviation = max(point_polyline_distance((s["x"], s["y"]), corners) for s in samples)
     return {
         "max_speed_turning_mps": max(abs(s["v"]) for s in turning),
         "max_deviation_m": deviation,
@@ -203,7 +195,8 @@ def run(out: Path, quick: bool) -> Section:
                 spread([e * 1e3 for e in _return_errors(result.verification)]).text(".2g", "mm"),
             ]
         )
-        ideal_d, ideal_b = _ideal(setting.faults)
+        assert result.truth is not None  # calibrate_in_sim sets it
+        ideal_d, ideal_b = _ideal(result.truth)
         found_d = (result.after.radius_right_m / result.after.radius_left_m) / (
             result.before.radius_right_m / result.before.radius_left_m
         )

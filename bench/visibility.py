@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -40,6 +41,21 @@ def arena_bounds(grid: Grid, radius_m: float) -> tuple[float, float, float, floa
     return x0 - margin, y0 - margin, x1 + margin, y1 + margin
 
 
+def grown_obstacles(grid: Grid, obstacles: Iterable[Node], grow_m: float) -> tuple[Any, list[Any]]:
+    """The obstacle cells (squares of one step around their nodes) grown by `grow_m`, touching
+    ones merged, with rounded corners of QUAD_SEGMENTS segments per quarter circle (shapely): the
+    geometry and its polygons (empty without obstacles)."""
+    half = grid.step_m / 2
+    ij = np.array(list(obstacles), dtype=np.float64).reshape(-1, 2)
+    if not len(ij):
+        return shapely.Polygon(), []
+    x = grid.origin[0] + ij[:, 0] * grid.step_m
+    y = grid.origin[1] + ij[:, 1] * grid.step_m
+    union = shapely.union_all(shapely.box(x - half, y - half, x + half, y + half))
+    grown = union.buffer(grow_m, quad_segs=QUAD_SEGMENTS)
+    return grown, list(getattr(grown, "geoms", [grown]))
+
+
 def true_shortest(
     grid: Grid,
     obstacles: Iterable[Node],
@@ -52,17 +68,8 @@ def true_shortest(
     """(length, points) of the shortest path for the disc among the grown obstacles, its centre
     inside `bounds` (x0, y0, x1, y1), the rounded corners inscribed (a lower bound) or
     circumscribed (an upper bound); inf if none."""
-    half = grid.step_m / 2
-    ij = np.array(list(obstacles), dtype=np.float64).reshape(-1, 2)
-    x = grid.origin[0] + ij[:, 0] * grid.step_m
-    y = grid.origin[1] + ij[:, 1] * grid.step_m
     grow = radius_m / math.cos(math.pi / (4 * QUAD_SEGMENTS)) if circumscribed else radius_m
-    if len(ij):
-        union = shapely.union_all(shapely.box(x - half, y - half, x + half, y + half))
-        grown = union.buffer(grow, quad_segs=QUAD_SEGMENTS)
-        polygons = list(getattr(grown, "geoms", [grown]))
-    else:
-        grown, polygons = shapely.Polygon(), []
+    grown, polygons = grown_obstacles(grid, obstacles, grow)
     x0, y0, x1, y1 = bounds
     # a shortest path bends only at convex corners of the grown obstacles (inside the bounds)
     corners, before, after = [np.array([start, goal])], [np.zeros((2, 2))], [np.zeros((2, 2))]
