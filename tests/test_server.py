@@ -4,6 +4,12 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import signal
+import socket
+import subprocess
+import sys
+import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -290,3 +296,31 @@ def test_map_gives_the_arena_walls_the_simulator_uses(rig: Rig) -> None:
     rig.sim.control("place", x=2.05 - 0.17, y=0.9)
     with pytest.raises(SimulatorError):
         rig.sim.control("place", x=2.05 - 0.16, y=0.9)
+
+
+def test_sigterm_stops_cart2d_sim_and_its_simulator_before_it_exits(tmp_path: Path) -> None:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    gateway = subprocess.Popen(
+        [sys.executable, "-m", "cart2d.cli", "sim", "--port", str(port), "--host", "127.0.0.1"],
+        env={**os.environ, "CART2D_HOME": str(tmp_path)},
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+
+        def ready() -> bool:
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/status", timeout=2) as answer:
+                    return bool(json.load(answer).get("firmware"))
+            except OSError:
+                return False
+
+        wait_for(ready, 60, 0.2)
+        gateway.send_signal(signal.SIGTERM)
+        assert gateway.wait(30) == 0  # a clean stop, as with Ctrl-C
+        # The simulator writes its EEPROM image when it exits: it was stopped, not orphaned.
+        assert (tmp_path / "sim-eeprom.bin").exists()
+    finally:
+        gateway.kill()
