@@ -74,6 +74,7 @@ class Spec:
     reasons: dict[int, str]
     modes: dict[int, str]
     flags: dict[str, int]  # name -> bit mask
+    reset_causes: dict[str, int]  # name -> bit mask of STATUS reset_cause
 
     def code(self, name: str) -> int:
         key = name if name in self.commands else f"COMMAND_{name}"
@@ -102,6 +103,7 @@ def parse_spec(text: str) -> Spec:
         reasons={int(row[0]): row[1] for row in tables["reason"]},
         modes={int(row[0]): row[1] for row in tables["mode"]},
         flags={row[1]: 1 << int(row[0]) for row in tables["flag bit"]},
+        reset_causes={row[1]: 1 << int(row[0]) for row in tables["cause bit"]},
     )
 
 

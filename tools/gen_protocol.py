@@ -41,6 +41,7 @@ def generate(text: str, source: str) -> str:
     lines += enum("Reason", "unsigned char", [(n, c) for c, n in spec.reasons.items()], "REASON_")
     lines += enum("Mode", "unsigned char", [(n, c) for c, n in spec.modes.items()], "MODE_")
     lines += enum("Flag", "unsigned", list(spec.flags.items()), "FLAG_")
+    lines += enum("ResetCause", "unsigned char", list(spec.reset_causes.items()), "RESET_")
     lines.append("\n}  // namespace proto")
     return "\n".join(lines) + "\n"
 
