@@ -59,7 +59,7 @@ NAME = "system"
 RTF_TARGET = 10.0
 RATE_TOLERANCE = 0.10
 GOALS = [(1.6, 1.6), (0.2, 0.2)]  # the cart drives between these during the phases
-COMMANDS = {"POSE": 3, "STATUS": 12}  # what the round trip sends, and how many results each has
+COMMANDS = {"POSE": 3, "STATUS": 15}  # what the round trip sends, and how many results each has
 MP = multiprocessing.get_context("spawn")  # a clean interpreter: no threads forked half-way
 
 

@@ -44,6 +44,9 @@ class Status:
     eeprom_busy: bool
     uptime_s: float
     last_error: str | None
+    reset_cause: list[str]  # why the MCU last restarted (docs/protocol.md, Reset causes)
+    boot_count: int  # boots since the MCU's RAM was last lost
+    replies_dropped: int
 
     def has(self, flag: str) -> bool:
         return flag in self.flags
@@ -122,6 +125,9 @@ def read_status(link: Link) -> Status:
         eeprom_busy=bool(r[9]),
         uptime_s=r[10],
         last_error=spec.reasons.get(last_error) if last_error else None,
+        reset_cause=[name for name, bit in spec.reset_causes.items() if int(r[12]) & bit],
+        boot_count=int(r[13]),
+        replies_dropped=int(r[14]),
     )
 
 

@@ -14,6 +14,7 @@
 #include "core/cart.hpp"
 #include "core/dispatcher.hpp"
 #include "core/packet.hpp"
+#include "core/retained.hpp"
 #include "core/settings_store.hpp"
 #include "core/telemetry.hpp"
 
@@ -31,14 +32,10 @@ core::Dispatcher dispatcher(cart, settings, store, health, reply);
 core::PacketReceiver receiver;
 
 uint8_t telemetry_countdown = 1;
-uint8_t quiet_ticks = 0;        // ticks since the last received byte
 uint16_t busy_counts_sum = 0;   // Timer2 counts spent busy in the current second
 uint8_t busy_counts_max = 0;
 uint8_t ticks_in_second = 0;
 bool measuring_tick = false;    // a tick ran since the loop last went to sleep
-
-// A partial packet older than this is given up (2 ticks = 16 ms = ~180 byte times).
-constexpr uint8_t kPacketExpiryTicks = 2;
 
 // The rate is looked up once per frame (it costs a division), not at every tick; with
 // telemetry off it is looked up again every kTelemetryRecheckTicks.
@@ -87,30 +84,39 @@ void run_tick() {
   in.switch_left = switches::left_pressed();
   in.switch_right = switches::right_pressed();
   motors::apply(cart.tick(in));
+  core::retain_pose(system::retained(), cart.odometry().pose());
 
   ++health.ticks;
   health.loop_overruns = tick_timer::overruns();
   health.rx_errors = receiver.errors() + uart::rx_overflows();
   dispatcher.tick();
-  if (receiver.holding() && ++quiet_ticks >= kPacketExpiryTicks) receiver.expire();
+  receiver.tick(uart::rx_available());
   send_telemetry();
   measuring_tick = true;
 }
 
+// A request is only taken while its reply has room: a host that sends faster than the replies
+// can leave (100 back-to-back HEARTBEATs) finds its requests waiting in the RX ring instead of
+// its replies dropped. The receiver is polled before any new byte, so a packet that a quiet-line
+// expiry uncovered (run_tick) is answered at once.
+bool reply_fits() { return uart::tx_free() >= core::wire::kMaxReply; }
+
 void serve_requests() {
-  uint8_t byte;
-  while (uart::read(byte)) {
-    quiet_ticks = 0;
-    receiver.push(byte);
+  for (;;) {
     core::PacketView packet;
-    while (receiver.poll(packet)) {
+    while (reply_fits() && receiver.poll(packet)) {
       dispatcher.handle(packet);
-      uart::write(dispatcher.reply(), dispatcher.reply_length());
+      if (!uart::write(dispatcher.reply(), dispatcher.reply_length())) ++health.replies_dropped;
     }
+    uint8_t byte;
+    if (!reply_fits() || !uart::read(byte)) return;
+    receiver.push(byte);
   }
 }
 
-bool work_pending() { return tick_timer::pending() || uart::rx_available(); }
+// Bytes to parse while a reply has room. A packet left unpolled for lack of room is taken up
+// when the transmit interrupts have drained the buffer (each of them wakes the loop).
+bool work_pending() { return tick_timer::pending() || (reply_fits() && uart::rx_available()); }
 
 }  // namespace
 
@@ -124,13 +130,24 @@ int main() {
   const core::record::Verdict verdict = store.load(settings);
   if (verdict != core::record::Verdict::kValid) settings.reset_to_defaults();
   dispatcher.set_settings_source(verdict);
+  const core::BootInfo boot = core::boot(system::retained(), system::reset_flags());
+  health.reset_cause = boot.reset_cause;
+  health.boot_count = boot.boot_count;
+  if (boot.pose_restored) cart.restore_pose(boot.pose);
+  system::watchdog_start();
   sei();
 
   for (;;) {
-    if (tick_timer::take_tick()) run_tick();
+    if (tick_timer::take_tick()) {
+      run_tick();
+      system::watchdog_feed();  // only a completed tick keeps the MCU out of reset
+    }
     serve_requests();
     store.poll();
-    if (dispatcher.reboot_requested() && uart::tx_done()) system::reboot();
+    if (dispatcher.reboot_requested() && uart::tx_done()) {
+      core::mark_reboot(system::retained());
+      system::reboot();
+    }
     account_busy_time();
     system::sleep_unless(work_pending);
   }

@@ -230,7 +230,7 @@ class FakeCart(Link):
         elif name == "POSE":
             return tuple(self.pose)
         elif name == "STATUS":
-            return (0.0, float(load_spec().flags["ARRIVED"]), *[0.0] * 10)  # IDLE, arrived
+            return (0.0, float(load_spec().flags["ARRIVED"]), *[0.0] * 13)  # IDLE, arrived
         elif name == "MAX_SPEED_GET":
             return (0.5, math.pi)
         elif name == "PARAM_GET":

@@ -7,8 +7,10 @@ import subprocess
 import sys
 
 CHIP_FLASH = 32 * 1024  # the ATmega328P's
-FLASH_BUDGET = CHIP_FLASH // 2  # half of the 32 KiB: room to grow, and for the bootloader
-RAM_BUDGET = 1024  # data + bss; the other 1 KiB of the 2 KiB is for the stack
+# 24 KiB of the 32: the watchdog, the bumper stop, retained pose and reset causes, and two EEPROM
+# records took the image past the first budget of 16 KiB; 8 KiB stay for growth and Optiboot (0.5 KiB).
+FLASH_BUDGET = 24 * 1024
+RAM_BUDGET = 1024  # data + bss + noinit; the other 1 KiB of the 2 KiB is for the stack
 RAM_TOTAL = 2048
 
 
@@ -24,8 +26,9 @@ def sections(elf: str) -> dict[str, int]:
 
 def usage(sizes: dict[str, int]) -> tuple[int, int]:
     """(flash, static RAM) in bytes from the section sizes: .text + .data (the initial values of
-    .data are stored in the flash), .data + .bss."""
-    return sizes.get(".text", 0) + sizes.get(".data", 0), sizes.get(".data", 0) + sizes.get(".bss", 0)
+    .data are stored in the flash), .data + .bss + .noinit (RAM the C runtime leaves alone)."""
+    ram = sizes.get(".data", 0) + sizes.get(".bss", 0) + sizes.get(".noinit", 0)
+    return sizes.get(".text", 0) + sizes.get(".data", 0), ram
 
 
 def main() -> int:
@@ -35,7 +38,8 @@ def main() -> int:
     share = 100 * flash / FLASH_BUDGET
     print(f"firmware flash: {flash} B of {FLASH_BUDGET} B budget ({share:.0f} %), {CHIP_FLASH} B chip")
     print(
-        f"firmware RAM:   {ram} B static (data {s.get('.data', 0)} + bss {s.get('.bss', 0)}) of "
+        f"firmware RAM:   {ram} B static (data {s.get('.data', 0)} + bss {s.get('.bss', 0)} + noinit "
+        f"{s.get('.noinit', 0)}) of "
         f"{RAM_BUDGET} B budget ({100 * ram / RAM_BUDGET:.0f} %); {RAM_TOTAL - ram} B left for the stack"
     )
     print("budgets:", "met" if ok else "EXCEEDED")

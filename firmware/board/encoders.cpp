@@ -11,8 +11,10 @@ namespace encoders {
 namespace pins = params::pins;
 namespace enc = params::encoders;
 
-static volatile int16_t left_counts;
+static volatile int16_t left_counts;   // since the last latch, written by the encoder ISRs
 static volatile int16_t right_counts;
+static volatile int16_t left_latched;  // latched by the tick, taken by the main loop
+static volatile int16_t right_latched;
 
 void init() {
   make_input(pins::left_enc_a, false);  // 12 V push-pull outputs through dividers: no pull-ups
@@ -26,12 +28,20 @@ void init() {
   EIMSK = (1 << INT1) | (1 << INT0);
 }
 
+// Interrupts are off in an ISR (no nesting on the AVR): the encoder ISRs cannot interleave.
+void latch_counts() {
+  left_latched += left_counts;
+  right_latched += right_counts;
+  left_counts = 0;
+  right_counts = 0;
+}
+
 void take_counts(int16_t& left, int16_t& right) {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    left = left_counts;
-    right = right_counts;
-    left_counts = 0;
-    right_counts = 0;
+    left = left_latched;
+    right = right_latched;
+    left_latched = 0;
+    right_latched = 0;
   }
 }
 

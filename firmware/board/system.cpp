@@ -3,10 +3,16 @@
 #include <avr/interrupt.h>  // cli, sei
 #include <avr/io.h>         // MCUSR
 #include <avr/sleep.h>      // sleep_cpu
-#include <avr/wdt.h>        // wdt_enable, wdt_disable
+#include <avr/wdt.h>        // wdt_enable, wdt_disable, wdt_reset
 
 namespace board {
 namespace system {
+
+// In .noinit: neither zeroed nor initialised by the C runtime, so they keep what the boot code
+// below wrote, and `retained_state` what the last run left in it.
+static uint8_t optiboot_flags __attribute__((section(".noinit")));
+static uint8_t boot_flags __attribute__((section(".noinit")));
+static core::RetainedState retained_state __attribute__((section(".noinit")));
 
 void sleep_unless(bool (*work_pending)()) {
   set_sleep_mode(SLEEP_MODE_IDLE);
@@ -21,6 +27,14 @@ void sleep_unless(bool (*work_pending)()) {
   sleep_disable();
 }
 
+uint8_t reset_flags() { return boot_flags; }
+
+core::RetainedState& retained() { return retained_state; }
+
+void watchdog_start() { wdt_enable(WDTO_60MS); }
+
+void watchdog_feed() { wdt_reset(); }
+
 void reboot() {
   cli();
   wdt_enable(WDTO_15MS);
@@ -31,11 +45,22 @@ void reboot() {
 }  // namespace system
 }  // namespace board
 
+using board::system::boot_flags;
+using board::system::optiboot_flags;
+
+// Optiboot (the Nano's "new bootloader") puts MCUSR in r2 before it clears it and starts us
+// (optiboot.c, appStart). .init0 runs first, before the C runtime touches any register.
+extern "C" void save_optiboot_flags() __attribute__((naked, used, section(".init0")));
+extern "C" void save_optiboot_flags() { __asm__ __volatile__("sts %0, r2\n" : "=m"(optiboot_flags)); }
+
 // A watchdog reset leaves the watchdog running with its shortest timeout: stop it before
-// anything else, or the firmware would reset forever (avr-libc's wdt.h recommendation).
+// anything else, or the firmware would reset forever (avr-libc's wdt.h recommendation). The
+// flags are kept first: without a bootloader MCUSR still holds them; after Optiboot it reads 0
+// and r2 has them. (A bootloader that neither keeps MCUSR nor passes r2 leaves no cause.)
 extern "C" void disable_watchdog_at_boot() __attribute__((naked, used, section(".init3")));
 extern "C" void disable_watchdog_at_boot() {
+  const uint8_t mcusr = MCUSR;
   MCUSR = 0;
   wdt_disable();
+  boot_flags = (mcusr ? mcusr : optiboot_flags) & 0x0F;
 }
-

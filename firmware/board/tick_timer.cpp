@@ -3,6 +3,7 @@
 #include <avr/interrupt.h>  // ISR
 #include <avr/io.h>         // Timer2 registers
 
+#include "encoders.hpp"       // latch_counts
 #include "robot_params.hpp"  // params::control
 
 namespace board {
@@ -43,7 +44,10 @@ uint8_t elapsed_counts() { return TCNT2; }
 }  // namespace tick_timer
 }  // namespace board
 
+// The tick's sampling instant: the encoder counts are latched here, not when the main loop
+// gets round to the tick.
 ISR(TIMER2_COMPA_vect) {
+  board::encoders::latch_counts();
   if (board::tick_timer::tick_flag) ++board::tick_timer::overrun_count;  // the loop fell behind
   board::tick_timer::tick_flag = true;
 }

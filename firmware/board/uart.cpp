@@ -4,15 +4,17 @@
 #include <avr/io.h>         // USART0 registers
 #include <util/atomic.h>    // ATOMIC_BLOCK
 
+#include "packet.hpp"        // core::wire sizes
 #include "robot_params.hpp"  // params::control::f_cpu_hz
 
 namespace board {
 namespace uart {
 
 // RX: 64 bytes = 5.5 ms of line time at 115200, longer than the busiest tick.
-// TX: room for a telemetry frame (72 B) plus the longest reply (56 B) and some slack.
+// TX: room for a telemetry frame (72 B) plus the longest reply (68 B); a ring holds size - 1.
 constexpr uint8_t kRxSize = 64;
-constexpr uint8_t kTxSize = 160;
+constexpr uint8_t kTxSize = 144;
+static_assert(kTxSize - 1 >= core::wire::kTelemetrySize + core::wire::kMaxReply, "TX ring too small");
 
 static volatile uint8_t rx_buf[kRxSize];
 static volatile uint8_t rx_head, rx_tail;
@@ -51,8 +53,8 @@ uint8_t tx_free() {
   return kTxSize - 1 - used;
 }
 
-void write(const uint8_t* data, uint8_t n) {
-  if (n > tx_free()) return;
+bool write(const uint8_t* data, uint8_t n) {
+  if (n > tx_free()) return false;
   uint8_t head = tx_head;
   for (uint8_t i = 0; i < n; ++i) {
     tx_buf[head] = data[i];
@@ -61,6 +63,7 @@ void write(const uint8_t* data, uint8_t n) {
   tx_head = head;
   UCSR0A = (UCSR0A & ((1 << U2X0))) | (1 << TXC0);  // clear "transmit complete" for tx_done()
   UCSR0B |= (1 << UDRIE0);
+  return true;
 }
 
 bool tx_done() { return tx_head == tx_tail && (UCSR0A & (1 << TXC0)); }

@@ -10,8 +10,8 @@ void init(uint32_t baud);
 bool read(uint8_t& byte);
 bool rx_available();
 uint8_t tx_free();
-// Queues n bytes; the caller checks tx_free() first (nothing is written if they do not fit).
-void write(const uint8_t* data, uint8_t n);
+// Queues n bytes, or none if they do not fit (false).
+bool write(const uint8_t* data, uint8_t n);
 // Everything queued has left the shift register.
 bool tx_done();
 uint16_t rx_overflows();

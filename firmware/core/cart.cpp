@@ -120,7 +120,7 @@ void Cart::run_reset_routine(const TickInput& in) {
   const WheelSpeeds creep = routine_.step(in.switch_left, in.switch_right, params::control::reset_routine_speed_mps);
   if (routine_.state() == ResetRoutine::State::kDone) {
     safe_stop(0);
-    odometry_.set_pose(Pose{setting(reset_x_m), setting(reset_y_m), setting(reset_theta_rad)});
+    set_pose(Pose{setting(reset_x_m), setting(reset_y_m), setting(reset_theta_rad)});
     return;
   }
   if (routine_.state() == ResetRoutine::State::kFailed) {
@@ -144,13 +144,26 @@ void Cart::drive_wheels(const WheelSpeeds& measured) {
   if (stall_ticks_ >= kStallTicks) safe_stop(proto::FLAG_STALLED);
 }
 
+// Flags that describe the firmware's state rather than the last motion: a new command keeps them.
+constexpr uint16_t kLastingFlags = proto::FLAG_SETTINGS_DEFAULTED | proto::FLAG_POSE_RESTORED;
+
+void Cart::set_pose(const Pose& pose) {
+  odometry_.set_pose(pose);
+  sticky_flags_ &= ~static_cast<uint16_t>(proto::FLAG_POSE_RESTORED);
+}
+
+void Cart::restore_pose(const Pose& pose) {
+  odometry_.set_pose(pose);
+  sticky_flags_ |= proto::FLAG_POSE_RESTORED;
+}
+
 void Cart::enter(proto::Mode mode) {
   position_countdown_ = 0;  // a new target: run the position loop at the next tick
   if (mode_ == proto::MODE_IDLE) {
     speed_.reset();  // a fresh start: no stale integrator, speeds ramp up from zero
     v_ref_mps_ = omega_ref_radps_ = 0.0f;
   }
-  sticky_flags_ &= proto::FLAG_SETTINGS_DEFAULTED;
+  sticky_flags_ &= kLastingFlags;
   mode_ = mode;
 }
 

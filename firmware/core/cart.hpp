@@ -45,7 +45,10 @@ class Cart {
 
   // Commands. Those returning uint8_t answer with a proto::Reason, 0 when accepted; a refused
   // command changes nothing.
-  void set_pose(const Pose& pose) { odometry_.set_pose(pose); }
+  // A pose given by the host (SET_POSE, RESET) or the reset routine; clears POSE_RESTORED.
+  void set_pose(const Pose& pose);
+  // The pose kept in RAM across a reset (core/retained.hpp): flagged POSE_RESTORED.
+  void restore_pose(const Pose& pose);
   void go_to(const Point& target);
   uint8_t begin_path(float count, const float* xy, uint8_t n);
   uint8_t append_path(float index, const float* xy, uint8_t n);
@@ -87,7 +90,7 @@ class Cart {
   Path& path_;
   ResetRoutine routine_;
   proto::Mode mode_ = proto::MODE_IDLE;
-  uint16_t sticky_flags_ = 0;  // ARRIVED, ROUTINE_FAILED, MANUAL_TIMEOUT, SETTINGS_DEFAULTED
+  uint16_t sticky_flags_ = 0;  // the outcome of the last motion, and kLastingFlags
   bool switch_left_ = false;
   bool switch_right_ = false;
   float manual_v_mps_ = 0.0f;

@@ -11,6 +11,9 @@ struct Health {
   uint8_t cpu_load_pct = 0;    // busy share of the last second
   uint8_t cpu_max_pct = 0;     // busiest tick of the last second, share of 8 ms
   uint16_t rx_errors = 0;      // packets dropped for a bad LEN or CRC, or truncated
+  uint16_t replies_dropped = 0;  // replies the transmit buffer had no room for
+  uint8_t reset_cause = 0;     // proto::ResetCause bits of the last reset
+  uint16_t boot_count = 1;     // boots since the RAM was last lost (core/retained.hpp)
 };
 
 constexpr uint8_t kFirmwareMajor = 0;

@@ -36,6 +36,7 @@ float get_f32(const uint8_t* in) {
 
 void PacketReceiver::push(uint8_t byte) {
   release_returned();
+  quiet_ticks_ = 0;
   if (held_ == 0 && byte != kSync) return;  // between packets: noise
   if (held_ == kMaxPacket) drop_to_next_sync(1);  // only if poll() was skipped
   if (held_ == 0 && byte != kSync) return;
@@ -67,6 +68,16 @@ bool PacketReceiver::poll(PacketView& out) {
     return true;
   }
   return false;
+}
+
+void PacketReceiver::tick(bool bytes_waiting) {
+  if (bytes_waiting || held_ == 0) {
+    quiet_ticks_ = 0;
+    return;
+  }
+  if (++quiet_ticks_ < kExpiryTicks) return;
+  quiet_ticks_ = 0;  // the bytes after the dropped start byte get their own full wait
+  expire();
 }
 
 void PacketReceiver::expire() {

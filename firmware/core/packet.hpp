@@ -14,7 +14,7 @@ constexpr uint8_t kMaxPacket = kMaxBody + kOverhead;
 constexpr uint8_t kRequestHeader = 2;  // CMD, ARGC
 constexpr uint8_t kReplyHeader = 3;    // STATUS, CMD, ARGC
 constexpr uint8_t kMaxArgs = (kMaxBody - kRequestHeader) / 4;  // 31
-constexpr uint8_t kMaxResults = 12;    // the longest reply is STATUS
+constexpr uint8_t kMaxResults = 15;    // the longest reply is STATUS
 constexpr uint8_t kMaxReply = kOverhead + kReplyHeader + 4 * kMaxResults;
 
 constexpr uint8_t kTelemetrySync0 = 0xAA;
@@ -38,9 +38,16 @@ class PacketReceiver {
   void push(uint8_t byte);
   // The next complete valid packet, if any. The view stays valid until push() or poll().
   bool poll(PacketView& out);
+  // One control tick passed; `bytes_waiting`: bytes have arrived that are not pushed yet (the
+  // line is not quiet). After kExpiryTicks quiet ticks a partial packet is given up (expire()):
+  // then poll() may find a complete packet among the bytes it held.
+  void tick(bool bytes_waiting);
   // The line went quiet in the middle of a packet: give up on it and rescan.
   void expire();
   bool holding() const { return held_ > 0; }
+
+  // 2 ticks = 16 ms = ~180 byte times: no packet takes that long on the wire.
+  static constexpr uint8_t kExpiryTicks = 2;
   uint16_t errors() const { return errors_; }
 
  private:
@@ -50,6 +57,7 @@ class PacketReceiver {
   uint8_t buf_[wire::kMaxPacket] = {};
   uint8_t held_ = 0;      // bytes in buf_; buf_[0] is a sync byte when held_ > 0
   uint8_t returned_ = 0;  // length of the packet handed out by the last poll()
+  uint8_t quiet_ticks_ = 0;  // ticks since the last byte, while holding a partial packet
   uint16_t errors_ = 0;
 };
 

@@ -51,12 +51,24 @@ TEST_F(Dispatcher, RetransmittedRequestIsAnsweredButNotExecutedTwice) {
   EXPECT_FLOAT_EQ(7.0f, fw.cart.odometry().pose().x_m);  // not set back to 5
 }
 
+// docs/protocol.md: hosts retransmit within 1.5 s of the first transmission; the firmware
+// remembers for 2 s. A host's last retry (at up to 1.5 s, plus the line) is never run twice.
+TEST_F(Dispatcher, ALateRetransmissionWithinTheHostsLimitIsNotExecutedTwice) {
+  Firmware fw;
+  const std::vector<uint8_t> set = harness::request(5, proto::COMMAND_SET_POSE, {5.0f, 0.0f, 0.0f});
+  fw.send(set);
+  fw.cart.set_pose(core::Pose{1.0f, 0.0f, 0.0f});
+  for (int i = 0; i < 237; ++i) fw.tick();  // 1.9 s
+  fw.send(set);
+  EXPECT_FLOAT_EQ(1.0f, fw.cart.odometry().pose().x_m);
+}
+
 TEST_F(Dispatcher, SameSequenceAfterTheDuplicateWindowExecutesAgain) {
   Firmware fw;
   const std::vector<uint8_t> set = harness::request(5, proto::COMMAND_SET_POSE, {5.0f, 0.0f, 0.0f});
   fw.send(set);
   fw.cart.set_pose(core::Pose{1.0f, 0.0f, 0.0f});
-  for (int i = 0; i < 125; ++i) fw.tick();  // 1 s
+  for (int i = 0; i < 250; ++i) fw.tick();  // 2 s
   fw.send(set);
   EXPECT_FLOAT_EQ(5.0f, fw.cart.odometry().pose().x_m);
 }
@@ -156,7 +168,7 @@ TEST_F(Dispatcher, SaveSurvivesAResetAndLoadRestoresIt) {
 TEST_F(Dispatcher, BlankEepromGivesDefaultsReportedInStatusAndLoadRefused) {
   Firmware fw;
   const Reply status = call(fw, proto::COMMAND_STATUS);
-  ASSERT_EQ(12u, status.results.size());
+  ASSERT_EQ(15u, status.results.size());
   EXPECT_EQ(1.0f, status.results[8]);  // defaults: blank
   EXPECT_TRUE(static_cast<int>(status.results[1]) & proto::FLAG_SETTINGS_DEFAULTED);
   expect_error(call(fw, proto::COMMAND_LOAD), proto::REASON_EEPROM_INVALID);
@@ -225,6 +237,25 @@ TEST_F(Dispatcher, ReplyStatusCodesAreOnlyTheThreeOfTheSeed) {
     const bool known = cmd > proto::CONTROL_INVALID_COM && cmd < proto::kCommandCount;
     EXPECT_EQ(known, r.status != proto::CONTROL_INVALID_COM) << cmd;
   }
+}
+
+}  // namespace
+
+namespace {
+
+TEST(DispatcherStatus, ReportsTheResetCauseBootCountAndDroppedReplies) {
+  harness::RamEeprom::erase();
+  harness::Firmware fw;
+  fw.health.reset_cause = proto::RESET_WATCHDOG | proto::RESET_REBOOT;
+  fw.health.boot_count = 7;
+  fw.health.replies_dropped = 3;
+  const std::vector<harness::Reply> r =
+      harness::replies(fw.send(harness::request(1, proto::COMMAND_STATUS, {})));
+  ASSERT_EQ(1u, r.size());
+  ASSERT_EQ(15u, r[0].results.size());
+  EXPECT_EQ(proto::RESET_WATCHDOG | proto::RESET_REBOOT, r[0].results[12]);
+  EXPECT_EQ(7.0f, r[0].results[13]);
+  EXPECT_EQ(3.0f, r[0].results[14]);
 }
 
 }  // namespace

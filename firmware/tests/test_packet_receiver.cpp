@@ -75,3 +75,39 @@ TEST(PacketReceiver, EveryPossibleSingleByteCorruptionIsRejected) {
 }
 
 }  // namespace
+
+namespace {
+
+// Noise that opens a packet with the longest length (7E 7F), then a valid request: the receiver
+// swallows the request into the bogus packet. The quiet line must uncover it within the expiry,
+// and the expiry must not then eat the next request as well.
+TEST(PacketReceiver, ARequestAfterLineNoiseIsFoundOnceTheLineIsQuiet) {
+  core::PacketReceiver rx;
+  std::vector<uint8_t> bytes = {0x7E, 0x7F};
+  const std::vector<uint8_t> status = harness::request(3, 19, {});
+  bytes.insert(bytes.end(), status.begin(), status.end());
+  EXPECT_TRUE(seqs_after(rx, bytes).empty());
+  for (uint8_t t = 0; t < core::PacketReceiver::kExpiryTicks; ++t) rx.tick(false);
+  core::PacketView p;
+  ASSERT_TRUE(rx.poll(p));
+  EXPECT_EQ(3, p.seq);
+  EXPECT_EQ(1, rx.errors());
+  // The next request arrives over two ticks (it straddles a tick): one quiet tick must not
+  // expire it.
+  const std::vector<uint8_t> pose = harness::request(4, 5, {});
+  EXPECT_TRUE(seqs_after(rx, std::vector<uint8_t>(pose.begin(), pose.begin() + 3)).empty());
+  rx.tick(false);
+  EXPECT_EQ(std::vector<int>{4}, seqs_after(rx, std::vector<uint8_t>(pose.begin() + 3, pose.end())));
+  EXPECT_EQ(1, rx.errors());
+}
+
+TEST(PacketReceiver, BytesWaitingInTheRingKeepAPartialPacketAlive) {
+  core::PacketReceiver rx;
+  const std::vector<uint8_t> pose = harness::request(5, 5, {});
+  seqs_after(rx, std::vector<uint8_t>(pose.begin(), pose.begin() + 2));
+  for (int t = 0; t < 10; ++t) rx.tick(true);  // the main loop has not read them yet
+  EXPECT_EQ(std::vector<int>{5}, seqs_after(rx, std::vector<uint8_t>(pose.begin() + 2, pose.end())));
+  EXPECT_EQ(0, rx.errors());
+}
+
+}  // namespace

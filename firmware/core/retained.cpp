@@ -1,0 +1,49 @@
+#include "retained.hpp"
+
+#include "crc16.hpp"  // crc16_mcrf4xx
+#include "num.hpp"    // is_moderate, kMaxAngle_rad
+
+namespace core {
+
+constexpr uint8_t kRebootMarker = 0xB7;
+constexpr uint8_t kRamLost = proto::RESET_POWER_ON | proto::RESET_BROWN_OUT;
+constexpr uint8_t kChipCauses =
+    proto::RESET_POWER_ON | proto::RESET_EXTERNAL | proto::RESET_BROWN_OUT | proto::RESET_WATCHDOG;
+
+static uint16_t check_of(const Pose& pose) {
+  // Not 0xFFFF-seeded zeros: a RAM that powers up all-zero must not pass.
+  return crc16_mcrf4xx(reinterpret_cast<const uint8_t*>(&pose), sizeof pose) ^ 0x5AA5;
+}
+
+static bool plausible(const Pose& p) {
+  return is_moderate(p.x_m) && is_moderate(p.y_m) && is_moderate(p.theta_rad) && fabsf(p.theta_rad) <= kPi + 1e-3f;
+}
+
+BootInfo boot(RetainedState& state, uint8_t reset_flags) {
+  BootInfo info;
+  info.reset_cause = reset_flags & kChipCauses;
+  // No flag at all (a jump to address 0, or a bootloader that kept them) proves nothing about
+  // the RAM: treat it as lost.
+  const bool ram_kept = info.reset_cause != 0 && !(info.reset_cause & kRamLost);
+  if (ram_kept && (info.reset_cause & proto::RESET_WATCHDOG) && state.reboot_marker == kRebootMarker)
+    info.reset_cause |= proto::RESET_REBOOT;
+  state.reboot_marker = 0;
+
+  const bool count_valid = ram_kept && state.boot_count_check == static_cast<uint16_t>(~state.boot_count);
+  info.boot_count = count_valid && state.boot_count != 0xFFFF ? state.boot_count + 1 : 1;
+  state.boot_count = info.boot_count;
+  state.boot_count_check = static_cast<uint16_t>(~info.boot_count);
+
+  info.pose_restored = ram_kept && state.pose_check == check_of(state.pose) && plausible(state.pose);
+  if (info.pose_restored) info.pose = state.pose;
+  return info;
+}
+
+void retain_pose(RetainedState& state, const Pose& pose) {
+  state.pose = pose;
+  state.pose_check = check_of(pose);
+}
+
+void mark_reboot(RetainedState& state) { state.reboot_marker = kRebootMarker; }
+
+}  // namespace core
