@@ -65,8 +65,16 @@ MotorOutput Cart::tick(const TickInput& in) {
       omega_radps = manual_omega_radps_;
       break;
     case proto::MODE_RESET_ROUTINE:
-      run_reset_routine(in);
+      run_reset_routine(in);  // the one mode that drives into a contact on purpose
       return output_;
+  }
+
+  // A closed front switch means the bumper touches something: driving on pushes it (a wall, a
+  // box, a foot) at up to full PWM until the stall guard trips, if it ever does. Backing away
+  // and turning on the spot stay possible.
+  if (front_contact() && (v_mps > 0.0f || v_ref_mps_ > 0.0f)) {
+    safe_stop(proto::FLAG_BUMPER);
+    return output_;
   }
 
   // Acceleration limits keep the commanded speeds physically reachable.
@@ -136,7 +144,8 @@ void Cart::run_reset_routine(const TickInput& in) {
 // would only heat the motor, so the cart stops and says why.
 void Cart::drive_wheels(const WheelSpeeds& measured) {
   const SpeedGains gains{{setting(speed_kp), setting(speed_ki)}, setting(speed_kff)};
-  output_.pwm = speed_.update(wheel_targets_, measured, gains, kTickPeriod_s, params::control::pwm_max);
+  const WheelSpeeds feedforward = traction_speeds(wheel_targets_, scale().traction_ratio);
+  output_.pwm = speed_.update(wheel_targets_, measured, feedforward, gains, kTickPeriod_s, params::control::pwm_max);
   output_.enabled = true;
   const bool left_stuck = is_stalled(output_.pwm.left, measured.left_mps);
   const bool right_stuck = is_stalled(output_.pwm.right, measured.right_mps);
@@ -207,6 +216,7 @@ void Cart::start() {
 uint8_t Cart::drive(float v_mps, float omega_radps) {
   if (!(fabsf(v_mps) <= setting(v_max_mps) && fabsf(omega_radps) <= setting(w_max_radps)))  // NaN fails
     return proto::REASON_OUT_OF_RANGE;
+  if (v_mps > 0.0f && front_contact()) return proto::REASON_BLOCKED;
   manual_v_mps_ = v_mps;
   manual_omega_radps_ = omega_radps;
   manual_ticks_left_ = seconds_to_ticks(setting(manual_timeout_s));

@@ -79,6 +79,7 @@ class Cart {
   void run_reset_routine(const TickInput& in);
   void drive_wheels(const WheelSpeeds& measured);
   const OdometryScale& scale();
+  bool front_contact() const { return switch_left_ || switch_right_; }
   float setting(uint8_t id) const { return settings_.get(id); }
 
   const Settings& settings_;

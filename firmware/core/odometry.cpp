@@ -1,6 +1,7 @@
 #include "odometry.hpp"
 
-#include "num.hpp"  // kTwoPi, normalize_angle, sinf, cosf, fabsf
+#include "num.hpp"            // kTwoPi, normalize_angle, sinf, cosf, fabsf
+#include "robot_params.hpp"  // params::traction
 
 namespace core {
 
@@ -10,6 +11,7 @@ OdometryScale::OdometryScale(const WheelGeometry& g, float h_s) {
   m_per_count_right = rad_per_count * g.radius_right_m;
   inv_track = 1.0f / g.track_m;
   inv_h = 1.0f / h_s;
+  traction_ratio = params::traction::track_m * inv_track;
 }
 
 void Odometry::set_pose(const Pose& pose) {

@@ -28,6 +28,7 @@ struct OdometryScale {
   float m_per_count_right = 0.0f;
   float inv_track = 0.0f;  // 1/m
   float inv_h = 0.0f;      // 1/s
+  float traction_ratio = 0.0f;  // traction track / measuring track (speed_controller.hpp)
 };
 
 class Odometry {

@@ -48,44 +48,56 @@ uint8_t Settings::set(uint8_t id, float value) {
 
 namespace record {
 
-static uint8_t header_byte(uint8_t i) {
+static uint8_t header_byte(uint8_t seq, uint8_t i) {
   switch (i) {
     case 0: return kMagic & 0xFF;
     case 1: return kMagic >> 8;
     case 2: return setting::kLayoutHash & 0xFF;
     case 3: return setting::kLayoutHash >> 8;
-    default: return setting::kCount;
+    case 4: return setting::kCount;
+    default: return seq;
   }
 }
 
-uint8_t byte_at(const Settings& settings, uint16_t crc, uint8_t i) {
-  if (i < kHeaderSize) return header_byte(i);
+uint8_t byte_at(const Settings& settings, uint8_t seq, uint16_t crc, uint8_t i) {
+  if (i < kHeaderSize) return header_byte(seq, i);
   if (i < kSize - 2) return reinterpret_cast<const uint8_t*>(settings.raw())[i - kHeaderSize];
   return i == kSize - 2 ? crc & 0xFF : crc >> 8;
 }
 
-uint16_t crc_of(const Settings& settings) {
+uint16_t crc_of(const Settings& settings, uint8_t seq) {
   uint16_t crc = 0xFFFF;
-  for (uint8_t i = 0; i < kSize - 2; ++i) crc = crc16_update(crc, byte_at(settings, 0, i));
+  for (uint8_t i = 0; i < kSize - 2; ++i) crc = crc16_update(crc, byte_at(settings, seq, 0, i));
   return crc;
 }
 
-Verdict decode(const uint8_t* in, Settings& settings) {
+// The checks both formats share: not erased, magic, table, CRC, every value in range.
+static Verdict check(const uint8_t* in, uint8_t size, uint8_t header, uint16_t magic, Settings* settings) {
   bool blank = true;
-  for (uint8_t i = 0; i < kSize; ++i) blank = blank && in[i] == 0xFF;
+  for (uint8_t i = 0; i < size; ++i) blank = blank && in[i] == 0xFF;
   if (blank) return Verdict::kBlank;
-  const uint16_t magic = in[0] | (in[1] << 8);
+  const uint16_t crc = in[size - 2] | (in[size - 1] << 8);
+  const uint16_t stored_magic = in[0] | (in[1] << 8);
   const uint16_t layout = in[2] | (in[3] << 8);
-  const uint16_t crc = in[kSize - 2] | (in[kSize - 1] << 8);
-  if (magic != kMagic || layout != setting::kLayoutHash || in[4] != setting::kCount ||
-      crc != crc16_mcrf4xx(in, kSize - 2))
+  if (stored_magic != magic || layout != setting::kLayoutHash || in[4] != setting::kCount ||
+      crc != crc16_mcrf4xx(in, size - 2))
     return Verdict::kCorrupt;
   float values[setting::kCount];
-  memcpy(values, in + kHeaderSize, sizeof values);
+  memcpy(values, in + header, sizeof values);
   for (uint8_t id = 0; id < setting::kCount; ++id)
     if (!Settings::acceptable(id, values[id])) return Verdict::kCorrupt;
-  settings.assign(values);
+  if (settings) settings->assign(values);
   return Verdict::kValid;
+}
+
+Verdict decode(const uint8_t* in, Settings* settings, uint8_t* seq) {
+  const Verdict verdict = check(in, kSize, kHeaderSize, kMagic, settings);
+  if (verdict == Verdict::kValid) *seq = in[kHeaderSize - 1];
+  return verdict;
+}
+
+Verdict decode_legacy(const uint8_t* in, Settings* settings) {
+  return check(in, kLegacySize, kLegacyHeaderSize, kLegacyMagic, settings);
 }
 
 }  // namespace record

@@ -8,12 +8,13 @@ static int16_t round_pwm(float pwm) { return static_cast<int16_t>(pwm < 0.0f ? p
 // limited) reference closely and braking for a corner happens where it was planned; the PI
 // only corrects what the open-loop guess gets wrong.
 MotorCommand SpeedController::update(const WheelSpeeds& target, const WheelSpeeds& measured,
-                                     const SpeedGains& gains, float h_s, float pwm_max) {
+                                     const WheelSpeeds& feedforward, const SpeedGains& gains, float h_s,
+                                     float pwm_max) {
   MotorCommand out;
   out.left = round_pwm(left_.update(target.left_mps - measured.left_mps, gains.pi, h_s, pwm_max,
-                                    gains.kff * target.left_mps));
+                                    gains.kff * feedforward.left_mps));
   out.right = round_pwm(right_.update(target.right_mps - measured.right_mps, gains.pi, h_s, pwm_max,
-                                      gains.kff * target.right_mps));
+                                      gains.kff * feedforward.right_mps));
   return out;
 }
 

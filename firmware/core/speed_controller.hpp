@@ -31,10 +31,26 @@ inline WheelSpeeds wheel_speeds(float v_mps, float omega_radps, float track_m) {
   return w;
 }
 
+// The traction wheels' surface speeds that give the same (v, omega) as the measuring-wheel
+// speeds `measuring`: the same v, the turning part scaled by traction track / measuring track.
+// The motors drive the traction wheels, so the open-loop guess must be theirs: with the
+// measuring wheels' speeds it was 0.305 / 0.182 = 1.68 x too high for any turn, and a turn on the
+// spot at 3.0 rad/s overshot to 3.62 rad/s.
+inline WheelSpeeds traction_speeds(const WheelSpeeds& measuring, float track_ratio) {
+  const float v = 0.5f * (measuring.left_mps + measuring.right_mps);
+  const float half_turn = 0.5f * (measuring.right_mps - measuring.left_mps) * track_ratio;
+  WheelSpeeds w;
+  w.left_mps = v - half_turn;
+  w.right_mps = v + half_turn;
+  return w;
+}
+
 class SpeedController {
  public:
-  MotorCommand update(const WheelSpeeds& target, const WheelSpeeds& measured, const SpeedGains& gains,
-                      float h_s, float pwm_max);
+  // One step of both PIs on the measuring-wheel speeds, plus gains.kff times the traction-wheel
+  // speeds `feedforward` the targets need (traction_speeds()).
+  MotorCommand update(const WheelSpeeds& target, const WheelSpeeds& measured, const WheelSpeeds& feedforward,
+                      const SpeedGains& gains, float h_s, float pwm_max);
   void reset();
 
  private:

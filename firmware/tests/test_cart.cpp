@@ -515,6 +515,56 @@ TEST(CartLoop, ManualDriveBeyondTheLimitsIsRefusedAndChangesNothing) {
   }
 }
 
+// ---- Front switches ------------------------------------------------------------------------
+
+TEST(CartLoop, AFrontSwitchClosingWhileDrivingForwardsStopsAtOnce) {
+  for (const bool left : {true, false}) {
+    Rig rig;
+    for (int i = 0; i < 60; ++i) {
+      if (i % 40 == 0) ASSERT_EQ(rig.cart.drive(0.3f, 0.0f), 0);
+      rig.tick();
+    }
+    ASSERT_TRUE(rig.cart.output().enabled);
+    const core::MotorOutput out = rig.tick(left, !left);  // the bumper touches
+    EXPECT_FALSE(out.enabled);
+    EXPECT_EQ(proto::MODE_IDLE, rig.cart.mode());
+    EXPECT_TRUE(rig.flag(proto::FLAG_BUMPER));
+  }
+}
+
+TEST(CartLoop, WithAFrontSwitchClosedOnlyBackingAwayIsAllowed) {
+  Rig rig;
+  rig.tick(true, false);
+  EXPECT_EQ(proto::REASON_BLOCKED, rig.cart.drive(0.2f, 0.0f));
+  EXPECT_EQ(proto::MODE_IDLE, rig.cart.mode());
+  ASSERT_EQ(0, rig.cart.drive(-0.2f, 0.0f));
+  for (int i = 0; i < 30; ++i) EXPECT_TRUE(rig.tick(true, false).enabled) << i;
+  EXPECT_LT(rig.plant.speed(), -0.1);  // backing away
+  EXPECT_FALSE(rig.flag(proto::FLAG_BUMPER));
+  ASSERT_EQ(0, rig.cart.drive(0.0f, 1.0f));  // turning on the spot is allowed too
+  EXPECT_TRUE(rig.tick(true, false).enabled);
+}
+
+TEST(CartLoop, APathIntoAContactStops) {
+  Rig rig;
+  rig.cart.go_to(core::Point{1.0f, 0.0f});
+  for (int i = 0; i < 50; ++i) rig.tick();
+  ASSERT_EQ(proto::MODE_PATH, rig.cart.mode());
+  rig.tick(false, true);
+  EXPECT_EQ(proto::MODE_IDLE, rig.cart.mode());
+  EXPECT_TRUE(rig.flag(proto::FLAG_BUMPER));
+  EXPECT_FALSE(rig.cart.output().enabled);
+}
+
+TEST(CartLoop, APathThatBacksAwayFromAContactIsDriven) {
+  Rig rig;
+  rig.cart.go_to(core::Point{-0.3f, 0.0f});
+  for (int i = 0; i < 100; ++i) rig.tick(true, true);
+  EXPECT_EQ(proto::MODE_PATH, rig.cart.mode());
+  EXPECT_LT(rig.plant.x, -0.05);
+  EXPECT_FALSE(rig.flag(proto::FLAG_BUMPER));
+}
+
 // ---- Reset routine -------------------------------------------------------------------------
 
 TEST(CartLoop, ResetRoutineCreepsSquaresUpAndSetsThePose) {

@@ -180,7 +180,7 @@ TEST_F(Dispatcher, CorruptEepromGivesDefaults) {
     call(fw, proto::COMMAND_SAVE);
     while (fw.store.busy()) fw.tick();
   }
-  harness::RamEeprom::memory[10] ^= 0x01;
+  harness::RamEeprom::memory[core::record::slot_address(0) + 10] ^= 0x01;
   Firmware fw;
   EXPECT_EQ(2.0f, call(fw, proto::COMMAND_STATUS).results.at(8));
   EXPECT_FLOAT_EQ(1000.0f, call(fw, proto::COMMAND_KPID_GET).results.at(2));

@@ -30,6 +30,8 @@ int g_busy_polls = 0;
 int g_latency = 3;
 int g_writes = 0;
 int g_writes_while_busy = 0;
+uint16_t g_last_address = 0;  // the byte written last, and what it held before
+uint8_t g_last_old = 0;
 
 bool fake_ready() {
   if (g_busy_polls == 0) return true;
@@ -39,6 +41,8 @@ bool fake_ready() {
 uint8_t fake_read(uint16_t address) { return g_memory.at(address); }
 void fake_write(uint16_t address, uint8_t value) {
   if (g_busy_polls > 0) ++g_writes_while_busy;  // a real EEPROM would lose this byte
+  g_last_address = address;
+  g_last_old = g_memory.at(address);
   g_memory.at(address) = value;
   g_busy_polls = g_latency;
   ++g_writes;
@@ -84,9 +88,28 @@ void expect_same_values(const core::Settings& a, const core::Settings& b) {
   for (uint8_t i = 0; i < id::kCount; ++i) EXPECT_EQ(a.get(i), b.get(i)) << "setting " << int(i);
 }
 
-std::vector<uint8_t> record_bytes() {
-  return std::vector<uint8_t>(g_memory.begin() + core::record::kAddress,
-                              g_memory.begin() + core::record::kAddress + core::record::kSize);
+std::vector<uint8_t> slot_bytes(uint8_t slot) {
+  const uint16_t at = core::record::slot_address(slot);
+  return std::vector<uint8_t>(g_memory.begin() + at, g_memory.begin() + at + core::record::kSize);
+}
+
+void put_slot(uint8_t slot, const std::vector<uint8_t>& bytes) {
+  std::copy(bytes.begin(), bytes.end(), g_memory.begin() + core::record::slot_address(slot));
+}
+
+// The record bytes of `settings` with sequence `seq`.
+std::vector<uint8_t> record_of(const core::Settings& settings, uint8_t seq) {
+  const uint16_t crc = core::record::crc_of(settings, seq);
+  std::vector<uint8_t> out;
+  for (uint8_t i = 0; i < core::record::kSize; ++i) out.push_back(core::record::byte_at(settings, seq, crc, i));
+  return out;
+}
+
+core::Settings loaded_after_reboot(Verdict expected = Verdict::kValid) {
+  core::SettingsStore store(kFakePort);
+  core::Settings loaded;
+  EXPECT_EQ(store.load(loaded), expected);
+  return loaded;
 }
 
 // ---- Defaults -------------------------------------------------------------------------------
@@ -256,20 +279,22 @@ TEST_F(SettingsEeprom, AnySingleFlippedBitIsCorruptAndChangesNothing) {
   const core::Settings saved = custom();  // the store reads the live object: keep it alive
   store.save(saved);
   finish(store);
-  const std::vector<uint8_t> good = record_bytes();
+  const std::vector<uint8_t> good = slot_bytes(0);
+  ASSERT_EQ(good, record_of(saved, 1));  // the first record: slot 0, sequence 1
   // Target values distinct from both the record and the defaults.
   core::Settings target;
   ASSERT_EQ(target.set(id::speed_kp, 777.0f), 0);
   ASSERT_EQ(target.set(id::tol_pass_m, 0.033f), 0);
   const core::Settings before = target;
   for (size_t bit = 0; bit < good.size() * 8; ++bit) {
-    std::copy(good.begin(), good.end(), g_memory.begin() + core::record::kAddress);
-    g_memory[core::record::kAddress + bit / 8] ^= static_cast<uint8_t>(1u << (bit % 8));
+    std::vector<uint8_t> bad = good;
+    bad[bit / 8] ^= static_cast<uint8_t>(1u << (bit % 8));
+    put_slot(0, bad);
     ASSERT_EQ(store.load(target), Verdict::kCorrupt) << "bit " << bit;
     for (uint8_t i = 0; i < id::kCount; ++i) ASSERT_EQ(target.get(i), before.get(i)) << "bit " << bit;
   }
   // The unflipped record still loads (the loop above really was testing corruption).
-  std::copy(good.begin(), good.end(), g_memory.begin() + core::record::kAddress);
+  put_slot(0, good);
   EXPECT_EQ(store.load(target), Verdict::kValid);
   expect_same_values(target, custom());
 }
@@ -277,39 +302,121 @@ TEST_F(SettingsEeprom, AnySingleFlippedBitIsCorruptAndChangesNothing) {
 TEST_F(SettingsEeprom, RecordWithAValidCrcButAnOutOfRangeValueIsCorrupt) {
   // The seed loaded whatever was there; a record whose checksum is right but whose gain is NaN
   // (or out of range) must not reach the controller.
-  core::SettingsStore store(kFakePort);
-  const core::Settings defaults;  // the store reads the live object: keep it alive
-  store.save(defaults);
-  finish(store);
   const float bad_values[] = {std::numeric_limits<float>::quiet_NaN(), -5.0f, 1e9f};
   for (const float bad : bad_values) {
     SCOPED_TRACE(bad);
-    std::vector<uint8_t> rec = record_bytes();
+    std::vector<uint8_t> rec = record_of(core::Settings(), 1);
     std::memcpy(&rec[core::record::kHeaderSize + 4 * id::speed_kp], &bad, 4);
     const uint16_t crc = core::crc16_mcrf4xx(rec.data(), core::record::kSize - 2);
     rec[core::record::kSize - 2] = crc & 0xFF;
     rec[core::record::kSize - 1] = crc >> 8;
-    std::copy(rec.begin(), rec.end(), g_memory.begin() + core::record::kAddress);
+    put_slot(0, rec);
+    core::SettingsStore store(kFakePort);
     core::Settings target = custom();
     EXPECT_EQ(store.load(target), Verdict::kCorrupt);
     expect_same_values(target, custom());
   }
 }
 
+TEST_F(SettingsEeprom, SavesAlternateBetweenTheSlotsWithRisingSequenceNumbers) {
+  core::SettingsStore store(kFakePort);
+  core::Settings live = custom();
+  store.save(live);
+  finish(store);
+  EXPECT_EQ(slot_bytes(0), record_of(live, 1));
+  ASSERT_EQ(live.set(id::speed_kp, 2000.0f), 0);
+  store.save(live);
+  finish(store);
+  EXPECT_EQ(slot_bytes(1), record_of(live, 2));
+  ASSERT_EQ(live.set(id::speed_kp, 3000.0f), 0);
+  store.save(live);
+  finish(store);
+  EXPECT_EQ(slot_bytes(0), record_of(live, 3));
+  EXPECT_EQ(3000.0f, loaded_after_reboot().get(id::speed_kp));
+}
+
+// A reset may come at any moment of a save (every byte takes 3.4 ms on the chip): whatever the
+// moment, the next boot finds the previous settings, or once the last byte is in the new ones;
+// never defaults. The byte being programmed when the reset came is left half erased.
+TEST_F(SettingsEeprom, AResetAtAnyMomentOfASaveLeavesThePreviousRecord) {
+  const core::Settings previous = custom();
+  core::Settings next = custom();
+  ASSERT_EQ(next.set(id::enc_track_m, 0.31f), 0);
+  ASSERT_EQ(next.set(id::speed_ki, 5000.0f), 0);
+  int writes_in_a_save = 0;
+  for (int cut = 1; writes_in_a_save == 0; ++cut) {
+    SetUp();
+    {
+      core::SettingsStore first(kFakePort);
+      first.save(previous);
+      finish(first);
+    }
+    g_writes = 0;
+    core::SettingsStore store(kFakePort);
+    core::Settings booted;
+    ASSERT_EQ(store.load(booted), Verdict::kValid);
+    store.save(next);
+    while (store.busy() && g_writes < cut) store.poll();
+    if (g_writes < cut) {  // the save finished before this cut: it is the new record now
+      writes_in_a_save = g_writes;
+      const core::Settings after = loaded_after_reboot();
+      expect_same_values(after, next);
+      break;
+    }
+    g_memory[g_last_address] = g_last_old | 0xF0;  // reset during write number `cut`
+    const core::Settings after = loaded_after_reboot();
+    expect_same_values(after, previous);
+    ASSERT_LT(cut, 200);
+  }
+  EXPECT_GT(writes_in_a_save, 10);  // the loop above really cut a save short many times
+}
+
+TEST_F(SettingsEeprom, TheNewerRecordWinsAcrossTheSequenceWrap) {
+  core::Settings older = custom(), newer = custom();
+  ASSERT_EQ(newer.set(id::speed_kp, 2500.0f), 0);
+  put_slot(1, record_of(older, 255));
+  put_slot(0, record_of(newer, 0));
+  EXPECT_EQ(2500.0f, loaded_after_reboot().get(id::speed_kp));
+  put_slot(0, record_of(older, 254));
+  put_slot(1, record_of(newer, 255));
+  EXPECT_EQ(2500.0f, loaded_after_reboot().get(id::speed_kp));
+}
+
+TEST_F(SettingsEeprom, AnOldFirmwaresRecordIsLoadedUntilTheFirstSave) {
+  // Format 1: magic C2D2, layout hash, count, values, CRC at address 0.
+  const core::Settings old = custom();
+  std::vector<uint8_t> rec = {0xD2, 0xC2, params::settings::kLayoutHash & 0xFF, params::settings::kLayoutHash >> 8,
+                              params::settings::kCount};
+  const uint8_t* values = reinterpret_cast<const uint8_t*>(old.raw());
+  rec.insert(rec.end(), values, values + 4 * params::settings::kCount);
+  const uint16_t crc = core::crc16_mcrf4xx(rec.data(), static_cast<uint16_t>(rec.size()));
+  rec.push_back(crc & 0xFF);
+  rec.push_back(crc >> 8);
+  ASSERT_EQ(core::record::kLegacySize, rec.size());
+  std::copy(rec.begin(), rec.end(), g_memory.begin() + core::record::kLegacyAddress);
+  expect_same_values(loaded_after_reboot(), old);
+
+  core::Settings changed = old;
+  ASSERT_EQ(changed.set(id::speed_kp, 900.0f), 0);
+  core::SettingsStore store(kFakePort);
+  core::Settings booted;
+  store.load(booted);
+  store.save(changed);
+  finish(store);
+  expect_same_values(loaded_after_reboot(), changed);
+}
+
 TEST_F(SettingsEeprom, ValueChangedMidSaveRestartsTheSave) {
   core::Settings live = custom();
   core::SettingsStore store(kFakePort);
   store.save(live);
-  // Let about 30 bytes reach the EEPROM: the speed_kp bytes (record bytes 13..16) are written.
+  // Let about 30 bytes reach the EEPROM: the speed_kp bytes (record bytes 14..17) are written.
   while (g_writes < 30) store.poll();
   ASSERT_TRUE(store.busy());
   ASSERT_EQ(live.set(id::speed_kp, 2222.0f), 0);
   ASSERT_EQ(live.set(id::tol_pass_m, 0.02f), 0);
   finish(store);
-
-  core::SettingsStore after_reboot(kFakePort);
-  core::Settings loaded;
-  EXPECT_EQ(after_reboot.load(loaded), Verdict::kValid);
+  const core::Settings loaded = loaded_after_reboot();
   expect_same_values(loaded, live);
   EXPECT_EQ(loaded.get(id::speed_kp), 2222.0f);
 }
@@ -321,10 +428,7 @@ TEST_F(SettingsEeprom, ValueChangedJustBeforeTheLastByteStillEndsConsistent) {
   while (g_writes < core::record::kSize - 1) store.poll();
   ASSERT_EQ(live.set(id::pos_rho_kp, 7.0f), 0);
   finish(store);
-  core::SettingsStore after_reboot(kFakePort);
-  core::Settings loaded;
-  EXPECT_EQ(after_reboot.load(loaded), Verdict::kValid);
-  expect_same_values(loaded, live);
+  expect_same_values(loaded_after_reboot(), live);
 }
 
 TEST_F(SettingsEeprom, LoadWhileASaveIsPendingReturnsTheValuesBeingSaved) {
@@ -350,50 +454,45 @@ TEST_F(SettingsEeprom, LoadWhileASaveIsPendingReturnsTheValuesBeingSaved) {
 }
 
 TEST_F(SettingsEeprom, UnchangedBytesAreNotRewritten) {
-  const core::Settings s = custom();
+  core::Settings s = custom();
   core::SettingsStore store(kFakePort);
   store.save(s);
   finish(store);
-  const int first = g_writes;
-  ASSERT_GT(first, 0);
+  ASSERT_GT(g_writes, 0);
 
+  // Saving what the newest record holds writes nothing.
   g_writes = 0;
   store.save(s);
   finish(store);
   EXPECT_EQ(g_writes, 0);
 
-  // One value changed: at most its 4 bytes and the 2 CRC bytes are written.
-  core::Settings changed = s;
-  ASSERT_EQ(changed.set(id::speed_ki, 4000.0f), 0);
+  // Two changes later the slot written first gets its turn again: only the bytes of the values
+  // changed since, the sequence number and the CRC are written.
+  ASSERT_EQ(s.set(id::speed_ki, 4000.0f), 0);
+  store.save(s);
+  finish(store);
+  ASSERT_EQ(s.set(id::speed_ki, 4100.0f), 0);
   g_writes = 0;
-  store.save(changed);
+  store.save(s);
   finish(store);
   EXPECT_GT(g_writes, 0);
-  EXPECT_LE(g_writes, 6);
-  core::Settings loaded;
-  EXPECT_EQ(store.load(loaded), Verdict::kValid);
-  expect_same_values(loaded, changed);
+  EXPECT_LE(g_writes, 4 + 1 + 2);
+  expect_same_values(loaded_after_reboot(), s);
 }
 
 TEST_F(SettingsEeprom, BusyLastsUntilTheLastWriteHasFinished) {
   const core::Settings s = custom();
   core::SettingsStore store(kFakePort);
-  store.save(s);
-  finish(store);
-  // Damage the last record byte only: the next save has exactly that one byte to write.
-  g_memory[core::record::kAddress + core::record::kSize - 1] ^= 0x01;
   g_latency = 5;
-  g_writes = 0;
   store.save(s);
-  while (g_writes == 0) store.poll();
-  EXPECT_EQ(g_writes, 1);
-  // The record is complete in the store's eyes, but the chip is still writing that byte.
+  const std::vector<uint8_t> rec = record_of(s, 1);
+  const int bytes_to_write = static_cast<int>(std::count_if(rec.begin(), rec.end(), [](uint8_t b) { return b != 0xFF; }));
+  while (g_writes < bytes_to_write) store.poll();
+  // The record is complete in the store's eyes, but the chip is still writing its last byte.
   EXPECT_TRUE(store.busy());
   finish(store);
-  EXPECT_EQ(g_writes, 1);
-  core::Settings loaded;
-  EXPECT_EQ(store.load(loaded), Verdict::kValid);
-  expect_same_values(loaded, s);
+  EXPECT_EQ(g_writes, bytes_to_write);
+  expect_same_values(loaded_after_reboot(), s);
 }
 
 }  // namespace
