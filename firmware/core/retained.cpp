@@ -10,13 +10,13 @@ constexpr uint8_t kRamLost = proto::RESET_POWER_ON | proto::RESET_BROWN_OUT;
 constexpr uint8_t kChipCauses =
     proto::RESET_POWER_ON | proto::RESET_EXTERNAL | proto::RESET_BROWN_OUT | proto::RESET_WATCHDOG;
 
-static uint16_t check_of(const Pose& pose) {
+static uint16_t check_of(const float* pose) {
   // Not 0xFFFF-seeded zeros: a RAM that powers up all-zero must not pass.
-  return crc16_mcrf4xx(reinterpret_cast<const uint8_t*>(&pose), sizeof pose) ^ 0x5AA5;
+  return crc16_mcrf4xx(reinterpret_cast<const uint8_t*>(pose), 3 * sizeof(float)) ^ 0x5AA5;
 }
 
-static bool plausible(const Pose& p) {
-  return is_moderate(p.x_m) && is_moderate(p.y_m) && is_moderate(p.theta_rad) && fabsf(p.theta_rad) <= kPi + 1e-3f;
+static bool plausible(const float* p) {
+  return is_moderate(p[0]) && is_moderate(p[1]) && is_moderate(p[2]) && fabsf(p[2]) <= kPi + 1e-3f;
 }
 
 BootInfo boot(RetainedState& state, uint8_t reset_flags) {
@@ -35,13 +35,15 @@ BootInfo boot(RetainedState& state, uint8_t reset_flags) {
   state.boot_count_check = static_cast<uint16_t>(~info.boot_count);
 
   info.pose_restored = ram_kept && state.pose_check == check_of(state.pose) && plausible(state.pose);
-  if (info.pose_restored) info.pose = state.pose;
+  if (info.pose_restored) info.pose = Pose{state.pose[0], state.pose[1], state.pose[2]};
   return info;
 }
 
 void retain_pose(RetainedState& state, const Pose& pose) {
-  state.pose = pose;
-  state.pose_check = check_of(pose);
+  state.pose[0] = pose.x_m;
+  state.pose[1] = pose.y_m;
+  state.pose[2] = pose.theta_rad;
+  state.pose_check = check_of(state.pose);
 }
 
 void mark_reboot(RetainedState& state) { state.reboot_marker = kRebootMarker; }

@@ -12,8 +12,10 @@
 
 namespace core {
 
+// Trivially constructible on purpose: an object with initialisers gets a static constructor that
+// the C runtime runs at every boot, and it would zero the very values meant to survive.
 struct RetainedState {
-  Pose pose;
+  float pose[3];  // x (m), y (m), theta (rad): not a Pose, which has initialisers
   uint16_t pose_check;
   uint16_t boot_count;
   uint16_t boot_count_check;
@@ -26,6 +28,8 @@ struct BootInfo {
   bool pose_restored = false;
   Pose pose;
 };
+
+static_assert(__has_trivial_constructor(RetainedState), "RetainedState must survive the C runtime's start-up");
 
 // Called once at start-up with the reset flags the chip reported (MCUSR: PORF, EXTRF, BORF,
 // WDRF in bits 0..3, the same bits as proto::ResetCause). Updates `state` for this boot.

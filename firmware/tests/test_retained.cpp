@@ -73,7 +73,7 @@ TEST(Retained, APoseTornByTheResetIsNotRestored) {
   RetainedState s = random_ram(5);
   core::boot(s, proto::RESET_POWER_ON);
   core::retain_pose(s, Pose{0.5f, 0.5f, 0.0f});
-  s.pose.x_m = 0.75f;  // the reset came between writing x and the check word
+  s.pose[0] = 0.75f;  // the reset came between writing x and the check word
   EXPECT_FALSE(core::boot(s, proto::RESET_EXTERNAL).pose_restored);
 }
 
