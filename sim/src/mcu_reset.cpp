@@ -6,6 +6,7 @@
 // like any other, an avr_io_t of ours is registered: avr_reset() calls every module's reset()
 // after clearing the timers. Ours only notes it; run_until() then takes the common path once
 // avr_run() has returned, when every module (the watchdog's own reset() included) is done.
+#include <cstdlib>  // free
 #include <cstring>  // memset
 
 #include "atmega328p.hpp"
