@@ -13,6 +13,7 @@ import os
 import socket
 import subprocess
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -195,6 +196,23 @@ class Simulator:
 
         self.side.wait_truth(paused, wall_timeout_s)
         return self.truth()
+
+    def reset(self, cause: str = "external", wait: bool = True, **members: Any) -> None:
+        """Resets the simulated MCU: "external" (the button, DTR), "power" (off_s: seconds without
+        power) or "brownout" (dip_s). As on the board the chip then runs nothing for its reset
+        time-out and the UART loses what arrives meanwhile; with wait, this returns once the MCU
+        runs again (nothing waits while the simulator is paused)."""
+        self.control("reset", cause=cause, **members)
+        if wait and not self.control("stats")["stats"]["paused"]:
+            self.wait_running()
+
+    def wait_running(self, wall_timeout_s: float = 30.0) -> None:
+        """Waits until the MCU is out of reset (power off, brown-out dip or the time-out)."""
+        deadline = time.monotonic() + wall_timeout_s
+        while self.control("stats")["stats"]["mcu"] == "reset":
+            if time.monotonic() > deadline:
+                raise SimulatorError("the MCU stays in reset")
+            time.sleep(0.002)
 
     def truth(self) -> dict[str, Any]:
         truth: dict[str, Any] = self.control("truth")["truth"]

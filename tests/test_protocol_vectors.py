@@ -120,7 +120,7 @@ def test_exchanges_with_the_real_firmware(tmp_path: Path) -> None:
     try:
         with serial.Serial(sim.pty, 115200, timeout=0.05) as port:
             for v in (v for v in VECTORS if v.kind == "exchange"):
-                sim.control("reset")
+                sim.reset()  # returns after the reset time-out, when the firmware listens again
                 port.reset_input_buffer()
                 port.write(v.data)
                 replies: list[Packet] = []

@@ -139,7 +139,7 @@ def test_save_survives_an_mcu_reset_and_load_restores_it(sim: Simulator, link: L
     link.call("SAVE")
     wait_for(lambda: link.call("STATUS")[9] == 0.0)  # eeprom_busy
     uptime_before = link.call("HEARTBEAT")[0]
-    sim.control("reset")
+    sim.reset()  # returns once the reset time-out is over: requests sent before would be lost
     wait_for(lambda: link.call("HEARTBEAT")[0] < uptime_before)  # the MCU restarted
     assert link.call("TOL_GET") == (0.019999999552965164,)
     assert link.call("PARAM_GET", 8)[1] == 0.75

@@ -26,8 +26,28 @@ constexpr int kUCSZ00 = 1;  // UCSR0C bits 2:1
 constexpr int kUSBS0 = 3;   // UCSR0C
 constexpr int kUPM01 = 5;   // UCSR0C: parity enabled when set
 
+// Reset and watchdog (datasheet §11.9): MCUSR flags, WDTCSR enables.
+constexpr uint16_t kMCUSR = 0x54, kWDTCSR = 0x60;
+constexpr uint8_t kPORF = 1u << 0, kEXTRF = 1u << 1, kBORF = 1u << 2, kWDRF = 1u << 3;
+constexpr uint8_t kWDE = 1u << 3, kWDIE = 1u << 6;
+// Interrupt flag registers a held reset keeps at their reset value (§12.2.4, §12.2.6).
+constexpr uint16_t kPCIFR = 0x3B, kEIFR = 0x3C;
+
+// EEPROM (datasheet §8.6): EECR bits, data and address registers.
+constexpr uint16_t kEECR = 0x3F, kEEDR = 0x40, kEEARL = 0x41, kEEARH = 0x42;
+constexpr uint8_t kEERE = 1u << 0, kEEPE = 1u << 1, kEEMPE = 1u << 2, kEERIE = 1u << 3;
+constexpr uint8_t kEEPM0 = 1u << 4, kEEPM1 = 1u << 5;
+
+// Memory map (§8.3): the register file, then I/O, then 2 KiB of SRAM.
+constexpr uint16_t kRegisterFileEnd = 0x1F;
+constexpr uint16_t kSramStart = 0x100, kSramEnd = 0x8FF;
+
+// `rjmp .`, a jump to itself (AVR Instruction Set Manual).
+constexpr uint16_t kOpRjmpSelf = 0xCFFF;
+
 // Interrupt vector numbers (datasheet §11.1, Table 11-1, counting RESET as 0).
 constexpr uint8_t kVectorTimer2CompA = 7;
+constexpr uint8_t kVectorEeReady = 22;
 
 constexpr uint32_t kEepromBytes = 1024;
 

@@ -63,10 +63,9 @@ std::string Simulator::dispatch(int client, const std::string& type, const json:
     pacer_.anchor(rig_.time_s(), wall_now_s());
     return "";
   }
-  if (type == "reset") {
-    rig_.reset_mcu();
-    mcu_dead_reported_ = false;
-    LOG_INFO("MCU reset at t = %.6f s", rig_.time_s());
+  if (type == "reset") return cmd_reset(msg);
+  if (type == "hang") {
+    rig_.inject_hang();
     return "";
   }
   if (type == "quit") {
@@ -101,6 +100,36 @@ std::string Simulator::dispatch(int client, const std::string& type, const json:
     return "";
   }
   return "unknown message type '" + type + "'";
+}
+
+// {"type":"reset","cause":"external"|"power"|"brownout"}: the reset button (or DTR); the power
+// switched off for off_s, then on; the supply dipped below the brown-out level for dip_s.
+std::string Simulator::cmd_reset(const json::Value& msg) {
+  const json::Value* cause = msg.find("cause");
+  if (cause && !cause->is_string()) return "cause must be \"external\", \"power\" or \"brownout\"";
+  const std::string name = cause ? cause->string : "external";
+  ResetCause c = ResetCause::kExternal;
+  const char* duration = nullptr;
+  if (name == "power") {
+    c = ResetCause::kPowerOn;
+    duration = "off_s";
+  } else if (name == "brownout") {
+    c = ResetCause::kBrownOut;
+    duration = "dip_s";
+  } else if (name != "external") {
+    return "cause must be \"external\", \"power\" or \"brownout\"";
+  }
+  double off_s = 0.0;
+  for (const char* key : {"off_s", "dip_s"}) {
+    if (!msg.find(key)) continue;
+    if (!duration || std::string(key) != duration) return std::string(key) + " does not go with cause " + name;
+    if (!number_member(msg, key, &off_s) || off_s < 0.0 || off_s > 3600.0)
+      return std::string(key) + " must be a number of seconds in [0, 3600]";
+  }
+  rig_.reset_mcu(c, off_s);
+  mcu_dead_reported_ = false;
+  LOG_INFO("MCU reset (%s) at t = %.6f s", name.c_str(), rig_.time_s());
+  return "";
 }
 
 // {"type":"profile","enable":true} starts counting the cycles of each instruction executed
@@ -252,8 +281,33 @@ std::string Simulator::stats_json() const {
       .add("wall_contacts", static_cast<long long>(rig_.contacts().wall_contacts()))
       .add("obstacles", static_cast<unsigned long long>(rig_.world().obstacles().size()))
       .add_raw("faults", faults_json(rig_.faults()))
-      .add("eeprom", eeprom_.path());
+      .add("eeprom", eeprom_.path())
+      .add_raw("resets", resets_json())
+      .add_raw("eeprom_ops", eeprom_ops_json());
   return o.str();
+}
+
+std::string Simulator::resets_json() const {
+  json::Object o;
+  for (int i = 0; i < kResetCauseCount; ++i) {
+    const ResetCause c = static_cast<ResetCause>(i);
+    o.add(reset_cause_name(c), static_cast<unsigned long long>(rig_.mcu().reset_count(c)));
+  }
+  return o.str();
+}
+
+std::string Simulator::eeprom_ops_json() const {
+  const EepromPart::Stats& e = rig_.eeprom().stats();
+  return json::Object()
+      .add("busy", rig_.eeprom().busy())
+      .add("writes_started", static_cast<unsigned long long>(e.writes_started))
+      .add("writes_done", static_cast<unsigned long long>(e.writes_done))
+      .add("writes_aborted", static_cast<unsigned long long>(e.writes_aborted))
+      .add("reads", static_cast<unsigned long long>(e.reads))
+      .add("reads_while_busy", static_cast<unsigned long long>(e.reads_while_busy))
+      .add("strobes_ignored", static_cast<unsigned long long>(e.strobes_ignored))
+      .add("address_writes_ignored", static_cast<unsigned long long>(e.address_writes_ignored))
+      .str();
 }
 
 }  // namespace cart2d

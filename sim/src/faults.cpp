@@ -8,6 +8,7 @@ struct Field {
   const char* name;
   double Faults::*member;
   double min, max;
+  bool whole = false;  // only the whole numbers in [min, max]
 };
 
 // One row per fault: its message key, where it lives and its valid range.
@@ -23,6 +24,7 @@ const Field kFields[] = {
     {"uart_rx_corrupt", &Faults::uart_rx_corrupt, 0.0, 1.0},
     {"uart_tx_drop", &Faults::uart_tx_drop, 0.0, 1.0},
     {"uart_tx_corrupt", &Faults::uart_tx_corrupt, 0.0, 1.0},
+    {"hbridge_pulldowns", &Faults::hbridge_pulldowns, 0.0, 1.0, true},
 };
 
 }  // namespace
@@ -41,6 +43,10 @@ bool apply_faults(const json::Value& msg, Faults* faults, std::string* error) {
     }
     if (!value.is_number() || value.number < field->min || value.number > field->max) {
       *error = key + " must be a number in [" + json::number(field->min) + ", " + json::number(field->max) + "]";
+      return false;
+    }
+    if (field->whole && value.number != static_cast<double>(static_cast<long long>(value.number))) {
+      *error = key + " must be a whole number in [" + json::number(field->min) + ", " + json::number(field->max) + "]";
       return false;
     }
     next.*(field->member) = value.number;

@@ -1,4 +1,4 @@
-// Errors on demand. All off by default; random ones draw from seeded streams (rng.hpp), so a
+// Errors on demand. All off by default (hbridge_pulldowns: fitted); random ones draw from seeded streams (rng.hpp), so a
 // given seed and input reproduce the same run.
 #pragma once
 
@@ -22,6 +22,9 @@ struct Faults {
   double uart_rx_corrupt = 0.0;  // one random bit flipped
   double uart_tx_drop = 0.0;
   double uart_tx_corrupt = 0.0;
+  // Board: 1 = the LMD18200 inputs' pull-down resistors are fitted (the seed's schematic), 0 =
+  // missing, so floating inputs (every MCU pin during a reset) read high: both bridges full on.
+  double hbridge_pulldowns = 1.0;
 
   bool any_encoder_noise() const { return enc_miss_prob > 0.0 || enc_noise_hz > 0.0; }
 };

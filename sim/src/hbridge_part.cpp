@@ -9,8 +9,8 @@ extern "C" {
 
 namespace cart2d {
 
-double oc1_duty(unsigned com_bits, uint16_t ocr, uint16_t top, bool port_bit, bool ddr_bit) {
-  if (!ddr_bit) return 0.0;
+double oc1_duty(unsigned com_bits, uint16_t ocr, uint16_t top, bool port_bit, bool ddr_bit, bool input_level) {
+  if (!ddr_bit) return input_level ? 1.0 : 0.0;
   if (com_bits < 2) return port_bit ? 1.0 : 0.0;
   double duty = top == 0 ? (ocr > 0 ? 1.0 : 0.0) : static_cast<double>(ocr) / top;
   if (duty > 1.0) duty = 1.0;
@@ -23,7 +23,8 @@ HBridgePart::HBridgePart(avr_t* avr, PinRef left_dir, PinRef right_dir, PinRef l
 bool HBridgePart::output_level(PinRef pin) const {
   const uint8_t ddr = avr_->data[m328p::ddr_register(pin.port)];
   const uint8_t port = avr_->data[m328p::port_register(pin.port)];
-  return ((ddr & port) >> pin.bit) & 1;
+  if (!((ddr >> pin.bit) & 1)) return !pulldowns_;
+  return (port >> pin.bit) & 1;
 }
 
 MotorDuties HBridgePart::sample() {
@@ -47,7 +48,7 @@ MotorDuties HBridgePart::sample() {
   auto pwm = [&](PinRef pin, unsigned com, uint16_t ocr) {
     const uint8_t ddr = d[m328p::ddr_register(pin.port)];
     const uint8_t port = d[m328p::port_register(pin.port)];
-    return oc1_duty(com, ocr, top, (port >> pin.bit) & 1, (ddr >> pin.bit) & 1);
+    return oc1_duty(com, ocr, top, (port >> pin.bit) & 1, (ddr >> pin.bit) & 1, !pulldowns_);
   };
   // OC1A = D9 = right motor, OC1B = D10 = left motor (gen_params.py checks the pin numbers).
   const double left = pwm(left_pwm_, com_b, ocr_b);

@@ -20,7 +20,7 @@ extern "C" {
 namespace cart2d {
 
 // simavr's sleep callback has no user pointer; one simulated MCU per process.
-static Mcu* g_mcu = nullptr;
+Mcu* g_mcu = nullptr;  // mcu_reset.cpp clears it
 
 // simavr logs through one global function; the default writes traces to stdout, which must
 // stay reserved for the ready line.
@@ -42,7 +42,7 @@ static void simavr_logger(avr_t*, const int level, const char* format, va_list a
 // goes high: after the firmware has switched to ANY-edge mode it still raises the interrupt on
 // every cycle while an encoder rests with A low. Turning the strict level emulation off makes
 // the low-level mode act like a falling edge, which our firmware never uses anyway.
-static void disable_level_poll(avr_t* avr) {
+void disable_level_poll(avr_t* avr) {
   avr_extint_set_strict_lvl_trig(avr, 0, 0);
   avr_extint_set_strict_lvl_trig(avr, 1, 0);
 }
@@ -341,14 +341,6 @@ bool read_ihex_with_simavr(const std::string& path, const HexImage& img, std::ve
 
 }  // namespace
 
-Mcu::~Mcu() {
-  if (avr_) {
-    avr_terminate(avr_);
-    free(avr_);  // allocated by the core maker with malloc
-  }
-  if (g_mcu == this) g_mcu = nullptr;
-}
-
 bool Mcu::load(const std::string& path, uint32_t f_cpu_hz, std::string* error) {
   avr_global_logger_set(simavr_logger);
   Format format = Format::kElf;
@@ -394,6 +386,7 @@ bool Mcu::create_avr(std::string* error) {
   avr_init(avr_);
   disable_level_poll(avr_);
   g_mcu = this;
+  watch_resets();
   return true;
 }
 
@@ -402,6 +395,7 @@ void Mcu::finish_load(uint32_t f_cpu_hz) {
   f_cpu_hz_ = f_cpu_hz;
   // Sleeping only skips cycles to the next timer event; pacing to wall time happens in our loop.
   avr_->sleep = sleep_callback;
+  after_reset(ResetCause::kPowerOn, 0);  // power is applied: PORF, random SRAM, the time-out
 }
 
 bool Mcu::load_ihex(const std::string& path, const std::string& text, uint32_t f_cpu_hz, std::string* error) {
@@ -436,8 +430,11 @@ void Mcu::sleep_callback(avr_t* avr, uint64_t how_long) {
   Mcu* self = g_mcu;
   if (!self || self->avr_ != avr) return;
   // The core calls this on every timer event while asleep; only the first call is the moment
-  // the CPU went to sleep.
-  if (!self->was_sleeping_ && self->sleep_hook_) self->sleep_hook_(avr->cycle);
+  // the CPU went to sleep (avr->pc already points past the SLEEP instruction).
+  if (!self->was_sleeping_) {
+    if (self->sleep_hook_) self->sleep_hook_(avr->cycle);
+    if (self->hang_requested_) self->plant_hang(avr->pc);
+  }
   self->was_sleeping_ = true;
 }
 
@@ -447,21 +444,37 @@ void Mcu::set_profile_gate(const bool* gate) {
 }
 
 bool Mcu::run_until(uint64_t target_cycle) {
-  while (avr_->cycle < target_cycle) {
+  for (;;) {
+    if (holding_ && avr_->cycle >= release_cycle_) release();
+    if (avr_->cycle >= target_cycle) return true;
+    if (holding_) {
+      hold(std::min(target_cycle, release_cycle_));
+      continue;
+    }
     const uint32_t pc = avr_->pc;
     const uint64_t before = avr_->cycle;
     const int state = avr_run(avr_);
+    if (avr_reset_seen_) {  // the watchdog reset the core on its own, inside avr_run()
+      after_reset(ResetCause::kWatchdog, 0);
+      continue;
+    }
     if (profile_gate_ && *profile_gate_ && state == cpu_Running) profile_[(pc / 2) % profile_.size()] += avr_->cycle - before;
-    if (state == cpu_Running) was_sleeping_ = false;
-    else if (state != cpu_Sleeping) return false;
+    if (state == cpu_Running) {
+      if (was_sleeping_) note_wake();
+      was_sleeping_ = false;
+    } else if (state != cpu_Sleeping) {
+      return false;
+    }
   }
-  return true;
 }
 
-bool Mcu::alive() const { return avr_ && (avr_->state == cpu_Running || avr_->state == cpu_Sleeping); }
+bool Mcu::alive() const {
+  return avr_ && (holding_ || avr_->state == cpu_Running || avr_->state == cpu_Sleeping);
+}
 
 const char* Mcu::state_name() const {
   if (!avr_) return "none";
+  if (holding_) return "reset";
   switch (avr_->state) {
     case cpu_Limbo: return "limbo";
     case cpu_Stopped: return "stopped";
@@ -473,13 +486,6 @@ const char* Mcu::state_name() const {
     case cpu_Crashed: return "crashed";
     default: return "unknown";
   }
-}
-
-void Mcu::reset() {
-  avr_reset(avr_);
-  disable_level_poll(avr_);  // avr_reset() turned it back on
-  avr_regbit_set(avr_, avr_->reset_flags.extrf);  // MCUSR: external reset, as the button does
-  was_sleeping_ = false;
 }
 
 }  // namespace cart2d

@@ -16,8 +16,11 @@ Rig::~Rig() = default;
 
 bool Rig::init(const RigConfig& config, std::string* error) {
   const uint32_t f_cpu = static_cast<uint32_t>(params::control::f_cpu_hz);
+  mcu_.set_seed(config.seed);
   if (!mcu_.load(config.firmware, f_cpu, error)) return false;
   avr_t* avr = mcu_.avr();
+  eeprom_ = std::make_unique<EepromPart>(avr, config.seed);
+  if (!eeprom_->attach(error)) return false;
 
   world_.set_margin(config.arena_margin_m);
   world_.set_grid(config.grid_nodes, config.grid_step_m);
@@ -44,6 +47,7 @@ bool Rig::init(const RigConfig& config, std::string* error) {
   cpu_ = std::make_unique<CpuMeter>(tick_cycles, static_cast<size_t>(params::control::tick_hz));
   cpu_->attach(avr, m328p::kVectorTimer2CompA);
   mcu_.set_sleep_hook([this](uint64_t cycle) { cpu_->on_sleep(cycle); });
+  mcu_.set_reset_hook([this](ResetCause cause) { after_mcu_reset(cause); });
 
   next_step_cycle_ = mcu_.cycle();
   arm_physics();
@@ -86,8 +90,15 @@ uint64_t Rig::physics_step(uint64_t when) {
 
 bool Rig::run_cycles(uint64_t n) { return mcu_.run_until(mcu_.cycle() + n); }
 
-void Rig::reset_mcu() {
-  mcu_.reset();  // clears every cycle timer, ours included
+void Rig::reset_mcu(ResetCause cause, double off_s) {
+  const double off_cycles = off_s > 0.0 ? off_s * mcu_.frequency_hz() : 0.0;
+  mcu_.reset(cause, static_cast<uint64_t>(off_cycles + 0.5));  // calls after_mcu_reset()
+}
+
+// The one place every reset comes through (Mcu's reset hook), the watchdog's included:
+// avr_reset() cleared every cycle timer, so each part re-arms its own, and the physics goes on.
+void Rig::after_mcu_reset(ResetCause cause) {
+  eeprom_->on_reset();
   pins_->restore_after_reset();
   switches_->refresh();
   cpu_->abandon();
@@ -95,7 +106,8 @@ void Rig::reset_mcu() {
   enc_l_->rearm_after_reset();
   enc_r_->rearm_after_reset();
   arm_physics();
-  duties_ = MotorDuties();
+  duties_ = hbridge_->sample();  // every pin floats now
+  reset_events_.push_back({cause, mcu_.time_s()});
 }
 
 void Rig::place(const Pose& pose) {
@@ -109,6 +121,7 @@ void Rig::set_faults(const Faults& faults) {
   qfaults_.miss_prob = faults.enc_miss_prob;
   qfaults_.noise_hz = faults.enc_noise_hz;
   uart_.set_faults(faults);
+  hbridge_->set_pulldowns(faults.hbridge_pulldowns != 0.0);
 }
 
 }  // namespace cart2d

@@ -9,9 +9,11 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "cart.hpp"
 #include "cpu_meter.hpp"
+#include "eeprom_part.hpp"
 #include "encoder_part.hpp"
 #include "faults.hpp"
 #include "hbridge_part.hpp"
@@ -49,8 +51,17 @@ class Rig {
   double time_s() const { return mcu_.time_s(); }
   uint64_t cycle() const { return mcu_.cycle(); }
 
-  // Pushes the reset button: the MCU restarts, the cart stays where it is, EEPROM is kept.
-  void reset_mcu();
+  // Resets the MCU (the cart coasts on, EEPROM kept): by default the reset button (or DTR);
+  // kPowerOn / kBrownOut with the power off / the supply dipped for off_s first. Every reset,
+  // the watchdog's too, re-arms the parts and is reported by take_reset_events().
+  void reset_mcu(ResetCause cause = ResetCause::kExternal, double off_s = 0.0);
+  struct ResetEvent {
+    ResetCause cause;
+    double t_s;  // when the reset began
+  };
+  std::vector<ResetEvent> take_reset_events() { return std::move(reset_events_); }
+  // The firmware's main loop hangs at its next wake from sleep (see Mcu::request_hang).
+  void inject_hang() { mcu_.request_hang(); }
   // Teleports the cart (at rest); the wheels do not turn, so no encoder edges.
   void place(const Pose& pose);
   void set_faults(const Faults& faults);
@@ -73,6 +84,7 @@ class Rig {
   const CpuMeter& cpu() const { return *cpu_; }
   CpuMeter& cpu() { return *cpu_; }
   const MotorDuties& duties() const { return duties_; }
+  const EepromPart& eeprom() const { return *eeprom_; }
   const EncoderPart& encoder_left() const { return *enc_l_; }
   const EncoderPart& encoder_right() const { return *enc_r_; }
   double enc_dist_l_m() const { return enc_dist_l_m_; }
@@ -85,6 +97,7 @@ class Rig {
   static uint64_t physics_timer(avr_t* avr, uint64_t when, void* param);
   uint64_t physics_step(uint64_t when);
   void arm_physics();
+  void after_mcu_reset(ResetCause cause);
 
   Mcu mcu_;
   World world_;
@@ -94,6 +107,7 @@ class Rig {
   Faults faults_;
   QuadratureFaults qfaults_;
   std::unique_ptr<PinDriver> pins_;
+  std::unique_ptr<EepromPart> eeprom_;
   std::unique_ptr<HBridgePart> hbridge_;
   std::unique_ptr<SwitchPart> switches_;
   std::unique_ptr<EncoderPart> enc_l_, enc_r_;
@@ -102,6 +116,7 @@ class Rig {
   MotorDuties duties_;
   std::optional<Twist> scripted_;
   std::function<void(uint64_t)> step_hook_;
+  std::vector<ResetEvent> reset_events_;
 
   // The physics step: robot.toml's physics_step_s rounded to a whole number of CPU cycles.
   static constexpr uint64_t kStepCycles =

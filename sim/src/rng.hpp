@@ -52,6 +52,14 @@ class Rng {
 };
 
 // Stream ids, one per fault site.
-enum RngStream : uint64_t { kStreamEncLeft = 1, kStreamEncRight, kStreamUartRx, kStreamUartTx, kStreamWheels };
+enum RngStream : uint64_t {
+  kStreamEncLeft = 1,
+  kStreamEncRight,
+  kStreamUartRx,
+  kStreamUartTx,
+  kStreamWheels,
+  kStreamEeprom,
+  kStreamSram = 0x100,  // + a count of power losses: a new pattern each time
+};
 
 }  // namespace cart2d

@@ -122,6 +122,22 @@ void Simulator::publish_events() {
                            .add("y", e.y_m)
                            .str());
   }
+  for (const Rig::ResetEvent& r : rig_.take_reset_events()) {
+    control_.broadcast(json::Object()
+                           .add("type", "event")
+                           .add("event", "mcu_reset")
+                           .add("cause", reset_cause_name(r.cause))
+                           .add("t", r.t_s)
+                           .str());
+  }
+  uint64_t hang_cycle = 0;
+  if (rig_.mcu().take_hang_began(&hang_cycle)) {
+    control_.broadcast(json::Object()
+                           .add("type", "event")
+                           .add("event", "hang")
+                           .add("t", static_cast<double>(hang_cycle) / rig_.mcu().frequency_hz())
+                           .str());
+  }
   if (!rig_.mcu().alive() && !mcu_dead_reported_) {
     mcu_dead_reported_ = true;
     LOG_WARN("the MCU stopped (%s) at t = %.6f s; send {\"type\":\"reset\"} to restart it", rig_.mcu().state_name(),

@@ -31,6 +31,9 @@ class Simulator {
   void handle_line(int client, const std::string& line);
   std::string dispatch(int client, const std::string& type, const json::Value& msg, std::string* extra);
   std::string cmd_place(const json::Value& msg);
+  std::string cmd_reset(const json::Value& msg);
+  std::string resets_json() const;
+  std::string eeprom_ops_json() const;
   std::string cmd_profile(const json::Value& msg, std::string* extra);
   std::string cmd_run(const json::Value& msg);
   void run_slice(uint64_t slice);

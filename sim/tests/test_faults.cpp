@@ -44,6 +44,18 @@ TEST(Faults, ClearRestoresDefaultsFirst) {
   EXPECT_NE(faults_json(f).find("\"enc_noise_hz\":5"), std::string::npos);
 }
 
+TEST(Faults, PullDownsAreFittedUntilRemovedAndTakeOnlyZeroOrOne) {
+  Faults f;
+  EXPECT_DOUBLE_EQ(f.hbridge_pulldowns, 1.0);
+  std::string err;
+  EXPECT_FALSE(apply_faults(parse(R"({"hbridge_pulldowns":0.5})"), &f, &err));
+  EXPECT_NE(err.find("whole"), std::string::npos);
+  ASSERT_TRUE(apply_faults(parse(R"({"hbridge_pulldowns":0})"), &f, &err)) << err;
+  EXPECT_DOUBLE_EQ(f.hbridge_pulldowns, 0.0);
+  ASSERT_TRUE(apply_faults(parse(R"({"clear":true})"), &f, &err));
+  EXPECT_DOUBLE_EQ(f.hbridge_pulldowns, 1.0);
+}
+
 TEST(Rng, StreamsAreRepeatableAndIndependent) {
   Rng a(7, 1), b(7, 1), c(7, 2);
   for (int i = 0; i < 10; ++i) EXPECT_EQ(a.next(), b.next());

@@ -35,10 +35,12 @@ class RigTest : public ::testing::Test {
     std::string err;
     ASSERT_TRUE(rig_->init(rc, &err)) << err;
     rig_->set_scripted_twist(Twist{});  // the cart only moves when a test says so
-    run_s(0.05);                        // let the program set up its peripherals
+    run_s(boot_s());                    // the reset time-out, then the program sets up its peripherals
   }
 
   void run_s(double s) { ASSERT_TRUE(rig_->run_cycles(static_cast<uint64_t>(s * kHz))); }
+  // From a reset until the program has set up its peripherals: the time-out tTOUT, then 50 ms.
+  double boot_s() const { return static_cast<double>(rig_->mcu().timeout_cycles()) / kHz + 0.05; }
 
   // Asks the program for its counters ('c') and parses the line it answers.
   Report report() {
@@ -165,7 +167,7 @@ TEST_F(RigTest, ResetRestartsTheProgramAndKeepsPins) {
   EXPECT_GT(report().left, 0);
   rig_->reset_mcu();
   EXPECT_DOUBLE_EQ(rig_->duties().left, 0.0);
-  run_s(0.05);
+  run_s(boot_s());
   const Report rep = report();
   ASSERT_TRUE(rep.ok);
   EXPECT_EQ(rep.left, 0);
