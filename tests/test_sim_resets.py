@@ -1,9 +1,6 @@
 """Resets, EEPROM timing and hangs of the real firmware in a simulator as strict as the chip
-(issue 10): judged by ground truth and in simulated time.
-
-Two tests are strict xfails: they assert what the firmware must do once the lead's fixes of
-issue 10 land (two alternating settings records; a watchdog), fail today, and turn into failures
-the moment they pass, so that the marks are removed with the fixes."""
+(issue 10): judged by ground truth and in simulated time. A reset during SAVE and a hung main
+loop failed before the firmware kept two settings records and a watchdog."""
 
 from __future__ import annotations
 
@@ -14,6 +11,7 @@ from typing import Any
 import pytest
 import serial
 
+from cart2d.firmware import read_status
 from cart2d.link import Link
 from cart2d.protocol import encode_request
 from cart2d.simulator import Simulator
@@ -45,6 +43,7 @@ def test_reboot_leaves_the_cart_drivable(sim: Simulator, link: Link) -> None:
     assert events(sim, "mcu_reset")[0]["cause"] == "watchdog"
     sim.wait_running()
     link.call("HEARTBEAT")  # the firmware answers again
+    assert read_status(link).reset_cause == ["WATCHDOG", "REBOOT"]
     link.call("GOTO", 0.5, 0.0)
     status = wait_idle(link)
     assert int(status[1]) & SPEC.flags["ARRIVED"]
@@ -122,13 +121,6 @@ def save_then_reset_mid_write(sim: Simulator) -> None:
         pytest.fail("the reset did not cut a write short")
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="issue 10 item 6: the firmware keeps one settings record, so a reset during SAVE leaves "
-    "it corrupt and the next boot takes defaults; the fix (two alternating records) must keep the "
-    "previous one",
-)
 def test_a_reset_during_save_keeps_the_previous_settings(tmp_path: Path) -> None:
     sim = start_sim(tmp_path)
     try:
@@ -159,30 +151,6 @@ def drive_then_hang(sim: Simulator) -> float:
     return began
 
 
-def test_a_hung_main_loop_keeps_the_motors_running(tmp_path: Path) -> None:
-    """The hang injection: interrupts and the PWM hardware run on, the main loop (control, the
-    0.5 s manual timeout) never does. Today's firmware has no watchdog, so the cart drives on:
-    this test changes with the watchdog (see the xfail below)."""
-    sim = start_sim(tmp_path, speed="1", start=(0.2, 0.9, 0.0))
-    try:
-        began = drive_then_hang(sim)
-        sim.control("pause")
-        later = sim.run_for(1.5 - (sim.truth()["t"] - began))
-        assert later["t"] == pytest.approx(began + 1.5, abs=1e-3)
-        assert later["duty_l"] > 0.05 and later["duty_r"] > 0.05
-        assert later["wheel_l"] > 1.0 and later["wheel_r"] > 1.0  # still driving, 3 x the timeout
-        assert later["x"] > 0.5
-        assert stats(sim)["resets"]["watchdog"] == 0
-    finally:
-        sim.stop()
-
-
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="issue 10: the firmware has no watchdog yet; with it a hung main loop must stop the "
-    "motors within 0.1 s and restart the MCU (reset_cause WATCHDOG)",
-)
 def test_a_hung_main_loop_is_stopped_by_the_watchdog(tmp_path: Path) -> None:
     sim = start_sim(tmp_path, speed="1", start=(0.2, 0.9, 0.0))
     truths: list[dict[str, Any]] = []
@@ -194,6 +162,9 @@ def test_a_hung_main_loop_is_stopped_by_the_watchdog(tmp_path: Path) -> None:
         sim.control("pause")
         sim.run_for(0.2)
         resets = events(sim, "mcu_reset")
+        sim.control("resume")
+        with Link(sim.pty) as link:
+            status = read_status(link)
     finally:
         sim.stop()
     after = [t for t in truths if t["t"] >= began]
@@ -202,3 +173,5 @@ def test_a_hung_main_loop_is_stopped_by_the_watchdog(tmp_path: Path) -> None:
     stopped = [t["t"] for t in after if t["duty_l"] == 0.0 and t["duty_r"] == 0.0]
     assert stopped and stopped[0] - began <= 0.1, "the motors ran on after the hang"
     assert [e["cause"] for e in resets] == ["watchdog"]
+    assert status.reset_cause == ["WATCHDOG"]  # a hang, not a REBOOT
+    assert status.mode == "IDLE"
