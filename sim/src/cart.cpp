@@ -21,7 +21,7 @@ void Cart::sense(const World& world) {
 }
 
 void Cart::step(double h, double duty_l, double duty_r, const World& world) {
-  const double wl = body_.wheel_speed_l_radps(), wr = body_.wheel_speed_r_radps();
+  const double wl = body_.side(0).motor_radps, wr = body_.side(1).motor_radps;
   const double vl = terminal_voltage_v(p_.motor, duty_l), vr = terminal_voltage_v(p_.motor, duty_r);
   const TorqueLaw left = torque_law(p_.motor, vl, wl);
   const TorqueLaw right = torque_law(p_.motor, vr, wr);
@@ -38,8 +38,8 @@ void Cart::step(double h, double duty_l, double duty_r, const World& world) {
     constraints_.push_back({probe.jv, probe.jw, min_rate});
   }
   body_.step(h, left, right, constraints_);
-  current_l_a_ = current_a(p_.motor, vl, body_.wheel_speed_l_radps());
-  current_r_a_ = current_a(p_.motor, vr, body_.wheel_speed_r_radps());
+  current_l_a_ = current_a(p_.motor, vl, body_.side(0).motor_radps);
+  current_r_a_ = current_a(p_.motor, vr, body_.side(1).motor_radps);
   sense(world);
 }
 
