@@ -1,7 +1,7 @@
 #include "body.hpp"
 
 #include <algorithm>  // std::clamp, std::max
-#include <cmath>      // std::sin, std::cos, std::fabs, std::fmod
+#include <cmath>      // std::sin, std::cos, std::fabs, std::fmod, std::sqrt
 #include <limits>     // std::numeric_limits
 
 namespace cart2d {
@@ -22,6 +22,76 @@ double wrap_angle(double a) {
   a = std::fmod(a + kPi, 2.0 * kPi);
   if (a <= 0.0) a += 2.0 * kPi;
   return a - kPi;
+}
+
+// Solves the 2×2 system [g0 g1; g2 g3]·x = r by Cramer's rule; false if singular.
+static bool solve2(const double g[4], const double r[2], double x[2]) {
+  const double det = g[0] * g[3] - g[1] * g[2];
+  if (std::fabs(det) < 1e-300) return false;
+  x[0] = (r[0] * g[3] - g[1] * r[1]) / det;
+  x[1] = (g[0] * r[1] - r[0] * g[2]) / det;
+  return true;
+}
+
+void to_metric(const std::vector<VelocityConstraint>& constraints, double m_v, double m_w,
+               std::vector<MetricConstraint>* out) {
+  out->clear();
+  const double sv = std::sqrt(m_v), sw = std::sqrt(m_w);
+  for (const auto& c : constraints) {
+    const MetricConstraint r{c.jv / sv, c.jw / sw, c.min_rate};
+    if (r.a0 * r.a0 + r.a1 * r.a1 < 1e-18) continue;  // e.g. the disc against a wall it runs along
+    out->push_back(r);
+  }
+}
+
+Twist project_contacts(const Twist& free, double m_v, double m_w, const std::vector<VelocityConstraint>& constraints) {
+  std::vector<MetricConstraint> rows;
+  to_metric(constraints, m_v, m_w, &rows);
+  return project_contacts(free, m_v, m_w, rows);
+}
+
+Twist project_contacts(const Twist& free, double m_v, double m_w, const std::vector<MetricConstraint>& rows) {
+  const double sv = std::sqrt(m_v), sw = std::sqrt(m_w);
+  const double w0[2] = {free.v_mps * sv, free.omega_radps * sw};
+  auto feasible = [&](const double w[2]) {
+    for (const auto& r : rows)
+      if (r.a0 * w[0] + r.a1 * w[1] < r.b - 1e-9) return false;
+    return true;
+  };
+  if (feasible(w0)) return free;
+
+  // The projection lies on a face of the feasible polygon: try every single and every pair of
+  // active constraints and keep the closest feasible candidate.
+  double best[2] = {0.0, 0.0};
+  double best_d2 = std::numeric_limits<double>::infinity();
+  auto consider = [&](const double w[2]) {
+    if (!feasible(w)) return;
+    const double d2 = (w[0] - w0[0]) * (w[0] - w0[0]) + (w[1] - w0[1]) * (w[1] - w0[1]);
+    if (d2 < best_d2) {
+      best_d2 = d2;
+      best[0] = w[0];
+      best[1] = w[1];
+    }
+  };
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const MetricConstraint& r = rows[i];
+    const double n2 = r.a0 * r.a0 + r.a1 * r.a1;
+    const double viol = r.b - (r.a0 * w0[0] + r.a1 * w0[1]);
+    const double w[2] = {w0[0] + r.a0 * viol / n2, w0[1] + r.a1 * viol / n2};
+    consider(w);
+    for (size_t j = i + 1; j < rows.size(); ++j) {
+      const double g[4] = {r.a0, r.a1, rows[j].a0, rows[j].a1};
+      const double rhs[2] = {r.b, rows[j].b};
+      double wj[2];
+      if (solve2(g, rhs, wj)) consider(wj);
+    }
+  }
+  Twist out;  // nothing feasible (wedged between conflicting walls): stop
+  if (best_d2 < std::numeric_limits<double>::infinity()) {
+    out.v_mps = best[0] / sv;
+    out.omega_radps = best[1] / sw;
+  }
+  return out;
 }
 
 Body::Body(const BodyParams& p) : p_(p), caster_angle_rad_(wrap_angle(p.caster.initial_angle_rad)) {
@@ -55,23 +125,20 @@ void Body::apply(double jv, double jw, double impulse_ns) {
   twist_.omega_radps += jw * impulse_ns / p_.yaw_inertia_kgm2;
 }
 
-void Body::build_rows(double h, const std::vector<VelocityConstraint>& contacts, const SupportLoads& n) {
+void Body::build_rows(double h, const std::vector<VelocityConstraint>& contacts, const SupportLoads& n,
+                      const CasterJacobians& jc) {
   auto inv_compliance = [&](double jv, double jw) {
     return 1.0 / (jv * jv / p_.mass_kg + jw * jw / p_.yaw_inertia_kgm2);
   };
   rows_.clear();
-  const CasterJacobians jc = caster_jacobians(p_.caster, caster_angle_rad_);
   const double roll = h * caster_rolling_limit_n(p_.caster, n.caster_n);
   const double side = h * caster_side_limit_n(p_.caster, n.caster_n);
   rows_.push_back({jc.roll_v, jc.roll_w, inv_compliance(jc.roll_v, jc.roll_w), -roll, roll, 0.0,
                    std::clamp(caster_roll_impulse_, -roll, roll)});
   rows_.push_back({jc.side_v, jc.side_w, inv_compliance(jc.side_v, jc.side_w), -side, side, 0.0,
                    std::clamp(caster_side_impulse_, -side, side)});
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  for (const auto& c : contacts) {
-    if (c.jv * c.jv + c.jw * c.jw < 1e-18) continue;  // e.g. the disc against a wall it runs along
-    rows_.push_back({c.jv, c.jw, inv_compliance(c.jv, c.jw), 0.0, kInf, c.min_rate, 0.0});
-  }
+  to_metric(contacts, p_.mass_kg, p_.yaw_inertia_kgm2, &walls_);
+  wall_impulse_ = Twist{};
 }
 
 void Body::solve(const DriveRow drive[2]) {
@@ -95,15 +162,29 @@ void Body::solve(const DriveRow drive[2]) {
       row.impulse = next;
       change = std::max(change, std::fabs(d) / row.inv_compliance);
     }
+    if (!walls_.empty()) change = std::max(change, solve_walls());
     if (change <= kVelocityTol) break;
   }
   last_sweeps_ = sweep;
 }
 
+double Body::solve_walls() {
+  const double m = p_.mass_kg, inertia = p_.yaw_inertia_kgm2;
+  const Twist without{twist_.v_mps - wall_impulse_.v_mps / m, twist_.omega_radps - wall_impulse_.omega_radps / inertia};
+  const Twist with = project_contacts(without, m, inertia, walls_);
+  const double change = std::max(std::fabs(with.v_mps - twist_.v_mps), std::fabs(with.omega_radps - twist_.omega_radps));
+  wall_impulse_ = Twist{m * (with.v_mps - without.v_mps), inertia * (with.omega_radps - without.omega_radps)};
+  twist_ = with;
+  return change;
+}
+
 void Body::step(double h, const TorqueLaw& left, const TorqueLaw& right,
                 const std::vector<VelocityConstraint>& contacts) {
   last_h_ = h;
-  const SupportLoads n = loads();
+  const double cos_phi = std::cos(caster_angle_rad_), sin_phi = std::sin(caster_angle_rad_);
+  const SupportLoads n = support_loads(p_.mass_kg * kGravity, p_.com_x_m, p_.track_m,
+                                       caster_contact_x_m(p_.caster, cos_phi, sin_phi),
+                                       caster_contact_y_m(p_.caster, cos_phi, sin_phi));
   const double m = p_.mass_kg, inertia = p_.yaw_inertia_kgm2, xg = p_.com_x_m, r = p_.wheel_radius_m;
   // Free motion: the velocity-product terms of an off-axle centre of mass (explicit).
   const double v0 = twist_.v_mps, w0 = twist_.omega_radps;
@@ -123,7 +204,7 @@ void Body::step(double h, const TorqueLaw& left, const TorqueLaw& right,
     drive[i].gap_back_mps = r * (p_.backlash_rad / 2 + gap) / h;
     drive[i].max_impulse_ns = h * p_.floor_friction * normal[i];
   }
-  build_rows(h, contacts, n);
+  build_rows(h, contacts, n, caster_jacobians(p_.caster, cos_phi, sin_phi));
 
   // Warm start: last step's impulses (clamped to this step's bounds) are the first guess.
   for (int i = 0; i < 2; ++i) {

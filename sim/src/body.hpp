@@ -17,7 +17,9 @@
 // (Cottle, Pang & Stone, "The Linear Complementarity Problem", 1992, ch. 5; Erleben, "Numerical
 // methods for linear complementarity problems in physics-based animation", SIGGRAPH 2013 course),
 // each row solved exactly given the others, warm-started with the previous step's impulses and
-// iterated to convergence. Walls are inelastic, frictionless velocity constraints J·u ≥ −gap/h.
+// iterated to convergence. Walls are inelastic, frictionless velocity constraints J·u ≥ −gap/h,
+// solved together as one block (the projection of u onto the feasible set in the mass metric):
+// several points on one wall are redundant rows that single-row sweeps would converge on slowly.
 #pragma once
 
 #include <vector>
@@ -70,6 +72,18 @@ struct SideState {
   double impulse_ns = 0.0;   // the last step's drive impulse (warm start)
 };
 
+// A wall constraint in the coordinates w = M^½·u, where the mass metric is Euclidean: a·w ≥ b.
+struct MetricConstraint {
+  double a0, a1, b;
+};
+// Scales constraints into that form (M = diag(m_v, m_w)); drops those that do not involve u.
+void to_metric(const std::vector<VelocityConstraint>& constraints, double m_v, double m_w,
+               std::vector<MetricConstraint>* out);
+// Closest velocity to `free` in the metric M satisfying every constraint: the velocity an
+// inelastic, frictionless contact leaves (its impulse M·(u − free) is the projection's).
+Twist project_contacts(const Twist& free, double m_v, double m_w, const std::vector<MetricConstraint>& rows);
+Twist project_contacts(const Twist& free, double m_v, double m_w, const std::vector<VelocityConstraint>& constraints);
+
 // Wraps an angle into (−π, π].
 double wrap_angle(double a);
 
@@ -105,8 +119,10 @@ class Body {
   struct Row {  // one linear row: jv·v + jw·ω ≥/= target with impulse in [lo, hi]
     double jv, jw, inv_compliance, lo, hi, target, impulse;
   };
-  void build_rows(double h, const std::vector<VelocityConstraint>& contacts, const SupportLoads& n);
+  void build_rows(double h, const std::vector<VelocityConstraint>& contacts, const SupportLoads& n,
+                  const CasterJacobians& jc);
   void solve(const DriveRow drive[2]);
+  double solve_walls();  // returns how much it changed the twist
   void apply(double jv, double jw, double impulse_ns);
   double contact_speed(int side) const;
   void integrate_pose(double h);
@@ -117,7 +133,9 @@ class Body {
   SideState sides_[2];
   double caster_angle_rad_;
   double caster_roll_impulse_ = 0.0, caster_side_impulse_ = 0.0;  // warm start
-  std::vector<Row> rows_;  // caster rows first, then the walls
+  std::vector<Row> rows_;  // the caster's two rows
+  std::vector<MetricConstraint> walls_;
+  Twist wall_impulse_;  // the walls' generalised impulse M·Δu this step (N·s, N·m·s)
   int last_sweeps_ = 0;
   double last_h_ = 1.0;
 };

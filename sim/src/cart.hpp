@@ -60,6 +60,7 @@ class Cart {
   double current_l_a_ = 0.0, current_r_a_ = 0.0;
   bool switch_l_ = false, switch_r_ = false;
   std::vector<WallProbe> probes_;
+  const World* probes_world_ = nullptr;  // probes_ hold for the current pose in this world (else null)
   std::vector<VelocityConstraint> constraints_;
 };
 

@@ -6,16 +6,25 @@
 namespace cart2d {
 
 CasterJacobians caster_jacobians(const CasterParams& p, double angle_rad) {
-  const double c = std::cos(angle_rad), s = std::sin(angle_rad);
+  return caster_jacobians(p, std::cos(angle_rad), std::sin(angle_rad));
+}
+
+CasterJacobians caster_jacobians(const CasterParams& p, double c, double s) {
   // V_r = V_S·e_c = v·cos φ + ω·x_S·sin φ;  e = V_S·n_c − t·ω = −v·sin φ + ω·(x_S·cos φ − t).
   return CasterJacobians{c, p.swivel_x_m * s, -s, p.swivel_x_m * c - p.trail_m};
 }
 
 double caster_contact_x_m(const CasterParams& p, double angle_rad) {
-  return p.swivel_x_m - p.trail_m * std::cos(angle_rad);
+  return caster_contact_x_m(p, std::cos(angle_rad), std::sin(angle_rad));
 }
 
-double caster_contact_y_m(const CasterParams& p, double angle_rad) { return -p.trail_m * std::sin(angle_rad); }
+double caster_contact_y_m(const CasterParams& p, double angle_rad) {
+  return caster_contact_y_m(p, std::cos(angle_rad), std::sin(angle_rad));
+}
+
+double caster_contact_x_m(const CasterParams& p, double c, double) { return p.swivel_x_m - p.trail_m * c; }
+
+double caster_contact_y_m(const CasterParams& p, double, double s) { return -p.trail_m * s; }
 
 double caster_rolling_limit_n(const CasterParams& p, double load_n) { return p.rolling_resistance * load_n; }
 

@@ -42,10 +42,13 @@ struct CasterJacobians {
   double side_v, side_w;  // e   = side_v·v + side_w·ω (sideways speed of the contact, swivel held)
 };
 CasterJacobians caster_jacobians(const CasterParams& p, double angle_rad);
+CasterJacobians caster_jacobians(const CasterParams& p, double cos_angle, double sin_angle);
 
 // Floor contact point P in the body frame.
 double caster_contact_x_m(const CasterParams& p, double angle_rad);
 double caster_contact_y_m(const CasterParams& p, double angle_rad);
+double caster_contact_x_m(const CasterParams& p, double cos_angle, double sin_angle);
+double caster_contact_y_m(const CasterParams& p, double cos_angle, double sin_angle);
 
 // Largest rolling resistance and sideways force at caster load N (newtons).
 double caster_rolling_limit_n(const CasterParams& p, double load_n);

@@ -18,8 +18,8 @@ static double impulse_for_rate(const DriveRow& row, double base_mps, double targ
   const double r = row.radius_m, a = row.body_compliance;
   const double lo = (row.motor.momentum_nms - row.motor.friction_impulse_nms) / r;  // motor stuck from here...
   const double hi = (row.motor.momentum_nms + row.motor.friction_impulse_nms) / r;  // ...to here
-  const double f_lo = base_mps + a * lo - r * motor_speed_after(row.motor, r, lo) - target_mps;
-  const double f_hi = base_mps + a * hi - r * motor_speed_after(row.motor, r, hi) - target_mps;
+  const double f_lo = base_mps + a * lo - target_mps;  // the motor is still at both ends
+  const double f_hi = base_mps + a * hi - target_mps;
   const double slope_turning = a + r * r / row.motor.inertia_kgm2;
   if (f_lo >= 0.0) return lo - f_lo / slope_turning;
   if (f_hi <= 0.0) return hi - f_hi / slope_turning;

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
 
 #include "body.hpp"
 #include "cart.hpp"
@@ -10,6 +11,33 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kH = 0.00025;
+
+TEST(ProjectContacts, FreeVelocityKeptWhenFeasible) {
+  const Twist free{0.3, 0.1};
+  const Twist out = project_contacts(free, 6.0, 0.1, std::vector<VelocityConstraint>{{-1.0, 0.0, -1.0}});
+  EXPECT_DOUBLE_EQ(out.v_mps, 0.3);
+  EXPECT_DOUBLE_EQ(out.omega_radps, 0.1);
+}
+
+TEST(ProjectContacts, HeadOnWallRemovesOnlyTheApproachingSpeed) {
+  // Constraint −v ≥ 0 (a wall ahead): v is cut to 0, ω untouched (M is diagonal).
+  const Twist out = project_contacts({0.3, 0.7}, 6.0, 0.1, std::vector<VelocityConstraint>{{-1.0, 0.0, 0.0}});
+  EXPECT_NEAR(out.v_mps, 0.0, 1e-12);
+  EXPECT_NEAR(out.omega_radps, 0.7, 1e-12);
+}
+
+TEST(ProjectContacts, TwoContactsPinBothComponents) {
+  const Twist out =
+      project_contacts({0.3, 0.7}, 6.0, 0.1, std::vector<VelocityConstraint>{{-1.0, -0.1, 0.0}, {-1.0, 0.1, 0.0}});
+  EXPECT_NEAR(out.v_mps, 0.0, 1e-12);
+  EXPECT_NEAR(out.omega_radps, 0.0, 1e-12);
+}
+
+TEST(ProjectContacts, MovingAwayIsAllowed) {
+  const Twist out =
+      project_contacts({-0.3, 0.0}, 6.0, 0.1, std::vector<VelocityConstraint>{{-1.0, -0.1, 0.0}, {-1.0, 0.1, 0.0}});
+  EXPECT_DOUBLE_EQ(out.v_mps, -0.3);
+}
 
 TEST(Body, ArcIntegrationIsExact) {
   Body body{BodyParams{}};
