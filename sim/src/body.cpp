@@ -95,7 +95,7 @@ Twist project_contacts(const Twist& free, double m_v, double m_w, const std::vec
 }
 
 Body::Body(const BodyParams& p) : p_(p), caster_angle_rad_(wrap_angle(p.caster.initial_angle_rad)) {
-  rows_.reserve(16);
+  rows_.reserve(2);
 }
 
 void Body::place(const Pose& pose) {
@@ -133,9 +133,9 @@ void Body::build_rows(double h, const std::vector<VelocityConstraint>& contacts,
   rows_.clear();
   const double roll = h * caster_rolling_limit_n(p_.caster, n.caster_n);
   const double side = h * caster_side_limit_n(p_.caster, n.caster_n);
-  rows_.push_back({jc.roll_v, jc.roll_w, inv_compliance(jc.roll_v, jc.roll_w), -roll, roll, 0.0,
+  rows_.push_back({jc.roll_v, jc.roll_w, inv_compliance(jc.roll_v, jc.roll_w), roll,
                    std::clamp(caster_roll_impulse_, -roll, roll)});
-  rows_.push_back({jc.side_v, jc.side_w, inv_compliance(jc.side_v, jc.side_w), -side, side, 0.0,
+  rows_.push_back({jc.side_v, jc.side_w, inv_compliance(jc.side_v, jc.side_w), side,
                    std::clamp(caster_side_impulse_, -side, side)});
   to_metric(contacts, p_.mass_kg, p_.yaw_inertia_kgm2, &walls_);
   wall_impulse_ = Twist{};
@@ -156,7 +156,7 @@ void Body::solve(const DriveRow drive[2]) {
     }
     for (Row& row : rows_) {
       const double rate = row.jv * twist_.v_mps + row.jw * twist_.omega_radps;
-      const double next = std::clamp(row.impulse + (row.target - rate) * row.inv_compliance, row.lo, row.hi);
+      const double next = std::clamp(row.impulse - rate * row.inv_compliance, -row.bound, row.bound);
       const double d = next - row.impulse;
       apply(row.jv, row.jw, d);
       row.impulse = next;
@@ -185,35 +185,43 @@ void Body::step(double h, const TorqueLaw& left, const TorqueLaw& right,
   const SupportLoads n = support_loads(p_.mass_kg * kGravity, p_.com_x_m, p_.track_m,
                                        caster_contact_x_m(p_.caster, cos_phi, sin_phi),
                                        caster_contact_y_m(p_.caster, cos_phi, sin_phi));
-  const double m = p_.mass_kg, inertia = p_.yaw_inertia_kgm2, xg = p_.com_x_m, r = p_.wheel_radius_m;
   // Free motion: the velocity-product terms of an off-axle centre of mass (explicit).
-  const double v0 = twist_.v_mps, w0 = twist_.omega_radps;
+  const double m = p_.mass_kg, xg = p_.com_x_m, v0 = twist_.v_mps, w0 = twist_.omega_radps;
   twist_.v_mps = v0 + h * xg * w0 * w0;
-  twist_.omega_radps = w0 - h * m * xg * w0 * v0 / inertia;
+  twist_.omega_radps = w0 - h * m * xg * w0 * v0 / p_.yaw_inertia_kgm2;
 
-  const TorqueLaw* law[2] = {&left, &right};
-  const double normal[2] = {n.left_n, n.right_n};
   DriveRow drive[2];
-  for (int i = 0; i < 2; ++i) {
-    const double j = p_.drivetrain_inertia_kgm2, y = tyre_y(p_, i), gap = sides_[i].gap_rad;
-    drive[i].motor = MotorStep{j * sides_[i].motor_radps + h * law[i]->drive_nm, j + h * law[i]->damping_nms,
-                               h * p_.gearbox_coulomb_nm};
-    drive[i].radius_m = r;
-    drive[i].body_compliance = 1.0 / m + y * y / inertia;
-    drive[i].gap_fwd_mps = r * (p_.backlash_rad / 2 - gap) / h;
-    drive[i].gap_back_mps = r * (p_.backlash_rad / 2 + gap) / h;
-    drive[i].max_impulse_ns = h * p_.floor_friction * normal[i];
-  }
+  drive[0] = drive_row(h, left, sides_[0], n.left_n, 0);
+  drive[1] = drive_row(h, right, sides_[1], n.right_n, 1);
   build_rows(h, contacts, n, caster_jacobians(p_.caster, cos_phi, sin_phi));
+  warm_start(drive);
+  solve(drive);
+  finish(h, drive);
+}
 
-  // Warm start: last step's impulses (clamped to this step's bounds) are the first guess.
+DriveRow Body::drive_row(double h, const TorqueLaw& law, const SideState& side, double load_n, int i) const {
+  const double j = p_.drivetrain_inertia_kgm2, y = tyre_y(p_, i), r = p_.wheel_radius_m;
+  DriveRow row;
+  row.motor = MotorStep{j * side.motor_radps + h * law.drive_nm, j + h * law.damping_nms, h * p_.gearbox_coulomb_nm};
+  row.radius_m = r;
+  row.body_compliance = 1.0 / p_.mass_kg + y * y / p_.yaw_inertia_kgm2;
+  row.gap_fwd_mps = r * (p_.backlash_rad / 2 - side.gap_rad) / h;
+  row.gap_back_mps = r * (p_.backlash_rad / 2 + side.gap_rad) / h;
+  row.max_impulse_ns = h * p_.floor_friction * load_n;
+  return row;
+}
+
+// Last step's impulses, clamped to this step's bounds, are the first guess (the walls start from 0).
+void Body::warm_start(const DriveRow drive[2]) {
   for (int i = 0; i < 2; ++i) {
     sides_[i].impulse_ns = std::clamp(sides_[i].impulse_ns, -drive[i].max_impulse_ns, drive[i].max_impulse_ns);
     apply(1.0, -tyre_y(p_, i), sides_[i].impulse_ns);
   }
   for (const Row& row : rows_) apply(row.jv, row.jw, row.impulse);
-  solve(drive);
+}
 
+// What the converged impulses leave: the sides' speeds, slips and backlash, the caster's swing, the pose.
+void Body::finish(double h, const DriveRow drive[2]) {
   for (int i = 0; i < 2; ++i) {
     SideState& s = sides_[i];
     const DriveOutcome out = drive_outcome(drive[i], contact_speed(i), s.impulse_ns, s.gap_rad, p_.backlash_rad, h);

@@ -116,12 +116,15 @@ class Body {
   static constexpr double kGravity = 9.80665;  // m/s², standard gravity
 
  private:
-  struct Row {  // one linear row: jv·v + jw·ω ≥/= target with impulse in [lo, hi]
-    double jv, jw, inv_compliance, lo, hi, target, impulse;
+  struct Row {  // a dry-friction row: jv·v + jw·ω = 0 while |impulse| < bound
+    double jv, jw, inv_compliance, bound, impulse;
   };
   void build_rows(double h, const std::vector<VelocityConstraint>& contacts, const SupportLoads& n,
                   const CasterJacobians& jc);
+  DriveRow drive_row(double h, const TorqueLaw& law, const SideState& side, double load_n, int i) const;
+  void warm_start(const DriveRow drive[2]);
   void solve(const DriveRow drive[2]);
+  void finish(double h, const DriveRow drive[2]);
   double solve_walls();  // returns how much it changed the twist
   void apply(double jv, double jw, double impulse_ns);
   double contact_speed(int side) const;
