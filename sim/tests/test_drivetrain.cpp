@@ -189,7 +189,7 @@ TEST(Traction, NormalDrivingDoesNotSlip) {
       }
     }
   }
-  // ...except for ~2 ms after a flank of the backlash closes (start, braking, stop: six times here):
+  // ...except for ~2 ms after a flank of the backlash closes (starting, braking, stopping):
   // the rigid, inelastic impact hands the motor's momentum to the tyre faster than friction can,
   // a few cm/s of slip, some 0.05 mm per impact; a real tyre's torsional give absorbs much of it.
   EXPECT_LT(slip_m[0], 5e-4);
