@@ -57,7 +57,7 @@ def check(config: dict) -> None:
 
 def emit_tables(config: dict) -> list[str]:
     out: list[str] = []
-    for table in ("encoders", "traction", "body", "control", "motor", "sim"):
+    for table in ("encoders", "traction", "body", "control", "motor", "caster", "sim"):
         out.append(f"namespace {table} {{")
         for key, value in config[table].items():
             ctype, literal = cpp_literal(value)

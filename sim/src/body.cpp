@@ -1,9 +1,21 @@
 #include "body.hpp"
 
-#include <cmath>   // std::sin, std::cos, std::sqrt, std::fabs
-#include <limits>  // std::numeric_limits
+#include <algorithm>  // std::clamp, std::max
+#include <cmath>      // std::sin, std::cos, std::fabs, std::fmod, std::sqrt
+#include <limits>     // std::numeric_limits
 
 namespace cart2d {
+
+namespace {
+// Gauss-Seidel stops when no row changed a velocity by more than this in a sweep (m/s, or rad/s
+// times a metre). A sweep typically shrinks the error a hundredfold or more, so what is left is
+// ~1e-12 m/s; a stuck contact creeps by less than 1e-10 m per second even when convergence is slow.
+// The impulses themselves need not settle: with redundant contacts (two points on one wall, a body
+// both pushed and stuck) their split is not unique, only the motion is.
+constexpr double kVelocityTol = 1e-10;
+// A safety net only: converged steps take a few sweeps (sim/README.md gives the distribution).
+constexpr int kMaxSweeps = 500;
+}  // namespace
 
 double wrap_angle(double a) {
   constexpr double kPi = 3.14159265358979323846;
@@ -21,61 +33,25 @@ static bool solve2(const double g[4], const double r[2], double x[2]) {
   return true;
 }
 
-void solve_wheel_step(const double mq[4], const double c[2], const double q0[2], const double drive[2],
-                      double coulomb_nm, double h, double q1[2]) {
-  const double a[4] = {mq[0] + h * c[0], mq[1], mq[2], mq[3] + h * c[1]};
-  const double rhs0[2] = {mq[0] * q0[0] + mq[1] * q0[1] + h * drive[0], mq[2] * q0[0] + mq[3] * q0[1] + h * drive[1]};
-  const double tol = 1e-12;
-  // Each wheel either slides forwards (+1, friction −tc), backwards (−1, friction +tc) or sticks
-  // (0, q1 = 0, friction unknown within ±tc). A is positive definite, so exactly one combination
-  // is consistent (up to ties on the boundary, which give the same q1).
-  static const int kModes[3] = {1, -1, 0};
-  for (int ml : kModes) {
-    for (int mr : kModes) {
-      const int mode[2] = {ml, mr};
-      double g[4];
-      double rhs[2] = {rhs0[0], rhs0[1]};
-      for (int i = 0; i < 2; ++i) {
-        if (mode[i] != 0) {
-          const double f = -mode[i] * coulomb_nm;
-          rhs[0] += (i == 0 ? h * f : 0.0);
-          rhs[1] += (i == 1 ? h * f : 0.0);
-          g[0 + i] = a[0 + i];  // column i of A
-          g[2 + i] = a[2 + i];
-        } else {
-          g[0 + i] = (i == 0 ? -h : 0.0);  // column −h·e_i for the unknown friction
-          g[2 + i] = (i == 1 ? -h : 0.0);
-        }
-      }
-      double x[2];
-      if (!solve2(g, rhs, x)) continue;
-      bool ok = true;
-      for (int i = 0; i < 2 && ok; ++i) {
-        if (mode[i] == 1) ok = x[i] >= -tol;
-        else if (mode[i] == -1) ok = x[i] <= tol;
-        else ok = std::fabs(x[i]) <= coulomb_nm * (1.0 + 1e-9) + tol;
-      }
-      if (!ok) continue;
-      q1[0] = mode[0] != 0 ? x[0] : 0.0;
-      q1[1] = mode[1] != 0 ? x[1] : 0.0;
-      return;
-    }
+void to_metric(const std::vector<VelocityConstraint>& constraints, double m_v, double m_w,
+               std::vector<MetricConstraint>* out) {
+  out->clear();
+  const double sv = std::sqrt(m_v), sw = std::sqrt(m_w);
+  for (const auto& c : constraints) {
+    const MetricConstraint r{c.jv / sv, c.jw / sw, c.min_rate};
+    if (r.a0 * r.a0 + r.a1 * r.a1 < 1e-18) continue;  // e.g. the disc against a wall it runs along
+    out->push_back(r);
   }
-  // Not reachable for a positive-definite A; fall back to the frictionless solution.
-  if (!solve2(a, rhs0, q1)) q1[0] = q1[1] = 0.0;
 }
 
 Twist project_contacts(const Twist& free, double m_v, double m_w, const std::vector<VelocityConstraint>& constraints) {
-  // Work in w = M^½·u where the metric is Euclidean; constraint k reads a_k·w ≥ b_k.
+  std::vector<MetricConstraint> rows;
+  to_metric(constraints, m_v, m_w, &rows);
+  return project_contacts(free, m_v, m_w, rows);
+}
+
+Twist project_contacts(const Twist& free, double m_v, double m_w, const std::vector<MetricConstraint>& rows) {
   const double sv = std::sqrt(m_v), sw = std::sqrt(m_w);
-  struct Row { double a0, a1, b; };
-  std::vector<Row> rows;
-  rows.reserve(constraints.size());
-  for (const auto& c : constraints) {
-    const Row r{c.jv / sv, c.jw / sw, c.min_rate};
-    if (r.a0 * r.a0 + r.a1 * r.a1 < 1e-18) continue;  // e.g. the disc against a wall it runs along
-    rows.push_back(r);
-  }
   const double w0[2] = {free.v_mps * sv, free.omega_radps * sw};
   auto feasible = [&](const double w[2]) {
     for (const auto& r : rows)
@@ -98,7 +74,7 @@ Twist project_contacts(const Twist& free, double m_v, double m_w, const std::vec
     }
   };
   for (size_t i = 0; i < rows.size(); ++i) {
-    const Row& r = rows[i];
+    const MetricConstraint& r = rows[i];
     const double n2 = r.a0 * r.a0 + r.a1 * r.a1;
     const double viol = r.b - (r.a0 * w0[0] + r.a1 * w0[1]);
     const double w[2] = {w0[0] + r.a0 * viol / n2, w0[1] + r.a1 * viol / n2};
@@ -118,49 +94,160 @@ Twist project_contacts(const Twist& free, double m_v, double m_w, const std::vec
   return out;
 }
 
-Body::Body(const BodyParams& p) : p_(p) {
-  const double r = p.wheel_radius_m, b = p.track_m, j = p.wheel_inertia_kgm2;
-  m_v_ = p.mass_kg + 2.0 * j / (r * r);
-  m_w_ = p.yaw_inertia_kgm2 + j * b * b / (2.0 * r * r);
-  // Mq = T⁻ᵀ·diag(m_v, m_w)·T⁻¹ with T⁻¹ = [[r/2, r/2], [−r/B, r/B]].
-  const double sv = (r / 2.0) * (r / 2.0) * m_v_, sw = (r / b) * (r / b) * m_w_;
-  mq_[0] = sv + sw;
-  mq_[1] = sv - sw;
-  mq_[2] = sv - sw;
-  mq_[3] = sv + sw;
+Body::Body(const BodyParams& p) : p_(p), caster_angle_rad_(wrap_angle(p.caster.initial_angle_rad)) {
+  rows_.reserve(2);
 }
 
 void Body::place(const Pose& pose) {
   pose_ = pose;
   pose_.theta_rad = wrap_angle(pose.theta_rad);
   twist_ = Twist{};
+  for (SideState& s : sides_) {
+    const double gap = s.gap_rad;
+    s = SideState{};
+    s.gap_rad = gap;
+  }
+  caster_roll_impulse_ = caster_side_impulse_ = 0.0;
 }
 
-double Body::wheel_speed_l_radps() const {
-  return (twist_.v_mps - twist_.omega_radps * p_.track_m / 2.0) / p_.wheel_radius_m;
+SupportLoads Body::loads() const {
+  return support_loads(p_.mass_kg * kGravity, p_.com_x_m, p_.track_m, caster_contact_x_m(p_.caster, caster_angle_rad_),
+                       caster_contact_y_m(p_.caster, caster_angle_rad_));
 }
 
-double Body::wheel_speed_r_radps() const {
-  return (twist_.v_mps + twist_.omega_radps * p_.track_m / 2.0) / p_.wheel_radius_m;
+// Lateral position of each tyre: left (0) at +track/2.
+static double tyre_y(const BodyParams& p, int side) { return side == 0 ? p.track_m / 2.0 : -p.track_m / 2.0; }
+
+double Body::contact_speed(int side) const { return twist_.v_mps - twist_.omega_radps * tyre_y(p_, side); }
+
+void Body::apply(double jv, double jw, double impulse_ns) {
+  twist_.v_mps += jv * impulse_ns / p_.mass_kg;
+  twist_.omega_radps += jw * impulse_ns / p_.yaw_inertia_kgm2;
+}
+
+void Body::build_rows(double h, const std::vector<VelocityConstraint>& contacts, const SupportLoads& n,
+                      const CasterJacobians& jc) {
+  auto inv_compliance = [&](double jv, double jw) {
+    return 1.0 / (jv * jv / p_.mass_kg + jw * jw / p_.yaw_inertia_kgm2);
+  };
+  rows_.clear();
+  const double roll = h * caster_rolling_limit_n(p_.caster, n.caster_n);
+  const double side = h * caster_side_limit_n(p_.caster, n.caster_n);
+  rows_.push_back({jc.roll_v, jc.roll_w, inv_compliance(jc.roll_v, jc.roll_w), roll,
+                   std::clamp(caster_roll_impulse_, -roll, roll)});
+  rows_.push_back({jc.side_v, jc.side_w, inv_compliance(jc.side_v, jc.side_w), side,
+                   std::clamp(caster_side_impulse_, -side, side)});
+  to_metric(contacts, p_.mass_kg, p_.yaw_inertia_kgm2, &walls_);
+  wall_impulse_ = Twist{};
+}
+
+void Body::solve(const DriveRow drive[2]) {
+  int sweep = 0;
+  while (sweep < kMaxSweeps) {
+    ++sweep;
+    double change = 0.0;
+    for (int i = 0; i < 2; ++i) {
+      const double next = solve_drive_row(drive[i], contact_speed(i), sides_[i].impulse_ns);
+      const double d = next - sides_[i].impulse_ns;
+      apply(1.0, -tyre_y(p_, i), d);
+      sides_[i].impulse_ns = next;
+      const double motor_compliance = drive[i].radius_m * drive[i].radius_m / drive[i].motor.inertia_kgm2;
+      change = std::max(change, std::fabs(d) * (drive[i].body_compliance + motor_compliance));
+    }
+    for (Row& row : rows_) {
+      const double rate = row.jv * twist_.v_mps + row.jw * twist_.omega_radps;
+      const double next = std::clamp(row.impulse - rate * row.inv_compliance, -row.bound, row.bound);
+      const double d = next - row.impulse;
+      apply(row.jv, row.jw, d);
+      row.impulse = next;
+      change = std::max(change, std::fabs(d) / row.inv_compliance);
+    }
+    if (!walls_.empty()) change = std::max(change, solve_walls());
+    if (change <= kVelocityTol) break;
+  }
+  last_sweeps_ = sweep;
+}
+
+double Body::solve_walls() {
+  const double m = p_.mass_kg, inertia = p_.yaw_inertia_kgm2;
+  const Twist without{twist_.v_mps - wall_impulse_.v_mps / m, twist_.omega_radps - wall_impulse_.omega_radps / inertia};
+  const Twist with = project_contacts(without, m, inertia, walls_);
+  const double change = std::max(std::fabs(with.v_mps - twist_.v_mps), std::fabs(with.omega_radps - twist_.omega_radps));
+  wall_impulse_ = Twist{m * (with.v_mps - without.v_mps), inertia * (with.omega_radps - without.omega_radps)};
+  twist_ = with;
+  return change;
 }
 
 void Body::step(double h, const TorqueLaw& left, const TorqueLaw& right,
                 const std::vector<VelocityConstraint>& contacts) {
-  const double r = p_.wheel_radius_m, b = p_.track_m;
-  const double q0[2] = {wheel_speed_l_radps(), wheel_speed_r_radps()};
-  const double c[2] = {left.damping_nms, right.damping_nms};
-  const double drive[2] = {left.drive_nm, right.drive_nm};
-  double q1[2];
-  solve_wheel_step(mq_, c, q0, drive, p_.wheel_coulomb_nm, h, q1);
-  Twist free;
-  free.v_mps = r * (q1[0] + q1[1]) / 2.0;
-  free.omega_radps = r * (q1[1] - q1[0]) / b;
-  twist_ = contacts.empty() ? free : project_contacts(free, m_v_, m_w_, contacts);
+  last_h_ = h;
+  const double cos_phi = std::cos(caster_angle_rad_), sin_phi = std::sin(caster_angle_rad_);
+  const SupportLoads n = support_loads(p_.mass_kg * kGravity, p_.com_x_m, p_.track_m,
+                                       caster_contact_x_m(p_.caster, cos_phi, sin_phi),
+                                       caster_contact_y_m(p_.caster, cos_phi, sin_phi));
+  // Free motion: the velocity-product terms of an off-axle centre of mass (explicit).
+  const double m = p_.mass_kg, xg = p_.com_x_m, v0 = twist_.v_mps, w0 = twist_.omega_radps;
+  twist_.v_mps = v0 + h * xg * w0 * w0;
+  twist_.omega_radps = w0 - h * m * xg * w0 * v0 / p_.yaw_inertia_kgm2;
+
+  DriveRow drive[2];
+  drive[0] = drive_row(h, left, sides_[0], n.left_n, 0);
+  drive[1] = drive_row(h, right, sides_[1], n.right_n, 1);
+  build_rows(h, contacts, n, caster_jacobians(p_.caster, cos_phi, sin_phi));
+  warm_start(drive);
+  solve(drive);
+  finish(h, drive);
+}
+
+DriveRow Body::drive_row(double h, const TorqueLaw& law, const SideState& side, double load_n, int i) const {
+  const double j = p_.drivetrain_inertia_kgm2, y = tyre_y(p_, i), r = p_.wheel_radius_m;
+  DriveRow row;
+  row.motor = MotorStep{j * side.motor_radps + h * law.drive_nm, j + h * law.damping_nms, h * p_.gearbox_coulomb_nm};
+  row.radius_m = r;
+  row.body_compliance = 1.0 / p_.mass_kg + y * y / p_.yaw_inertia_kgm2;
+  row.gap_fwd_mps = r * (p_.backlash_rad / 2 - side.gap_rad) / h;
+  row.gap_back_mps = r * (p_.backlash_rad / 2 + side.gap_rad) / h;
+  row.max_impulse_ns = h * p_.floor_friction * load_n;
+  return row;
+}
+
+// Last step's impulses, clamped to this step's bounds, are the first guess (the walls start from 0).
+void Body::warm_start(const DriveRow drive[2]) {
+  for (int i = 0; i < 2; ++i) {
+    sides_[i].impulse_ns = std::clamp(sides_[i].impulse_ns, -drive[i].max_impulse_ns, drive[i].max_impulse_ns);
+    apply(1.0, -tyre_y(p_, i), sides_[i].impulse_ns);
+  }
+  for (const Row& row : rows_) apply(row.jv, row.jw, row.impulse);
+}
+
+// What the converged impulses leave: the sides' speeds, slips and backlash, the caster's swing, the pose.
+void Body::finish(double h, const DriveRow drive[2]) {
+  for (int i = 0; i < 2; ++i) {
+    SideState& s = sides_[i];
+    const DriveOutcome out = drive_outcome(drive[i], contact_speed(i), s.impulse_ns, s.gap_rad, p_.backlash_rad, h);
+    s.motor_radps = out.motor_radps;
+    s.wheel_radps = out.wheel_radps;
+    s.slip_mps = out.slip_mps;
+    s.gap_rad = out.gap_rad;
+  }
+  caster_roll_impulse_ = rows_[0].impulse;
+  caster_side_impulse_ = rows_[1].impulse;
+  const double side_speed = rows_[1].jv * twist_.v_mps + rows_[1].jw * twist_.omega_radps;
+  caster_angle_rad_ = wrap_angle(caster_angle_rad_ + h * caster_swivel_rate_radps(p_.caster, side_speed));
   integrate_pose(h);
 }
 
 void Body::advance_kinematic(double h, const Twist& twist) {
   twist_ = twist;
+  for (int i = 0; i < 2; ++i) {
+    SideState& s = sides_[i];
+    s.wheel_radps = s.motor_radps = contact_speed(i) / p_.wheel_radius_m;
+    s.slip_mps = s.impulse_ns = 0.0;
+  }
+  caster_roll_impulse_ = caster_side_impulse_ = 0.0;
+  const CasterJacobians jc = caster_jacobians(p_.caster, caster_angle_rad_);
+  const double side_speed = jc.side_v * twist_.v_mps + jc.side_w * twist_.omega_radps;
+  caster_angle_rad_ = wrap_angle(caster_angle_rad_ + h * caster_swivel_rate_radps(p_.caster, side_speed));
   integrate_pose(h);
 }
 

@@ -7,10 +7,12 @@ Cart::Cart(const CartParams& p) : p_(p), body_(p.body) {}
 void Cart::place(const Pose& pose) {
   body_.place(pose);
   current_l_a_ = current_r_a_ = 0.0;
+  probes_world_ = nullptr;
 }
 
 void Cart::sense(const World& world) {
   world.probes(body_.pose(), p_.geometry, &probes_);
+  probes_world_ = &world;
   double gap_l = 1e9, gap_r = 1e9;
   for (const auto& probe : probes_) {
     if (probe.feature == WallProbe::kSwitchLeft && probe.gap_m < gap_l) gap_l = probe.gap_m;
@@ -21,14 +23,15 @@ void Cart::sense(const World& world) {
 }
 
 void Cart::step(double h, double duty_l, double duty_r, const World& world) {
-  const double wl = body_.wheel_speed_l_radps(), wr = body_.wheel_speed_r_radps();
+  const double wl = body_.side(0).motor_radps, wr = body_.side(1).motor_radps;
   const double vl = terminal_voltage_v(p_.motor, duty_l), vr = terminal_voltage_v(p_.motor, duty_r);
   const TorqueLaw left = torque_law(p_.motor, vl, wl);
   const TorqueLaw right = torque_law(p_.motor, vr, wr);
 
   // Contacts are speculative: a feature within reach this step may close its gap exactly to zero
   // (J·u ≥ −gap/h) but not beyond; one already inside a wall is pushed out over a few steps.
-  world.probes(body_.pose(), p_.geometry, &probes_);
+  // The last step's sense() measured them at this pose already.
+  if (probes_world_ != &world) world.probes(body_.pose(), p_.geometry, &probes_);
   constraints_.clear();
   constexpr double kReachM = 0.02;
   constexpr double kPushOut = 0.2;  // fraction of a penetration removed per step
@@ -38,8 +41,8 @@ void Cart::step(double h, double duty_l, double duty_r, const World& world) {
     constraints_.push_back({probe.jv, probe.jw, min_rate});
   }
   body_.step(h, left, right, constraints_);
-  current_l_a_ = current_a(p_.motor, vl, body_.wheel_speed_l_radps());
-  current_r_a_ = current_a(p_.motor, vr, body_.wheel_speed_r_radps());
+  current_l_a_ = current_a(p_.motor, vl, body_.side(0).motor_radps);
+  current_r_a_ = current_a(p_.motor, vr, body_.side(1).motor_radps);
   sense(world);
 }
 

@@ -35,8 +35,17 @@ class Cart {
 
   const Pose& pose() const { return body_.pose(); }
   const Twist& twist() const { return body_.twist(); }
-  double wheel_speed_l_radps() const { return body_.wheel_speed_l_radps(); }
-  double wheel_speed_r_radps() const { return body_.wheel_speed_r_radps(); }
+  // The real traction wheel speeds (they differ from the body's motion when a tyre slips).
+  double wheel_speed_l_radps() const { return body_.side(0).wheel_radps; }
+  double wheel_speed_r_radps() const { return body_.side(1).wheel_radps; }
+  double motor_speed_l_radps() const { return body_.side(0).motor_radps; }
+  double motor_speed_r_radps() const { return body_.side(1).motor_radps; }
+  // Tyre slip, r·ω_wheel − contact speed (m/s, + = spinning forwards over the floor).
+  double slip_l_mps() const { return body_.side(0).slip_mps; }
+  double slip_r_mps() const { return body_.side(1).slip_mps; }
+  double caster_angle_rad() const { return body_.caster_angle_rad(); }
+  void set_caster_angle(double angle_rad) { body_.set_caster_angle(angle_rad); }
+  const Body& body() const { return body_; }
   double current_l_a() const { return current_l_a_; }
   double current_r_a() const { return current_r_a_; }
   bool switch_left() const { return switch_l_; }
@@ -51,6 +60,7 @@ class Cart {
   double current_l_a_ = 0.0, current_r_a_ = 0.0;
   bool switch_l_ = false, switch_r_ = false;
   std::vector<WallProbe> probes_;
+  const World* probes_world_ = nullptr;  // probes_ hold for the current pose in this world (else null)
   std::vector<VelocityConstraint> constraints_;
 };
 

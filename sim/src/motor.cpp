@@ -28,11 +28,11 @@ TorqueLaw torque_law(const MotorParams& p, double voltage_v, double speed_radps)
   return law;
 }
 
-double steady_speed_radps(const MotorParams& p, double voltage_v) {
+double steady_speed_radps(const MotorParams& p, double voltage_v, double load_nm) {
   const double k = p.torque_constant_nm_per_a;
   const double drive = k * std::fabs(voltage_v) / p.resistance_ohm;
-  if (drive <= p.coulomb_friction_nm) return 0.0;
-  const double speed = (drive - p.coulomb_friction_nm) / (k * k / p.resistance_ohm + p.viscous_friction_nms);
+  if (drive <= p.coulomb_friction_nm + load_nm) return 0.0;
+  const double speed = (drive - p.coulomb_friction_nm - load_nm) / (k * k / p.resistance_ohm + p.viscous_friction_nms);
   return voltage_v >= 0 ? speed : -speed;
 }
 

@@ -42,8 +42,8 @@ struct TorqueLaw {
 };
 TorqueLaw torque_law(const MotorParams& p, double voltage_v, double speed_radps);
 
-// Free-running steady speed at a terminal voltage (k·(v − k·ω)/R = b·ω + τc), rad/s.
-// With no rolling resistance in the body model this is also the cart's steady wheel speed.
-double steady_speed_radps(const MotorParams& p, double voltage_v);
+// Steady speed at a terminal voltage against a load torque that opposes the motion
+// (k·(v − k·ω)/R = b·ω + τc + load), rad/s; 0 if the motor cannot turn.
+double steady_speed_radps(const MotorParams& p, double voltage_v, double load_nm = 0.0);
 
 }  // namespace cart2d

@@ -15,31 +15,42 @@ struct Arena {
   Cart cart{CartParams{}};
 };
 
+// With the caster trailing straight behind, the cart is symmetric: equal duties drive it straight
+// (a misaligned caster would steer it: test_caster.cpp). The solver's row order breaks the
+// symmetry only at rounding level.
 TEST(Cart, EqualDutiesDriveStraight) {
   Arena a;
+  a.cart.set_caster_angle(0.0);
   a.cart.place({0.2, 0.9, 0.0});
   for (int i = 0; i < 2 * 4000; ++i) a.cart.step(kH, 0.3, 0.3, a.world);
   EXPECT_GT(a.cart.pose().x_m, 0.5);
-  EXPECT_EQ(a.cart.pose().y_m, 0.9);
-  EXPECT_EQ(a.cart.pose().theta_rad, 0.0);
-  EXPECT_NEAR(a.cart.wheel_speed_l_radps(), a.cart.wheel_speed_r_radps(), 1e-12);
+  EXPECT_NEAR(a.cart.pose().y_m, 0.9, 1e-12);
+  EXPECT_NEAR(a.cart.pose().theta_rad, 0.0, 1e-12);
+  EXPECT_NEAR(a.cart.wheel_speed_l_radps(), a.cart.wheel_speed_r_radps(), 1e-9);
 }
 
+// Turning on the spot the axle centre no longer stays exactly put (it did when the centre of mass
+// sat on the axle and nothing else touched the floor): the centre of mass 3 cm behind the axle
+// pulls it back with m·x_g·ω² (1.6 N at 3 rad/s) and the caster's rolling resistance pushes it
+// around; the motors yield a little to both. The centre circles ~4 mm around (open loop).
 TEST(Cart, OppositeDutiesTurnOnTheSpot) {
   Arena a;
   a.cart.place({0.9, 0.9, 0.0});
   for (int i = 0; i < 4000; ++i) a.cart.step(kH, -0.3, 0.3, a.world);
-  EXPECT_NEAR(a.cart.pose().x_m, 0.9, 1e-12);
-  EXPECT_NEAR(a.cart.pose().y_m, 0.9, 1e-12);
+  EXPECT_NEAR(a.cart.pose().x_m, 0.9, 0.01);
+  EXPECT_NEAR(a.cart.pose().y_m, 0.9, 0.01);
   EXPECT_GT(a.cart.twist().omega_radps, 1.0);  // counter-clockwise: right wheel forward
 }
 
+// Braking, the gearboxes' dry friction and the caster's rolling resistance bring the cart to rest
+// and hold it there (to the solver's tolerance, 1e-10 m/s; RestStaysPut in test_body.cpp).
 TEST(Cart, ZeroDutyBrakesToAStop) {
   Arena a;
   a.cart.place({0.2, 0.9, 0.0});
   for (int i = 0; i < 4000; ++i) a.cart.step(kH, 0.5, 0.5, a.world);
   for (int i = 0; i < 4000; ++i) a.cart.step(kH, 0.0, 0.0, a.world);
-  EXPECT_EQ(a.cart.twist().v_mps, 0.0);  // Coulomb friction holds it exactly
+  EXPECT_NEAR(a.cart.twist().v_mps, 0.0, 1e-10);
+  EXPECT_NEAR(a.cart.twist().omega_radps, 0.0, 1e-10);
 }
 
 TEST(Cart, WallStopsTheCartAndClosesBothSwitches) {
@@ -59,8 +70,10 @@ TEST(Cart, WallStopsTheCartAndClosesBothSwitches) {
   EXPECT_TRUE(a.cart.switch_right());
   EXPECT_EQ(monitor.wall_contacts(), 1);
   EXPECT_EQ(monitor.collisions(), 0);
-  // Pushing against the wall stalls the motors: stall current V·duty/R.
+  // At 30 % the motors push 2 × 15 N, less than the floor's 2 × 16 N: the tyres hold and the
+  // motors stall at V·duty/R (at full duty the wheels spin: test_drivetrain.cpp).
   EXPECT_NEAR(a.cart.current_l_a(), 12.0 * 0.3 / a.cart.params().motor.resistance_ohm, 1e-6);
+  EXPECT_EQ(a.cart.slip_l_mps(), 0.0);
 }
 
 TEST(Cart, SwitchesStayOpenAwayFromWalls) {
