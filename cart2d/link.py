@@ -79,6 +79,7 @@ class Link:
         self.decode_errors = 0
         self.partials_dropped = 0  # partial packets that waited too long (since the port opened)
         self.connected = threading.Event()
+        self.opens = 0  # times the port was opened (a Nano resets at each)
 
     # -- lifecycle -----------------------------------------------------------------------
     def open(self, wait_s: float = 5.0) -> Link:
@@ -189,6 +190,7 @@ class Link:
                 time.sleep(0.2)
                 continue
             log.info("link open on %s", self.port)
+            self.opens += 1
             self.connected.set()
             self._read_until_gone(self._serial)
             self.connected.clear()

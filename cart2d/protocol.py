@@ -91,6 +91,7 @@ REASON_TEXT = {
     "BAD_STATE": "not possible in the current state",
     "EEPROM_INVALID": "no valid settings stored in EEPROM",
     "MALFORMED": "malformed request",
+    "BLOCKED": "a front switch is closed: the cart may only back away from what it touches",
 }
 
 
