@@ -308,7 +308,7 @@ def test_a_headless_mission_ends_at_a_reset_and_drives_no_further_goal(behaviour
     first, second = report["goals"]
     assert not first["reached"] and first["reason"].startswith("the controller restarted")
     assert EXTERNAL_WORDS in first["reason"]
-    assert 0.3 < first["path_length_m"] < 1.5  # it was on its way
+    assert 0.05 < first["path_length_m"] < 1.5  # it was on its way (planning and upload take a varying part)
     assert not second["reached"] and second["reason"].startswith("not driven: the pose is not trusted")
     assert second["path_length_m"] == 0.0
     (reset,) = report["resets"]
