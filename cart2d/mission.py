@@ -121,9 +121,9 @@ def _in_real_time(sim: Simulator) -> Iterator[None]:
         sim.control("speed", factor="max" if sim.options.speed == "max" else float(sim.options.speed))
 
 
-def _wait_for_path_end(link: Link, sim: Simulator, deadline_t: float) -> str:
-    """Polls STATUS until the firmware leaves PATH mode: '' when it arrived, else why not."""
-    watch = firmware.ResetWatch(firmware.read_status(link))
+def _wait_for_path_end(link: Link, sim: Simulator, deadline_t: float, watch: firmware.ResetWatch) -> str:
+    """Polls STATUS until the firmware leaves PATH mode: '' when it arrived, else why not (a
+    restart of the MCU since the watch's last look included)."""
     try:
         status = firmware.wait_path_end(link, lambda: sim.truth()["t"] > deadline_t, 0.005, watch)
     except firmware.ControllerRestarted as exc:
@@ -169,6 +169,7 @@ def _drive_like_the_seed(
     gateway: Gateway, sim: Simulator, goal: Point, deadline_t: float
 ) -> tuple[list[Point], str]:
     """The seed's way: a waypoint at every node, sent as many buffers-full as it takes."""
+    watch = firmware.ResetWatch(gateway.read_status())  # the gateway notices a restart before this too
     if not gateway.pose_trust.trusted:
         raise PoseUntrusted(gateway.pose_trust.refusal())
     x, y, _ = gateway.link.call("POSE")
@@ -178,7 +179,7 @@ def _drive_like_the_seed(
     for first in range(0, len(waypoints), capacity):
         with _in_real_time(sim):
             firmware.upload_path(gateway.link, waypoints[first : first + capacity])
-        reason = _wait_for_path_end(gateway.link, sim, deadline_t)
+        reason = _wait_for_path_end(gateway.link, sim, deadline_t, watch)
         if reason:
             break
     return [(x, y), *waypoints], reason
