@@ -60,7 +60,8 @@ ERRORS = {
     409: "the firmware refused the command (a value out of its range, busy, wrong mode), or the gateway "
     "does not trust the pose since the controller restarted",
     413: f"the request body is over {MAX_BODY_BYTES} bytes",
-    422: "the request is invalid, or (goals, obstacles) off the map, blocked or unreachable",
+    422: "the request is invalid, or (goals, obstacles) off the map, blocked or unreachable, or (a pose) "
+    "beyond the arena's walls",
     503: "the robot is not reachable (link down, no reply)",
 }
 
