@@ -28,7 +28,9 @@ its corner, each corner a turn on the spot (VELOCITY with v = 0 until the odomet
 90 degrees on; see turn_on_the_spot). In the simulator (`--sim`) the cart is placed at the start
 for every run and the ground truth gives the error; on a robot (`--serial PORT`) the user puts
 the cart back on the start mark and types where it ended. The corrected values are written with
-PARAM_SET after every pass and saved with SAVE at the end.
+PARAM_SET after every pass and saved with SAVE at the end. A restart of the MCU anywhere in
+between (STATUS: a new boot count, or the uptime going backwards) stops the calibration: it
+loses the run's path and the values set in RAM.
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ from pathlib import Path
 from typing import Any, Literal, Protocol
 
 from cart2d import firmware
+from cart2d.firmware import ControllerRestarted, ResetWatch
 from cart2d.link import CommandRefused, Link, LinkError
 from cart2d.params import robot, setting_id
 from cart2d.simulator import SimOptions, Simulator, SimulatorError
@@ -189,13 +192,16 @@ class RunError(RuntimeError):
 
 
 class Runner(Protocol):
-    def drive(self, clockwise: bool, label: str) -> Point:
-        """Drives one square; returns its return error (true minus odometry, m, start frame)."""
+    def drive(self, clockwise: bool, label: str, watch: ResetWatch | None = None) -> Point:
+        """Drives one square; returns its return error (true minus odometry, m, start frame).
+        With a watch, a restart of the MCU raises ControllerRestarted."""
         ...
 
 
-def _wait_arrived(link: Link, expired: Callable[[], bool], poll_s: float) -> None:
-    status = firmware.wait_path_end(link, expired, poll_s)
+def _wait_arrived(
+    link: Link, expired: Callable[[], bool], poll_s: float, watch: ResetWatch | None = None
+) -> None:
+    status = firmware.wait_path_end(link, expired, poll_s, watch)
     if status is None:
         raise RunError("the square took too long: stopped")
     if status.path_outcome():
@@ -229,11 +235,24 @@ def turn_on_the_spot(
 
 
 def drive_square(
-    link: Link, side_m: float, clockwise: bool, expired: Callable[[], bool], poll_s: float
+    link: Link,
+    side_m: float,
+    clockwise: bool,
+    expired: Callable[[], bool],
+    poll_s: float,
+    watch: ResetWatch | None = None,
 ) -> Point:
     """From wherever the cart is: pose := (0, 0, 0); then each side is a one-point path
     (WAIT_XY_ARRAY) that ends stopped on its corner, and each corner a 90 degree turn on the spot
-    (right for CW). Returns where the odometry ends (x, y)."""
+    (right for CW). Returns where the odometry ends (x, y). With a watch, STATUS is checked
+    for a restart of the MCU before the run, at every corner and at the end (a restart loses the
+    path and the settings not saved, and the pose may be wrong): ControllerRestarted."""
+
+    def check() -> None:
+        if watch is not None:
+            watch.read(link)
+
+    check()
     omega_max = min(1.0, 0.9 * link.call("MAX_SPEED_GET")[1])  # VELOCITY refuses more than w_max
     link.call("SET_POSE", 0.0, 0.0, 0.0)
     turn = -math.pi / 2 if clockwise else math.pi / 2
@@ -241,13 +260,15 @@ def drive_square(
         for k, corner in enumerate(square_corners(side_m, clockwise)):
             if k:
                 turn_on_the_spot(link, k * turn, expired, omega_max)
+                check()
             firmware.upload_path(link, [corner])
-            _wait_arrived(link, expired, poll_s)
+            _wait_arrived(link, expired, poll_s, watch)
+        x, y, _ = link.call("POSE")
+        check()
     except BaseException:  # Ctrl-C included: never leave the cart driving
         with contextlib.suppress(LinkError):
             link.call("STOP")
         raise
-    x, y, _ = link.call("POSE")
     return (x, y)
 
 
@@ -261,13 +282,13 @@ class SimRunner:
     start_ccw: Point
     start_cw: Point
 
-    def drive(self, clockwise: bool, label: str) -> Point:
+    def drive(self, clockwise: bool, label: str, watch: ResetWatch | None = None) -> Point:
         sx, sy = self.start_cw if clockwise else self.start_ccw
         self.sim.control("place", x=sx, y=sy, theta=0.0)
         start = self.sim.truth()
         deadline_t = start["t"] + 60.0 + 10.0 * self.side_m / 0.1
         expired = lambda: self.sim.truth()["t"] > deadline_t  # noqa: E731
-        drive_square(self.link, self.side_m, clockwise, expired, 0.01)
+        drive_square(self.link, self.side_m, clockwise, expired, 0.01, watch)
         side = self.sim.side
         assert side is not None
         side.wait_truth(lambda t: abs(t["v"]) < 1e-4 and abs(t["omega"]) < 1e-3, 30.0)  # at rest
@@ -288,7 +309,7 @@ class SerialRunner:
     say: Callable[[str], None] = print
     timeout_s: float = 300.0
 
-    def drive(self, clockwise: bool, label: str) -> Point:
+    def drive(self, clockwise: bool, label: str, watch: ResetWatch | None = None) -> Point:
         turn = "right" if clockwise else "left"
         answer = self.ask(
             f"{label}: put the cart on the start mark, facing along the first side "
@@ -298,7 +319,7 @@ class SerialRunner:
             raise Aborted("calibration aborted at the prompt")
         t_end = time.monotonic() + self.timeout_s
         expired = lambda: time.monotonic() > t_end  # noqa: E731
-        x_odo, y_odo = drive_square(self.link, self.side_m, clockwise, expired, 0.1)
+        x_odo, y_odo = drive_square(self.link, self.side_m, clockwise, expired, 0.1, watch)
         self.say(f"  stopped; the odometry puts the cart at x {x_odo * 1e3:+.1f} mm, y {y_odo * 1e3:+.1f} mm")
         x, y = ask_position(
             self.ask,
@@ -360,14 +381,19 @@ def save_settings(link: Link, timeout_s: float = 10.0) -> None:
 
 
 def measure(
-    runner: Runner, geometry: Geometry, runs: int, say: Callable[[str], None], title: str
+    runner: Runner,
+    geometry: Geometry,
+    runs: int,
+    say: Callable[[str], None],
+    title: str,
+    watch: ResetWatch | None = None,
 ) -> Measurement:
     """n runs each way, alternating CW and CCW."""
     m = Measurement(geometry)
     for i in range(runs):
         for clockwise, points in ((True, m.cw), (False, m.ccw)):
             label = f"{title}, {'CW' if clockwise else 'CCW'} run {i + 1}/{runs}"
-            error = runner.drive(clockwise, label)
+            error = runner.drive(clockwise, label, watch)
             points.append(error)
             say(f"{label}: return error x {error[0] * 1e3:+7.1f} mm, y {error[1] * 1e3:+7.1f} mm")
     return m
@@ -452,15 +478,52 @@ def calibrate(
     say: Callable[[str], None] = print,
     axes: Axes = "xy",
     refine_runs: int | None = None,
+    watch: ResetWatch | None = None,
 ) -> Calibration:
     """UMBmark passes, each followed by PARAM_SET of the corrected geometry; then, if asked, a
     last pass with the final values (with passes = 0: only that, a measurement). Passes after
-    the first may use fewer runs (`refine_runs`). Nothing is saved here."""
+    the first may use fewer runs (`refine_runs`). Nothing is saved here. A restart of the MCU
+    at any point (the watch's baseline, else the first STATUS here, onwards) stops it with
+    RunError: it ruins the run it happens in and loses the geometry set in RAM."""
+    watch = watch or ResetWatch(firmware.read_status(link))
+    try:
+        return _calibrate(runner, link, side_m, runs, passes, verify, say, axes, refine_runs, watch)
+    except ControllerRestarted as exc:
+        raise RunError(ruined(exc)) from exc
+
+
+def ruined(exc: ControllerRestarted) -> str:
+    return (
+        f"{exc}. That ruins the calibration: the run it happened in lost its path and maybe its pose, "
+        "and the wheel geometry set since the last SAVE is gone; calibration stopped, nothing saved"
+    )
+
+
+def check_not_restarted(watch: ResetWatch, link: Link) -> None:
+    """RunError if the MCU restarted since the watch last looked (before a SAVE)."""
+    try:
+        watch.read(link)
+    except ControllerRestarted as exc:
+        raise RunError(ruined(exc)) from exc
+
+
+def _calibrate(
+    runner: Runner,
+    link: Link,
+    side_m: float,
+    runs: int,
+    passes: int,
+    verify: bool,
+    say: Callable[[str], None],
+    axes: Axes,
+    refine_runs: int | None,
+    watch: ResetWatch,
+) -> Calibration:
     before = geometry = read_geometry(link)
     done: list[tuple[Measurement, Corrections]] = []
     for k in range(passes):
         n = runs if k == 0 or refine_runs is None else refine_runs
-        m = measure(runner, geometry, n, say, f"pass {k + 1}/{passes}")
+        m = measure(runner, geometry, n, say, f"pass {k + 1}/{passes}", watch)
         c = umbmark_corrections(m.cw, m.ccw, side_m, geometry, axes)
         say(
             f"pass {k + 1}: E_max,syst {m.e_max_syst_m() * 1e3:.1f} mm; "
@@ -472,7 +535,8 @@ def calibrate(
         done.append((m, c))
     result = Calibration(side_m, before, geometry, done)
     if verify:
-        result.verification = measure(runner, geometry, runs, say, "check" if passes else "UMBmark")
+        result.verification = measure(runner, geometry, runs, say, "check" if passes else "UMBmark", watch)
+    watch.read(link)
     return result
 
 
@@ -525,13 +589,17 @@ def calibrate_in_sim(
             if faults:
                 sim.control("faults", **faults)
             runner = SimRunner(sim, link, side_m, start_ccw, start_cw)
-            result = calibrate(runner, link, side_m, runs, passes, verify, say, refine_runs=refine_runs)
+            watch = ResetWatch(firmware.read_status(link))
+            result = calibrate(
+                runner, link, side_m, runs, passes, verify, say, refine_runs=refine_runs, watch=watch
+            )
             result.truth, result.faults = true_geometry(faults), dict(faults)
             after = result.e_max_after_m()
             if after is not None and after > result.e_max_before_m():
                 say("the check found the new values worse than the old: not saved, the old ones restored")
                 write_geometry(link, result.before)
             elif save and passes:
+                check_not_restarted(watch, link)
                 save_settings(link)
                 result.saved = True
     return result
@@ -599,8 +667,10 @@ def _run_serial(args: argparse.Namespace, passes: int, say: Callable[[str], None
             f"{args.runs} counter-clockwise; {passes} pass(es). Mark the start: the wheel-axis centre "
             "and the heading. Run this again afterwards to see the new values' errors."
         )
-        result = calibrate(runner, link, args.side, args.runs, passes, verify=False, say=say)
+        watch = ResetWatch(firmware.read_status(link))
+        result = calibrate(runner, link, args.side, args.runs, passes, verify=False, say=say, watch=watch)
         if not args.no_save:
+            check_not_restarted(watch, link)
             save_settings(link)
             result.saved = True
     return result

@@ -81,7 +81,11 @@ def cmd_sim(args: argparse.Namespace) -> int:
     try:
         _connect(gateway, 5.0)
         gateway.start()
-        print(f"simulator running ({args.speed}x real time), robot serial port {sim.pty}", flush=True)
+        print(
+            f"simulator running ({args.speed}x real time), robot serial port {sim.pty}, "
+            f"side channel {sim.control_address}",
+            flush=True,
+        )
         _serve(gateway, settings)
     finally:
         gateway.close()

@@ -1,5 +1,6 @@
 """What the gateway asks of the firmware, in words instead of command codes: compatibility,
-status, settings by stable id, path uploads split into frames. Built on a Link."""
+status, resets and their causes, settings by stable id, path uploads split into frames. Built
+on a Link."""
 
 from __future__ import annotations
 
@@ -57,16 +58,80 @@ class Status:
             return None
         if self.has("ARRIVED"):
             return ""
+        if self.has("BUMPER"):
+            return "the cart touched something in front: a front switch closed and the firmware stopped it"
         if self.has("STALLED"):
             return "a wheel stalled: the cart is blocked"
         return f"the firmware stopped the path (mode {self.mode})"
 
+    def restarted_since(self, earlier: Status) -> bool:
+        """Whether the MCU restarted between `earlier` and this STATUS: its boot count changed
+        (a reset that kept the RAM), or its uptime went backwards (one that lost it)."""
+        return self.boot_count != earlier.boot_count or self.uptime_s < earlier.uptime_s
 
-def wait_path_end(link: Link, expired: Callable[[], bool], poll_s: float) -> Status | None:
+    def reset_words(self) -> str:
+        """Why the MCU last restarted, in words (docs/protocol.md, Reset causes)."""
+        return reset_cause_words(self.reset_cause)
+
+
+# What each reset cause means for someone standing by the cart. WATCHDOG is also how REBOOT
+# works, so with REBOOT it is not a hang.
+RESET_CAUSE_WORDS = {
+    "POWER_ON": "the controller was powered up",
+    "EXTERNAL": "the reset button, or the serial port was reopened (a Nano resets when its port opens)",
+    "BROWN_OUT": "the controller's supply dipped (brown-out)",
+    "WATCHDOG": "the firmware stopped running and the watchdog restarted it",
+    "REBOOT": "a REBOOT command restarted the firmware",
+}
+
+
+def reset_cause_words(causes: Sequence[str]) -> str:
+    if "REBOOT" in causes:
+        causes = [c for c in causes if c != "WATCHDOG"]
+    words = [RESET_CAUSE_WORDS.get(cause, cause) for cause in causes]
+    return "; ".join(words) or "no cause recorded (a jump to address 0, or a bootloader that kept the flags)"
+
+
+class ControllerRestarted(LinkError):
+    """The MCU restarted while something depended on its state (a path, a calibration run)."""
+
+    def __init__(self, status: Status) -> None:
+        super().__init__(f"the controller restarted (boot {status.boot_count}): {status.reset_words()}")
+        self.status = status
+
+
+class ResetWatch:
+    """Notices a restart of the MCU between the STATUS replies it is shown. The first one is
+    the baseline. Show it the replies of one thread, in the order they were read: replies read
+    by several threads may reach it out of order and look like an uptime going backwards."""
+
+    def __init__(self, baseline: Status | None = None) -> None:
+        self.last = baseline
+
+    def saw(self, status: Status) -> bool:
+        """True if the MCU restarted since the last STATUS shown; `status` becomes the last."""
+        restarted = self.last is not None and status.restarted_since(self.last)
+        self.last = status
+        return restarted
+
+    def check(self, status: Status) -> Status:
+        """`status`, or ControllerRestarted if the MCU restarted since the last one."""
+        if self.saw(status):
+            raise ControllerRestarted(status)
+        return status
+
+    def read(self, link: Link) -> Status:
+        return self.check(read_status(link))
+
+
+def wait_path_end(
+    link: Link, expired: Callable[[], bool], poll_s: float, watch: ResetWatch | None = None
+) -> Status | None:
     """Polls STATUS until the firmware leaves PATH mode and returns that status (its
-    path_outcome() says how the path ended); None once expired() says the time is up."""
+    path_outcome() says how the path ended); None once expired() says the time is up. With a
+    watch, a restart of the MCU raises ControllerRestarted (a reset loses the path)."""
     while True:
-        status = read_status(link)
+        status = read_status(link) if watch is None else watch.read(link)
         if status.path_outcome() is not None:
             return status
         if expired():

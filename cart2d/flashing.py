@@ -4,12 +4,14 @@ job whose state and log the panel polls."""
 
 from __future__ import annotations
 
+import contextlib
 import io
 import shutil
 import subprocess
 import threading
 import time
 from collections.abc import Callable
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -79,9 +81,12 @@ class Flasher:
         sim: Simulator | None = None,
         baud: int = 115200,
         after: Callable[[], object] | None = None,
+        resetting: Callable[[], AbstractContextManager[object]] | None = None,
     ) -> None:
         self.link = link
         self.after = after  # e.g. the gateway's firmware check; an exception fails the job
+        # Held around the update: the MCU restarts on purpose in it (the gateway's restart watch).
+        self.resetting = resetting or contextlib.nullcontext
         self.directory = directory
         self.sim = sim
         self.baud = baud
@@ -106,13 +111,14 @@ class Flasher:
     def _run(self, path: Path) -> None:
         job = self.job
         try:
-            if self.sim is not None:
-                self._reload_simulator(path, job)
-            else:
-                self._avrdude(path, job)
-                if self.after is not None:
-                    job.log.append("checking the new firmware")
-                    self.after()
+            with self.resetting():
+                if self.sim is not None:
+                    self._reload_simulator(path, job)
+                else:
+                    self._avrdude(path, job)
+                    if self.after is not None:
+                        job.log.append("checking the new firmware")
+                        self.after()
             job.log.append("done")
             job.state = "done"
         except Exception as exc:  # the job reports any failure instead of dying silently

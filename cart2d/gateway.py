@@ -1,25 +1,36 @@
 """The gateway: what the seed's ESP32 did, as one object the HTTP API (server.py) and the
 command line use. It owns the link to the firmware, the map and its planner, the mission
-(idle / driving / arrived / failed) and the fan-out of live data to viewers."""
+(idle / driving / arrived / failed) and the fan-out of live data to viewers.
+
+It also watches the MCU for restarts (docs/protocol.md, Reset causes): a monitor thread reads
+STATUS a few times a second, and a restart shows as a new boot count or an uptime that went
+backwards (telemetry's TICK going backwards makes it look at once). The first STATUS is the
+baseline: opening a Nano's port resets it. A restart ends any mission, is told to viewers and
+the log in words, and, unless the gateway asked for it and the firmware kept its pose, leaves
+the pose untrusted: no goal is planned from it until the user sets the pose, runs the reset
+routine or accepts the pose the firmware has."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
+import math
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from cart2d import firmware
 from cart2d.flashing import Flasher
 from cart2d.link import CommandRefused, Link, LinkError
-from cart2d.params import footprint_radius_m, planning_radius_m, robot
+from cart2d.params import footprint_radius_m, planning_radius_m, robot, setting_id
 from cart2d.planner import Grid, Plan, PlanError, Planner, polyline_length
-from cart2d.protocol import Telemetry
-from cart2d.simulator import Simulator
+from cart2d.protocol import Reply, Telemetry
+from cart2d.simulator import Simulator, SimulatorError
 from cart2d.smoothing import round_corners
+from cart2d.spec import load_spec
 from cart2d.store import GatewaySettings, MapSettings, Store
 
 log = logging.getLogger(__name__)
@@ -29,6 +40,65 @@ Listener = Callable[[dict[str, Any]], None]
 
 class PathTooLong(PlanError):
     """More waypoints than the firmware's buffer holds."""
+
+
+class PoseOutsideArena(PlanError):
+    """A pose the user gave that lies beyond the arena's walls."""
+
+
+class PoseUntrusted(RuntimeError):
+    """No goal is planned from a pose the gateway knows may be wrong (after an MCU restart)."""
+
+
+STATUS_POLL_S = 0.25  # STATUS reads while nothing moves: a restart is noticed within this
+BUSY_POLL_S = 0.1  # while a mission or the reset routine runs
+# How far the pose may lie from the configured reset pose once the reset routine ended for it
+# to count as squared up (the cart rests against the wall; a stop before that leaves it far off).
+ROUTINE_POSE_TOLERANCE_M = 0.005
+ROUTINE_HEADING_TOLERANCE_RAD = 0.01
+RESET_POSE_SETTINGS = ("reset_x_m", "reset_y_m", "reset_theta_rad")
+WAYS_OUT = "set the pose, run the reset routine, or accept the pose the firmware has"
+
+
+def pose_text(x: float, y: float, theta: float) -> str:
+    return f"({x:.3f} m, {y:.3f} m, {math.degrees(theta):.1f}°)"
+
+
+@dataclass(frozen=True)
+class ResetReport:
+    """An MCU restart the gateway noticed, for the log, /api/status and viewers."""
+
+    time: str  # when the gateway noticed it, ISO 8601 UTC
+    cause: list[str]  # STATUS reset_cause (docs/protocol.md, Reset causes)
+    cause_words: str
+    expected: bool  # the gateway caused it (a soft reset, a firmware update)
+    caused_by: str  # what the gateway did, if it did
+    boot_count: int
+    pose_restored: bool  # flag POSE_RESTORED: the pose at the reset, from RAM
+    pose: dict[str, float] | None  # the firmware's pose once it restarted
+    mission_ended: bool
+    message: str  # all of the above in sentences
+
+
+@dataclass(frozen=True)
+class PoseTrust:
+    trusted: bool = True
+    reason: str = ""  # why not, in words
+
+    def refusal(self) -> str:
+        return (
+            f"the pose is not trusted: {self.reason}; {WAYS_OUT} (POST /api/pose, "
+            "/api/pose/reset-routine or /api/pose/accept) before the next goal"
+        )
+
+
+@dataclass(frozen=True)
+class Routine:
+    """The reset routine as started through the gateway."""
+
+    state: str = "idle"  # idle | running | done | failed
+    words: str = ""
+    expected_pose: tuple[float, float, float] | None = None
 
 
 @dataclass
@@ -57,15 +127,36 @@ class Gateway:
         self._listeners_lock = threading.Lock()
         self._listeners: list[Listener] = []
         self._stop = threading.Event()
-        self._monitor = threading.Thread(target=self._watch_mission, name="mission monitor", daemon=True)
+        self._wake = threading.Event()  # look at STATUS now (telemetry's TICK went backwards)
+        self._monitor = threading.Thread(target=self._watch, name="gateway monitor", daemon=True)
         self.version: firmware.Version | None = None
-        self.flasher = Flasher(link, store.directory, sim, after=self._check_after_update)
+        # Restarts: every STATUS the gateway reads goes through one ResetWatch, in the order read.
+        self._status_lock = threading.Lock()
+        self._resets = firmware.ResetWatch()
+        self._opens_seen = 0  # the link's port openings at the last STATUS
+        self._last_tick: int | None = None
+        self._expected_reset = ""  # what the gateway is doing that restarts the MCU, if anything
+        self.last_reset: ResetReport | None = None
+        self.resets_noticed = 0
+        self.pose_trust = PoseTrust()
+        self.routine = Routine()
+        self.flasher = Flasher(
+            link,
+            store.directory,
+            sim,
+            after=self._check_after_update,
+            resetting=lambda: self._resetting("a firmware update", certain=True),
+        )
         link.subscribe(self._on_telemetry)
         if sim is not None and sim.side is not None:
             sim.side.subscribe(self._on_truth)
 
     # -- lifecycle -------------------------------------------------------------------------
     def start(self) -> None:
+        """Starts the monitor, with the first STATUS as the baseline restarts are told from."""
+        if self.link.connected.is_set():
+            with contextlib.suppress(LinkError, CommandRefused):
+                self.read_status()
         self._monitor.start()
 
     def close(self) -> None:
@@ -115,6 +206,9 @@ class Gateway:
             listener(message)
 
     def _on_telemetry(self, t: Telemetry) -> None:
+        last, self._last_tick = self._last_tick, t.tick
+        if last is not None and (t.tick - last) % 65536 > 32768:
+            self._wake.set()  # TICK went backwards (not a wrap): the MCU may have restarted
         data = asdict(t)
         data["mode_name"] = firmware.mode_name(t.mode)
         data["flag_names"] = firmware.flag_names(t.flags)
@@ -172,9 +266,16 @@ class Gateway:
 
     # -- motion ------------------------------------------------------------------------------
     def go_to(self, x: float, y: float) -> Plan:
-        """Plans from the measured pose to (x, y) and sends the path; PlanError sends nothing."""
+        """Plans from the measured pose to (x, y) and sends the path; PlanError, or
+        PoseUntrusted after an MCU restart, sends nothing."""
+        self.read_status()  # a restart since the last look is noticed before planning
+        with self._lock:
+            if not self.pose_trust.trusted:
+                raise PoseUntrusted(self.pose_trust.refusal())
         pose = self.link.call("POSE")
         with self._lock:
+            if not self.pose_trust.trusted:  # a restart noticed meanwhile
+                raise PoseUntrusted(self.pose_trust.refusal())
             plan = self.planner.plan((pose[0], pose[1]), (x, y))
             capacity = self.waypoint_capacity
             if len(plan.waypoints) > capacity:
@@ -184,6 +285,8 @@ class Gateway:
                 )
             plan = self._rounded(plan, capacity)
             firmware.upload_path(self.link, plan.waypoints)
+            if self.routine.state == "running":
+                self._end_routine("failed", "a path replaced it before it squared up")
             self.mission = Mission(
                 state="driving", goal=(x, y), started_s=time.monotonic(), plan=self.plan_view(plan)
             )
@@ -217,6 +320,8 @@ class Gateway:
         with self._lock:
             if self.mission.state == "driving":
                 self._end_mission("failed", "stopped by the user")
+            if self.routine.state == "running":
+                self._end_routine("failed", "stopped by the user before it squared up")
 
     def drive(self, v_mps: float, omega_radps: float) -> None:
         """Manual driving; the firmware stops by itself without a refresh within its timeout."""
@@ -224,6 +329,8 @@ class Gateway:
         with self._lock:
             if self.mission.state == "driving":
                 self._end_mission("failed", "taken over by manual driving")
+            if self.routine.state == "running":
+                self._end_routine("failed", "taken over by manual driving before it squared up")
 
     def mission_view(self) -> dict[str, Any]:
         with self._lock:
@@ -243,23 +350,252 @@ class Gateway:
         self.mission.ended_s = time.monotonic()
         self._publish({"type": "mission", **self.mission_view()})
 
-    def _watch_mission(self) -> None:
-        """Follows a driving mission through the firmware's STATUS until it ends."""
-        while not self._stop.wait(0.1):
-            with self._lock:
-                driving = self.mission.state == "driving"
-            if not driving:
-                continue
-            try:
-                status = firmware.read_status(self.link)
-            except (LinkError, CommandRefused):
-                continue  # the link is reconnecting: the firmware keeps driving on its own
-            outcome = status.path_outcome()
-            if outcome is None:
-                continue
+    # -- the pose after a restart --------------------------------------------------------------
+    def set_pose(self, x: float, y: float, theta: float) -> dict[str, float]:
+        """SET_POSE from the user, who knows where the cart is: the pose is trusted again."""
+        arena = self.map_view()["arena"]
+        if not (arena["x_min"] <= x <= arena["x_max"] and arena["y_min"] <= y <= arena["y_max"]):
+            raise PoseOutsideArena(
+                f"the pose ({x:.3f}, {y:.3f}) lies beyond the arena's walls (x from {arena['x_min']:g} "
+                f"to {arena['x_max']:g} m, y from {arena['y_min']:g} to {arena['y_max']:g} m)"
+            )
+        self.link.call("SET_POSE", x, y, theta)
+        pose = self._pose()
+        self._trust(f"the pose was set to {pose_text(*pose)}")
+        return dict(zip(("x", "y", "theta"), pose, strict=True))
+
+    def accept_pose(self) -> tuple[dict[str, float], str]:
+        """Trusts the pose the firmware has; returns it and what it is, in words."""
+        status = self.read_status()
+        pose = self._pose()
+        where = pose_text(*pose)
+        with self._lock:
+            trusted = self.pose_trust.trusted
+        if trusted:
+            words = f"the pose was trusted already: {where}"
+        elif status.has("POSE_RESTORED"):
+            words = (
+                f"accepted the pose the firmware restored from RAM, {where}: the pose at the reset, "
+                "blind to any motion during it"
+            )
+        else:
+            words = (
+                f"accepted the pose the firmware has, {where}: it restarted at (0, 0, 0) and has "
+                "counted the motion since"
+            )
+        self._trust(words)
+        return dict(zip(("x", "y", "theta"), pose, strict=True)), words
+
+    def start_reset_routine(self) -> None:
+        """RESET_ROUTINE: the cart squares up against the wall in front; the pose is trusted
+        again once the routine ends squared up (not with ROUTINE_FAILED, not interrupted)."""
+        reply = self.command(load_spec().code("RESET_ROUTINE"), ())
+        if not reply.ok:
+            raise CommandRefused(reply)
+
+    def command(self, code: int, args: Sequence[float]) -> Reply:
+        """Any protocol request (the generic command form), with what the gateway must know of
+        it: a REBOOT restarts the MCU on purpose, SET_POSE and RESET give the pose, and the
+        reset routine is followed to its end."""
+        name = load_spec().name_of(code).removeprefix("COMMAND_")
+        if name == "REBOOT":
+            self.read_status()  # the baseline the restart is noticed against
+            noticed = self.resets_noticed
+            with self._resetting("a REBOOT sent through the gateway", certain=False):
+                reply = self.link.request(code, args)
+                if reply.ok:
+                    self._wait_for_restart(noticed, 5.0)
+            return reply
+        if name == "RESET_ROUTINE":
+            x, y, theta = (firmware.read_setting(self.link, setting_id(n)) for n in RESET_POSE_SETTINGS)
+        reply = self.link.request(code, args)
+        if not reply.ok:
+            return reply
+        if name in ("SET_POSE", "RESET"):
+            self._trust(f"the pose was set to {pose_text(*self._pose())} with {name}")
+        elif name == "RESET_ROUTINE":
             with self._lock:
                 if self.mission.state == "driving":
-                    self._end_mission("failed" if outcome else "arrived", outcome)
+                    self._end_mission("failed", "replaced by the reset routine")
+                self.routine = Routine("running", "driving slowly to the wall in front", (x, y, theta))
+                self._publish({"type": "routine", **self.routine_view()})
+            self._wake.set()
+        return reply
+
+    def routine_view(self) -> dict[str, Any]:
+        with self._lock:
+            return {"state": self.routine.state, "words": self.routine.words}
+
+    def _end_routine(self, state: str, words: str) -> None:
+        self.routine = Routine(state, words)
+        self._publish({"type": "routine", **self.routine_view()})
+
+    def _pose(self) -> tuple[float, float, float]:
+        x, y, theta = self.link.call("POSE")
+        return x, y, theta
+
+    def _trust(self, how: str) -> None:
+        with self._lock:
+            self.pose_trust = PoseTrust()
+        log.info("pose trusted: %s", how)
+        self._publish({"type": "pose_trust", "trusted": True, "reason": "", "how": how})
+
+    # -- restarts ----------------------------------------------------------------------------
+    def read_status(self, restarted_for_sure: bool = False) -> firmware.Status:
+        """STATUS, shown to the restart watch in the order read; a restart is handled here
+        (`restarted_for_sure`: the gateway knows the MCU restarted since the last look)."""
+        with self._status_lock:
+            status = firmware.read_status(self.link)
+            restarted = self._resets.saw(status) or restarted_for_sure
+            reopened = self.link.opens != self._opens_seen
+            self._opens_seen = self.link.opens
+        if restarted:
+            self._on_restart(status, reopened)
+        return status
+
+    def soft_reset(self) -> ResetReport | None:
+        """Restarts the MCU (REBOOT; the reset button in the simulator) and waits until the
+        restart is noticed; returns its report (None if it was not noticed within 5 s)."""
+        self.read_status()  # the baseline it is compared with
+        noticed = self.resets_noticed
+        with self._resetting("a soft reset asked for through the gateway", certain=False):
+            if self.sim is not None:
+                try:
+                    self.sim.control("reset")
+                except SimulatorError as exc:
+                    raise LinkError(f"the simulator did not reset the MCU: {exc}") from exc
+            else:
+                self.link.call("REBOOT")
+            return self._wait_for_restart(noticed, 5.0)
+
+    def _wait_for_restart(self, noticed: int, wait_s: float) -> ResetReport | None:
+        """Reads STATUS until a restart after the `noticed` ones is noticed; its report, or
+        None after wait_s."""
+        deadline = time.monotonic() + wait_s
+        while self.resets_noticed == noticed and time.monotonic() < deadline:
+            time.sleep(0.02)
+            with contextlib.suppress(LinkError, CommandRefused):  # it may still be starting
+                self.read_status()
+        with self._lock:
+            return self.last_reset if self.resets_noticed != noticed else None
+
+    @contextlib.contextmanager
+    def _resetting(self, what: str, certain: bool) -> Iterator[None]:
+        """Restarts noticed inside the block are the gateway's doing (`what`), not faults.
+        `certain`: the block restarts the MCU whatever STATUS shows (a new simulator, avrdude's
+        reset), so a restart is reported at its end if none was noticed: a fresh MCU whose uptime
+        has overtaken the old one's and whose boot count is 1 again looks like no restart."""
+        with self._lock:
+            self._expected_reset = what
+            noticed = self.resets_noticed
+        try:
+            yield
+        finally:
+            if self.link.connected.is_set():
+                with contextlib.suppress(LinkError, CommandRefused):
+                    self.read_status(certain and self.resets_noticed == noticed)  # while it is expected
+            with self._lock:
+                self._expected_reset = ""
+
+    def _on_restart(self, status: firmware.Status, reopened: bool) -> None:
+        try:
+            pose: tuple[float, float, float] | None = self._pose()
+        except (LinkError, CommandRefused):
+            pose = None
+        with self._lock:
+            caused_by = self._expected_reset
+            cause = status.reset_words()
+            if reopened and not caused_by and "EXTERNAL" in status.reset_cause:
+                cause += " (here the link to the robot was lost and its port reopened)"
+            restored = status.has("POSE_RESTORED")
+            when = time.strftime("%H:%M:%S")
+            head = (
+                f"The controller restarted at {when} (boot {status.boot_count}), "
+                + (f"as the gateway asked ({caused_by}): " if caused_by else "unexpectedly: ")
+                + f"{cause}."
+            )
+            sentences = [head]
+            ended = self.mission.state == "driving"
+            if ended:
+                goal = self.mission.goal or (0.0, 0.0)
+                self._end_mission("failed", f"the controller restarted: {cause}")
+                sentences.append(f"The mission to ({goal[0]:.2f}, {goal[1]:.2f}) failed.")
+            if self.routine.state == "running":
+                self._end_routine("failed", "the controller restarted before it squared up")
+            where = pose_text(*pose) if pose else "unknown"
+            if restored:
+                sentences.append(
+                    f"The firmware restored its pose from RAM, {where}: the pose at the reset, blind to any "
+                    "motion during it."
+                )
+            else:
+                sentences.append("Its pose restarted at (0, 0, 0).")
+            if not (caused_by and restored):
+                what = "kept the pose it had" if restored else "restarted at (0, 0, 0)"
+                self.pose_trust = PoseTrust(False, f"the controller restarted at {when} ({cause}) and {what}")
+            if not self.pose_trust.trusted:
+                sentences.append(f"No goal is planned from it until you {WAYS_OUT}.")
+            report = ResetReport(
+                time=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+                cause=list(status.reset_cause),
+                cause_words=cause,
+                expected=bool(caused_by),
+                caused_by=caused_by,
+                boot_count=status.boot_count,
+                pose_restored=restored,
+                pose=dict(zip(("x", "y", "theta"), pose, strict=True)) if pose else None,
+                mission_ended=ended,
+                message=" ".join(sentences),
+            )
+            self.last_reset = report
+            self.resets_noticed += 1
+            trust = asdict(self.pose_trust)
+        if ended:  # the firmware is idle after a restart, unless a path reached it since: stop that
+            with contextlib.suppress(LinkError, CommandRefused):
+                self.link.call("STOP")
+        (log.info if caused_by else log.warning)("%s", report.message)
+        self._publish({"type": "reset", **asdict(report), "pose_trust": trust})
+
+    # -- the monitor -------------------------------------------------------------------------
+    def _watch(self) -> None:
+        """Reads STATUS a few times a second, also when nothing runs (that notices restarts),
+        and follows a mission and the reset routine to their ends."""
+        while not self._stop.is_set():
+            with self._lock:
+                busy = self.mission.state == "driving" or self.routine.state == "running"
+            self._wake.wait(BUSY_POLL_S if busy else STATUS_POLL_S)
+            self._wake.clear()
+            if self._stop.is_set() or not self.link.connected.is_set():
+                continue
+            try:
+                status = self.read_status()
+                self._follow(status)
+            except (LinkError, CommandRefused):
+                continue  # the link is reconnecting: the firmware keeps driving on its own
+
+    def _follow(self, status: firmware.Status) -> None:
+        outcome = status.path_outcome()
+        with self._lock:
+            if outcome is not None and self.mission.state == "driving":
+                self._end_mission("failed" if outcome else "arrived", outcome)
+            routine = self.routine
+        if routine.state != "running" or status.mode == "RESET_ROUTINE":
+            return
+        pose = self._pose()
+        with self._lock:
+            if self.routine is not routine:
+                return  # ended meanwhile (a stop, a restart)
+            if status.has("ROUTINE_FAILED"):
+                self._end_routine("failed", "it found no wall in time: the pose is unchanged")
+                return
+            expected = routine.expected_pose or pose
+            off_m = math.hypot(pose[0] - expected[0], pose[1] - expected[1])
+            off_rad = abs(math.remainder(pose[2] - expected[2], 2 * math.pi))
+            if off_m > ROUTINE_POSE_TOLERANCE_M or off_rad > ROUTINE_HEADING_TOLERANCE_RAD:
+                self._end_routine("failed", "it was interrupted before it squared up")
+                return
+            self._end_routine("done", f"squared up against the wall: pose {pose_text(*pose)}")
+        self._trust(f"the reset routine squared the cart up against the wall: pose {pose_text(*pose)}")
 
     def status_view(self) -> dict[str, Any]:
         link_state = "connected" if self.link.connected.is_set() else "reconnecting"
@@ -270,8 +606,15 @@ class Gateway:
         }
         if link_state == "connected":
             try:
-                view["status"] = asdict(firmware.read_status(self.link))
+                view["status"] = asdict(self.read_status())
                 view["pose"] = dict(zip(("x", "y", "theta"), self.link.call("POSE"), strict=True))
             except (LinkError, CommandRefused) as exc:
                 view["link"]["error"] = str(exc)
+        with self._lock:
+            view["reset"] = {
+                "last": asdict(self.last_reset) if self.last_reset else None,
+                "noticed": self.resets_noticed,
+            }
+            view["pose_trust"] = asdict(self.pose_trust)
+        view["routine"] = self.routine_view()
         return view

@@ -2,9 +2,12 @@
 
 One request is outstanding at a time (docs/protocol.md, "Retransmission and duplicates"): a
 request that gets no reply within the timeout is retransmitted with the same sequence number,
-which the firmware answers from memory instead of executing it twice. A reader thread decodes
-everything the firmware sends. If the port disappears (USB unplugged, simulator restarted) the
-link reopens it in the background; requests in the meantime fail with LinkDown.
+which the firmware answers from memory instead of executing it twice; it remembers a request
+for 2 s, so a request is retransmitted only within RETRANSMIT_WINDOW_S of its first
+transmission. A reader thread decodes everything the firmware sends, and drops a partial
+packet that waited too long (cart2d/protocol.py, Decoder). If the port disappears (USB
+unplugged, simulator restarted) the link reopens it in the background; requests in the
+meantime fail with LinkDown.
 """
 
 from __future__ import annotations
@@ -22,6 +25,13 @@ from cart2d.protocol import Decoder, Packet, ProtocolError, Reply, Telemetry, de
 from cart2d.spec import load_spec
 
 log = logging.getLogger(__name__)
+
+# The firmware answers a retransmission from memory for 2 s after it executed the original; a
+# host retransmits only within 1.5 s of the first transmission, so that no retransmission
+# reaches the firmware after it forgot the original and would execute it again (the 0.5 s
+# between covers the line, a USB adapter's latency and the firmware's busiest tick).
+RETRANSMIT_WINDOW_S = 1.5
+READ_TIMEOUT_S = 0.05  # how long the reader waits for a byte before it checks the decoder's time-outs
 
 
 class LinkError(RuntimeError):
@@ -67,7 +77,9 @@ class Link:
         self.telemetry_count = 0
         self.retransmissions = 0
         self.decode_errors = 0
+        self.partials_dropped = 0  # partial packets that waited too long (since the port opened)
         self.connected = threading.Event()
+        self.opens = 0  # times the port was opened (a Nano resets at each)
 
     # -- lifecycle -----------------------------------------------------------------------
     def open(self, wait_s: float = 5.0) -> Link:
@@ -113,19 +125,29 @@ class Link:
     def request(
         self, command: str | int, args: Sequence[float] = (), timeout_s: float | None = None
     ) -> Reply:
-        """Send one request and return its reply (any status); retries on silence."""
+        """Send one request and return its reply (any status). Without a reply within the
+        timeout the request is retransmitted, at most `retries` times and only within
+        RETRANSMIT_WINDOW_S of its first transmission; then LinkTimeout."""
         code = command if isinstance(command, int) else load_spec().code(command)
         timeout = self.timeout_s if timeout_s is None else timeout_s
         with self._request_lock:
             self._seq = (self._seq + 1) & 0xFF
             data = encode_request(self._seq, code, list(args))
-            for attempt in range(self.retries + 1):
-                if attempt:
-                    self.retransmissions += 1
+            first_sent = time.monotonic()
+            tries = 0
+            while True:
                 reply = self._exchange(data, self._seq, timeout)
+                tries += 1
                 if reply is not None:
                     return reply
-            raise LinkTimeout(f"no reply to {load_spec().name_of(code)} after {self.retries + 1} tries")
+                late = time.monotonic() - first_sent > RETRANSMIT_WINDOW_S
+                if tries > self.retries or late:
+                    break
+                self.retransmissions += 1
+            waited_s = time.monotonic() - first_sent
+            raise LinkTimeout(
+                f"no reply to {load_spec().name_of(code)} after {tries} tries in {waited_s:.1f} s"
+            )
 
     def call(self, command: str | int, *args: float, timeout_s: float | None = None) -> tuple[float, ...]:
         """Send a request; return its results, or raise CommandRefused."""
@@ -162,12 +184,13 @@ class Link:
                 time.sleep(0.05)
                 continue
             try:
-                self._serial = serial.Serial(self.port, self.baud, timeout=0.05)
+                self._serial = serial.Serial(self.port, self.baud, timeout=READ_TIMEOUT_S)
                 self._serial.reset_input_buffer()  # bytes queued while nobody listened
             except (serial.SerialException, OSError):
                 time.sleep(0.2)
                 continue
             log.info("link open on %s", self.port)
+            self.opens += 1
             self.connected.set()
             self._read_until_gone(self._serial)
             self.connected.clear()
@@ -179,17 +202,19 @@ class Link:
                 time.sleep(0.2)
 
     def _read_until_gone(self, port: serial.Serial) -> None:
-        decoder = Decoder()
+        decoder = Decoder(self.baud)
         while not self._closing.is_set() and not self._released.is_set():
             try:
-                data = port.read(max(1, port.in_waiting))
+                data = port.read(max(1, port.in_waiting))  # b"" after READ_TIMEOUT_S of silence
             except (serial.SerialException, OSError, TypeError) as exc:
                 if not self._closing.is_set():
                     log.warning("reading %s failed: %s", self.port, exc)
                 return
-            for item in decoder.feed(data):
+            # Fed even when empty: a partial packet expires while nothing arrives as well.
+            for item in decoder.feed(data, time.monotonic()):
                 self._handle(item)
             self.decode_errors = decoder.errors
+            self.partials_dropped = decoder.expired
 
     def _handle(self, item: Packet | Telemetry) -> None:
         if isinstance(item, Telemetry):

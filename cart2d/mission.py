@@ -4,7 +4,9 @@ A mission is a map, a start pose and goals; the runner drives to each goal in tu
 same gateway code as the web API (plan from the measured pose, upload, follow STATUS) and
 reports, per goal, whether it was reached, the simulated time, the errors (ground truth against
 goal and against odometry) and the path length driven and planned. The report is written in
-every case; an invalid or unreachable goal is reported with its reason and nothing is sent."""
+every case; an invalid or unreachable goal is reported with its reason and nothing is sent.
+`resets_at_s` presses the simulated reset button: the goal in progress fails with the reset's
+words, and the goals after it are not driven (the gateway no longer trusts the pose)."""
 
 from __future__ import annotations
 
@@ -19,16 +21,16 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 from tqdm import tqdm
 
 from cart2d import firmware
 from cart2d.baseline import SEED_SETTINGS, seed_path
-from cart2d.gateway import Gateway
+from cart2d.gateway import Gateway, PoseUntrusted
 from cart2d.link import Link, LinkError
 from cart2d.params import robot, setting_id
 from cart2d.planner import Grid, PlanError, Point, point_polyline_distance, polyline_length
-from cart2d.simulator import SimOptions, Simulator
+from cart2d.simulator import SimOptions, Simulator, SimulatorError
 from cart2d.store import GatewaySettings, MapSettings, Store
 
 Coordinate = float
@@ -54,6 +56,18 @@ class MissionSpec(BaseModel):
         "cart2d",
         description="'seed': the seed's planner and settings (cart2d/baseline.py), to compare against",
     )
+    resets_at_s: list[float] = Field(
+        default_factory=list,
+        max_length=100,
+        description="simulated seconds after the start at which the MCU is reset (the reset button)",
+    )
+
+    @field_validator("resets_at_s")
+    @classmethod
+    def finite_times(cls, times: list[float]) -> list[float]:
+        if not all(math.isfinite(t) and t >= 0.0 for t in times):
+            raise ValueError("reset times must be finite and not negative")
+        return sorted(times)
 
 
 class Recorder:
@@ -107,19 +121,57 @@ def _in_real_time(sim: Simulator) -> Iterator[None]:
         sim.control("speed", factor="max" if sim.options.speed == "max" else float(sim.options.speed))
 
 
-def _wait_for_path_end(link: Link, sim: Simulator, deadline_t: float) -> str:
-    """Polls STATUS until the firmware leaves PATH mode: '' when it arrived, else why not."""
-    status = firmware.wait_path_end(link, lambda: sim.truth()["t"] > deadline_t, 0.005)
+def _wait_for_path_end(link: Link, sim: Simulator, deadline_t: float, watch: firmware.ResetWatch) -> str:
+    """Polls STATUS until the firmware leaves PATH mode: '' when it arrived, else why not (a
+    restart of the MCU since the watch's last look included)."""
+    try:
+        status = firmware.wait_path_end(link, lambda: sim.truth()["t"] > deadline_t, 0.005, watch)
+    except firmware.ControllerRestarted as exc:
+        return str(exc)
     if status is None:
         link.call("STOP")
         return "timeout: the mission's time ran out"
     return status.path_outcome() or ""
 
 
+@contextlib.contextmanager
+def _resets_at(sim: Simulator, times_s: list[float]) -> Iterator[None]:
+    """Presses the simulated reset button at these simulated times, from a thread of its own."""
+    if not times_s:
+        yield
+        return
+    done = threading.Event()
+
+    def press() -> None:
+        side = sim.side
+        assert side is not None
+        for t in times_s:
+            while not done.is_set():
+                try:
+                    side.wait_truth(lambda truth, t=t: truth["t"] >= t, 0.2)
+                    break
+                except SimulatorError:
+                    continue  # not yet; look again unless the mission ended
+            if done.is_set():
+                return
+            sim.control("reset")
+
+    thread = threading.Thread(target=press, name="reset button", daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        done.set()
+        thread.join()
+
+
 def _drive_like_the_seed(
     gateway: Gateway, sim: Simulator, goal: Point, deadline_t: float
 ) -> tuple[list[Point], str]:
     """The seed's way: a waypoint at every node, sent as many buffers-full as it takes."""
+    watch = firmware.ResetWatch(gateway.read_status())  # the gateway notices a restart before this too
+    if not gateway.pose_trust.trusted:
+        raise PoseUntrusted(gateway.pose_trust.refusal())
     x, y, _ = gateway.link.call("POSE")
     m = gateway.settings.map
     waypoints = seed_path(gateway.planner.grid, m.obstacles, (x, y), goal)
@@ -127,7 +179,7 @@ def _drive_like_the_seed(
     for first in range(0, len(waypoints), capacity):
         with _in_real_time(sim):
             firmware.upload_path(gateway.link, waypoints[first : first + capacity])
-        reason = _wait_for_path_end(gateway.link, sim, deadline_t)
+        reason = _wait_for_path_end(gateway.link, sim, deadline_t, watch)
         if reason:
             break
     return [(x, y), *waypoints], reason
@@ -158,6 +210,9 @@ def _drive_to(
         planned, reason = drive(gateway, sim, goal, deadline_t)
     except PlanError as exc:
         return {**result, "reason": str(exc), "time_s": 0.0, "path_length_m": 0.0}
+    except PoseUntrusted:
+        reason = f"not driven: the pose is not trusted since {gateway.pose_trust.reason}"
+        return {**result, "reason": reason, "time_s": 0.0, "path_length_m": 0.0}
     result["planned_path"] = [list(p) for p in planned]
     result["planned_length_m"] = polyline_length(planned)
     if reason:
@@ -218,16 +273,11 @@ def run_mission(
             t0 = sim.truth()["t"]
             deadline = t0 + spec.timeout_s
             goals: list[dict[str, Any]] = []
+            resets: list[dict[str, Any]] = []
+            gateway.subscribe(lambda m: resets.append(m) if m.get("type") == "reset" else None)
             try:
-                for goal in tqdm(spec.goals, desc="goals", unit="goal", disable=not progress):
-                    result = _drive_to(gateway, sim, recorder, goal, deadline, spec.behaviour == "seed")
-                    truth = sim.truth()
-                    x, y, _ = link.call("POSE")
-                    result.update(
-                        final_error_m=math.dist((truth["x"], truth["y"]), goal),
-                        odometry_error_m=math.dist((truth["x"], truth["y"]), (x, y)),
-                    )
-                    goals.append(result)
+                with _resets_at(sim, [t0 + t for t in spec.resets_at_s]):
+                    goals = _drive_goals(gateway, sim, recorder, spec, deadline, progress)
             finally:
                 gateway.close()
             truth = sim.truth()
@@ -235,11 +285,31 @@ def run_mission(
         return {
             "behaviour": spec.behaviour,
             "goals": goals,
+            "resets": [
+                {key: reset[key] for key in ("time", "cause", "cause_words", "boot_count", "message")}
+                for reset in resets
+            ],
             "collisions": truth["collisions"],
             "wall_contacts": truth["wall_contacts"],
             "sim_time_s": sim_time,
             "real_time_factor": sim_time / max(time.monotonic() - wall_start, 1e-9),
         }
+
+
+def _drive_goals(
+    gateway: Gateway, sim: Simulator, recorder: Recorder, spec: MissionSpec, deadline: float, progress: bool
+) -> list[dict[str, Any]]:
+    goals: list[dict[str, Any]] = []
+    for goal in tqdm(spec.goals, desc="goals", unit="goal", disable=not progress):
+        result = _drive_to(gateway, sim, recorder, goal, deadline, spec.behaviour == "seed")
+        truth = sim.truth()
+        x, y, _ = gateway.link.call("POSE")
+        result.update(
+            final_error_m=math.dist((truth["x"], truth["y"]), goal),
+            odometry_error_m=math.dist((truth["x"], truth["y"]), (x, y)),
+        )
+        goals.append(result)
+    return goals
 
 
 def main_mission(mission_path: Path, report_path: Path, speed: str, seed: int) -> int:

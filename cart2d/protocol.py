@@ -1,13 +1,15 @@
 """Encoding and decoding of the serial protocol (docs/protocol.md), without any I/O.
 
 `Decoder` turns the byte stream from the firmware into replies and telemetry frames, dropping
-anything that fails its length or CRC check and resynchronising on the next start byte.
+anything that fails its length or CRC check, or stays incomplete for too long, and
+resynchronising on the next start byte.
 """
 
 from __future__ import annotations
 
 import math
 import struct
+import time
 from dataclasses import dataclass
 
 from cart2d.spec import crc16_mcrf4xx, load_spec
@@ -89,6 +91,7 @@ REASON_TEXT = {
     "BAD_STATE": "not possible in the current state",
     "EEPROM_INVALID": "no valid settings stored in EEPROM",
     "MALFORMED": "malformed request",
+    "BLOCKED": "a front switch is closed: the cart may only back away from what it touches",
 }
 
 
@@ -164,33 +167,70 @@ def decode_telemetry(data: bytes) -> Telemetry:
     return Telemetry(**dict(zip(TELEMETRY_FIELDS, values, strict=True)), tick=tick)
 
 
+# How long past its line time a host waits for the rest of a partial packet (docs/protocol.md,
+# "Host receiving"): the firmware writes every packet whole, so only the link's latency (a USB
+# adapter's buffering, the reader thread's scheduling) separates its bytes.
+PARTIAL_MARGIN_S = 0.05
+BITS_PER_BYTE = 10  # 8N1: start bit, 8 data bits, stop bit
+
+
 class Decoder:
-    """Splits a byte stream into packets and telemetry frames; garbage is skipped."""
+    """Splits a byte stream into packets and telemetry frames; garbage is skipped.
 
-    def __init__(self) -> None:
+    Each byte is stamped with the time it was fed. A partial packet or frame whose start byte
+    has waited longer than its line time plus `margin_s` is dropped like a corrupt one (its
+    start byte goes, the bytes after it are scanned again): a corrupted LEN would otherwise
+    hold back everything that follows until enough bytes arrived to fill the length it promised.
+    feed(b"", now) applies the rule when no byte arrives."""
+
+    def __init__(self, baud: int = 115200, margin_s: float = PARTIAL_MARGIN_S) -> None:
         self._buf = bytearray()
-        self.errors = 0
+        self._arrived: list[float] = []  # when each byte of _buf was fed (s, the caller's clock)
+        self._byte_s = BITS_PER_BYTE / baud
+        self.margin_s = margin_s
+        self.errors = 0  # starts dropped: bad length, CRC or checksum, or expired
+        self.expired = 0  # of which: partial packets that waited too long
 
-    def feed(self, data: bytes) -> list[Packet | Telemetry]:
+    def feed(self, data: bytes, now: float | None = None) -> list[Packet | Telemetry]:
+        """The packets and frames completed by `data`, which arrived at `now` (time.monotonic()
+        when not given)."""
+        now = time.monotonic() if now is None else now
         self._buf += data
+        self._arrived += [now] * len(data)
         out: list[Packet | Telemetry] = []
         while self._buf:
             start = self._next_start(0)
             if start < 0:
-                # Keep a trailing 0xAA: it may be the first half of a telemetry sync.
-                self._buf = self._buf[-1:] if self._buf[-1:] == b"\xaa" else bytearray()
+                self._drop(len(self._buf))
                 break
-            del self._buf[:start]
+            self._drop(start)
             item, used = self._try_parse()
             if used == 0:
-                break  # need more bytes
+                if now <= self._deadline():
+                    break  # need more bytes, and they may still come
+                self.expired += 1
             if item is None:
                 self.errors += 1
-                del self._buf[:1]  # drop this start byte and rescan after it
+                self._drop(1)  # drop this start byte and rescan after it
                 continue
             out.append(item)
-            del self._buf[:used]
+            self._drop(used)
         return out
+
+    def _drop(self, count: int) -> None:
+        del self._buf[:count]
+        del self._arrived[:count]
+
+    def _deadline(self) -> float:
+        """When the partial packet at the start of the buffer stops being worth waiting for:
+        its start byte's arrival, plus the line time of the whole packet (as far as its LEN
+        tells), plus the margin."""
+        if self._buf[0] == SYNC:
+            length = self._buf[1] if len(self._buf) > 1 else MIN_BODY
+            total = length + 5
+        else:
+            total = TELEMETRY_SIZE
+        return self._arrived[0] + total * self._byte_s + self.margin_s
 
     def _next_start(self, frm: int) -> int:
         for i in range(frm, len(self._buf)):

@@ -14,6 +14,7 @@ import ipaddress
 import json
 import logging
 from collections.abc import Awaitable, Callable
+from dataclasses import asdict
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -29,7 +30,7 @@ from starlette.types import Receive, Scope, Send
 from starlette.websockets import WebSocketClose
 
 from cart2d import firmware
-from cart2d.gateway import Gateway
+from cart2d.gateway import Gateway, PoseUntrusted
 from cart2d.link import CommandRefused, LinkError
 from cart2d.planner import PlanError
 from cart2d.protocol import MAX_ARGS
@@ -56,9 +57,11 @@ class Problem(BaseModel):
 ERRORS = {
     400: "the body is not readable (not UTF-8 JSON)",
     401: "the access token is missing or wrong (a gateway bound off loopback)",
-    409: "the firmware refused the command (a value out of its range, busy, wrong mode)",
+    409: "the firmware refused the command (a value out of its range, busy, wrong mode), or the gateway "
+    "does not trust the pose since the controller restarted",
     413: f"the request body is over {MAX_BODY_BYTES} bytes",
-    422: "the request is invalid, or (goals, obstacles) off the map, blocked or unreachable",
+    422: "the request is invalid, or (goals, obstacles) off the map, blocked or unreachable, or (a pose) "
+    "beyond the arena's walls",
     503: "the robot is not reachable (link down, no reply)",
 }
 
@@ -112,6 +115,14 @@ class CommandIn(Strict):
         if name not in COMMAND_NAMES:
             raise ValueError(f"unknown command {name!r}; GET /api/protocol lists them")
         return name
+
+
+class PoseIn(Strict):
+    x: Number = Field(description="m")
+    y: Number = Field(description="m")
+    theta: float = Field(
+        allow_inf_nan=False, ge=-100.0, le=100.0, description="heading, rad (wrapped into [-pi, pi])"
+    )
 
 
 class DriveIn(Strict):
@@ -203,6 +214,10 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
     async def refused(_: Request, exc: CommandRefused) -> JSONResponse:
         return JSONResponse({"detail": str(exc)}, status_code=409)
 
+    @app.exception_handler(PoseUntrusted)
+    async def untrusted(_: Request, exc: PoseUntrusted) -> JSONResponse:
+        return JSONResponse({"detail": str(exc)}, status_code=409)
+
     @app.exception_handler(LinkError)
     async def link_error(_: Request, exc: LinkError) -> JSONResponse:
         return JSONResponse({"detail": f"the robot is not reachable: {exc}"}, status_code=503)
@@ -252,7 +267,7 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
     )
     def command(body: CommandIn) -> dict[str, Any]:
         entry = load_spec().commands[f"COMMAND_{body.name}"]
-        reply = gateway.link.request(entry.code, body.args)
+        reply = gateway.command(entry.code, body.args)
         return {
             "command": entry.name,
             "status": ["CONTROL_OK", "CONTROL_ERROR", "CONTROL_INVALID_COM"][reply.status],
@@ -273,6 +288,9 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
         "/api/goto",
         dependencies=[Guarded],
         summary="plan from the measured pose and drive there",
+        description="Refused with 409 while the gateway does not trust the pose (after the controller "
+        "restarted, see /api/status `pose_trust`), until the pose is set, the reset routine has run or "
+        "the firmware's pose is accepted (POST /api/pose, /api/pose/reset-routine, /api/pose/accept).",
         responses=errors(400, 401, 409, 422, 503),
     )
     def goto(body: PointIn) -> dict[str, Any]:
@@ -328,14 +346,51 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
         return {"result": "loaded"}
 
     @app.post(
-        "/api/reset", dependencies=[Guarded], summary="soft reset of the MCU", responses=errors(401, 409, 503)
+        "/api/reset",
+        dependencies=[Guarded],
+        summary="soft reset of the MCU (REBOOT; the reset button in the simulator)",
+        description="Answers once the restart has been noticed (`result` restarted, with its report), "
+        "or after 5 s without (`result` resetting). The restart is reported as the gateway's doing; "
+        "the pose stays trusted only if the firmware kept it (flag POSE_RESTORED).",
+        responses=errors(401, 409, 503),
     )
-    def reset() -> dict[str, str]:
-        if gateway.sim is not None:
-            gateway.sim.control("reset")
-        else:
-            gateway.link.call("REBOOT")
-        return {"result": "resetting"}
+    def reset() -> dict[str, Any]:
+        report = gateway.soft_reset()
+        return {"result": "restarted" if report else "resetting", "reset": asdict(report) if report else None}
+
+    @app.post(
+        "/api/pose",
+        dependencies=[Guarded],
+        summary="set the odometry pose (SET_POSE): where the cart really is; the pose is trusted again",
+        responses=errors(400, 401, 409, 422, 503),
+    )
+    def set_pose(body: PoseIn) -> dict[str, Any]:
+        pose = gateway.set_pose(body.x, body.y, body.theta)
+        return {"result": "pose set", "pose": pose}
+
+    @app.post(
+        "/api/pose/accept",
+        dependencies=[Guarded],
+        summary="trust the pose the firmware has (after a restart: kept from RAM, or from (0, 0, 0))",
+        responses=errors(401, 409, 503),
+    )
+    def accept_pose() -> dict[str, Any]:
+        pose, words = gateway.accept_pose()
+        return {"result": "accepted", "pose": pose, "words": words}
+
+    @app.post(
+        "/api/pose/reset-routine",
+        dependencies=[Guarded],
+        status_code=202,
+        summary="run the reset routine: square up against the wall in front; the pose is trusted again "
+        "once it ends squared up",
+        description="Follow it in /api/status `routine` (running / done / failed, with words) or on /ws "
+        "(messages of type routine and pose_trust). Any mission in progress ends.",
+        responses=errors(401, 409, 503),
+    )
+    def reset_routine() -> dict[str, Any]:
+        gateway.start_reset_routine()
+        return {"result": "running", "routine": gateway.routine_view()}
 
     @app.post(
         "/api/firmware/update",

@@ -40,12 +40,14 @@ MAX_EXAMPLES = 30
 SEED = 20261121
 
 # Refusals that JSON Schema cannot express, answered 422 with a reason: a goal or an obstacle off
-# the *current* map (which /api/settings/file changes at run time), blocked or unreachable; a settings
+# the *current* map (which /api/settings/file changes at run time), blocked or unreachable; a pose
+# beyond the current arena's walls; a settings
 # file whose obstacles lie off its own grid; a HEX file with bad records or checksums. Only for these
 # does positive_data_acceptance take 422 as well (its defaults, plus 422); every other check, including
 # that the 422 is documented and its body matches the documented schema, applies as everywhere.
 SEMANTIC_REFUSALS = [
     "POST /api/goto",
+    "POST /api/pose",
     "PUT /api/map/obstacle",
     "POST /api/settings/file",
     "POST /api/firmware/update",

@@ -262,13 +262,23 @@ def test_gateway_survives_the_simulator_being_killed_and_restarted(tmp_path: Pat
     rig = Rig(tmp_path)
     try:
         rig.client.put("/api/map/obstacle", json={"x": 1.0, "y": 1.0})
+        run_for(rig.sim, 5.0)  # an uptime the new MCU's will not have caught up with when it answers
+        assert rig.client.get("/api/status").json()["status"]["uptime_s"] >= 5.0  # the gateway saw it
         rig.sim.kill()
         wait_for(lambda: rig.client.get("/api/status").json()["link"]["state"] == "reconnecting", 10)
         down = rig.client.post("/api/goto", json={"x": 0.4, "y": 0.0})
         assert down.status_code == 503 and "not reachable" in down.json()["detail"]
-        rig.sim = start_sim(tmp_path, pty_link=tmp_path / "robot-tty")  # back on the same port name
+        # back on the same port name, in real time
+        rig.sim = start_sim(tmp_path, pty_link=tmp_path / "robot-tty", speed="1")
         wait_for(lambda: rig.client.get("/api/status").json()["link"]["state"] == "connected", 10)
         assert rig.client.get("/api/map").json()["obstacles"] == [[1.0, 1.0]]  # the gateway kept its state
+        # A new MCU: its restart is noticed (once it answers), and its pose (0, 0, 0) is not
+        # planned from unasked.
+        wait_for(lambda: rig.client.get("/api/status").json()["reset"]["noticed"] > 0, 10)
+        status = rig.client.get("/api/status").json()
+        assert status["reset"]["noticed"] == 1 and not status["pose_trust"]["trusted"]
+        assert rig.client.post("/api/goto", json={"x": 0.4, "y": 0.0}).status_code == 409
+        assert rig.client.post("/api/pose/accept").status_code == 200
         assert rig.client.post("/api/goto", json={"x": 0.4, "y": 0.0}).status_code == 200
     finally:
         rig.close()

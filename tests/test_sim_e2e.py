@@ -166,8 +166,11 @@ def test_eeprom_persists_across_simulator_restarts(tmp_path: Path) -> None:
 
 def test_corrupt_and_dropped_uart_bytes_do_not_derail_the_link(sim: Simulator, link: Link) -> None:
     sim.control("faults", uart_rx_corrupt=0.01, uart_rx_drop=0.005, uart_tx_corrupt=0.01, uart_tx_drop=0.005)
-    # At 1.5 % of bytes lost or flipped each way, a 56-byte STATUS reply gets through on about
-    # 40 % of tries; 10 retries gave up about once in 300 calls. 40 make that about 1 in 10^9.
+    # At 1.5 % of bytes lost or flipped each way, STATUS (7 bytes out, 68 back) gets through on
+    # about a third of tries; 10 retries gave up about once in 300 calls. A request is
+    # retransmitted only within 1.5 s of its first transmission: tries 50 ms apart (a reply
+    # here takes a few ms) make about 30 of them, and 0.68^30 is about 1 in 10^5.
+    link.timeout_s = 0.05
     link.retries = 40
     for i in range(60):
         value = 0.01 + 0.001 * i

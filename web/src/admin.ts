@@ -1,7 +1,7 @@
 // The gateway panel: network settings (applied at restart), soft reset, the settings file
 // (download and upload) and the firmware update (upload a .hex, follow its job to the end).
 
-import { api, Raw, type GatewaySettings, type UpdateJob } from "./api";
+import { api, Raw, type GatewaySettings, type ResetReport, type UpdateJob } from "./api";
 import { byId, say } from "./dom";
 import type { PanelContext } from "./tuning";
 
@@ -46,8 +46,13 @@ export class GatewayPanel {
     byId("reset-mcu").addEventListener("click", () => {
       void (async () => {
         try {
-          await api("POST", "/api/reset");
-          this.ctx.notify("Soft reset sent: the robot restarts (odometry starts again from the reset pose).", "info");
+          const answer = await api<{ result: string; reset: ResetReport | null }>("POST", "/api/reset", undefined, 10_000);
+          this.ctx.notify(
+            answer.reset
+              ? `Soft reset: the controller restarted. ${answer.reset.pose_restored ? "It kept its pose." : "Its pose restarted at (0, 0, 0)."}`
+              : "Soft reset sent; the restart has not been seen yet.",
+            "info",
+          );
         } catch (err) {
           this.ctx.notify(this.ctx.errorText(err));
         }

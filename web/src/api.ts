@@ -47,12 +47,46 @@ export interface FirmwareStatus {
   last_error: string | null;
 }
 
+export interface Pose {
+  x: number;
+  y: number;
+  theta: number;
+}
+
+/** A restart of the controller the gateway noticed (cart2d/gateway.py, ResetReport). */
+export interface ResetReport {
+  time: string; // ISO 8601, UTC
+  cause: string[];
+  cause_words: string;
+  expected: boolean; // the gateway caused it (a soft reset, a firmware update)
+  caused_by: string;
+  boot_count: number;
+  pose_restored: boolean;
+  pose: Pose | null;
+  mission_ended: boolean;
+  message: string;
+}
+
+/** Whether the gateway plans from the firmware's pose; why not, in words. */
+export interface PoseTrust {
+  trusted: boolean;
+  reason: string;
+}
+
+export interface RoutineView {
+  state: "idle" | "running" | "done" | "failed";
+  words: string;
+}
+
 export interface StatusView {
   link: { state: string; port: string; simulated: boolean; error?: string };
   firmware: { firmware: string; protocol: number; waypoint_capacity: number } | null;
   mission: MissionView;
   status?: FirmwareStatus;
-  pose?: { x: number; y: number; theta: number };
+  pose?: Pose;
+  reset: { last: ResetReport | null; noticed: number };
+  pose_trust: PoseTrust;
+  routine: RoutineView;
 }
 
 export interface ProtocolCommand {
@@ -107,7 +141,10 @@ export type LiveMessage =
   | Telemetry
   | Truth
   | ({ type: "hello" } & MissionView)
-  | ({ type: "mission" } & MissionView);
+  | ({ type: "mission" } & MissionView)
+  | ({ type: "reset"; pose_trust: PoseTrust } & ResetReport)
+  | ({ type: "pose_trust"; how: string } & PoseTrust)
+  | ({ type: "routine" } & RoutineView);
 
 /** A failed request, with the gateway's {"detail": ...} (or what went wrong) as its message. */
 export class ApiError extends Error {

@@ -22,6 +22,7 @@ import { parseNumber } from "./parse";
 import { GatewayPanel } from "./admin";
 import { byId as $, say } from "./dom";
 import { LivePlots } from "./plots";
+import { RestartNotice } from "./restart";
 import { StepResponse, Tuning, type PanelContext } from "./tuning";
 
 // -- messages ----------------------------------------------------------------------------------
@@ -174,6 +175,7 @@ async function pollStatus(): Promise<void> {
       over.classList.toggle("bad", s.status.loop_overruns > 0);
     }
     renderMission(s.mission, false);
+    restartNotice.update(s);
     const linkError = s.link.error ? `The robot does not answer: ${s.link.error}` : "";
     if (linkError && linkError !== statusErrorShown) notify(sentence(linkError));
     statusErrorShown = linkError;
@@ -286,6 +288,7 @@ const ctx: PanelContext = { notify, errorText };
 const tuning = new Tuning($("tuning"), ctx);
 const step = new StepResponse($("tuning"), ctx);
 const gatewayPanel = new GatewayPanel(ctx);
+const restartNotice = new RestartNotice(ctx);
 window.addEventListener("cart2d-settings-imported", () => void loadMap());
 let live: WebSocket | null = null;
 let retryMs = 500;
@@ -324,6 +327,15 @@ function onMessage(msg: LiveMessage): void {
     case "hello":
     case "mission":
       renderMission(msg, msg.type === "mission");
+      break;
+    case "reset":
+      restartNotice.onReset(msg, msg.pose_trust);
+      break;
+    case "pose_trust":
+      restartNotice.onPoseTrust(msg, msg.how);
+      break;
+    case "routine":
+      restartNotice.onRoutine(msg);
       break;
   }
 }

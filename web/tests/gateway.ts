@@ -3,7 +3,7 @@
 
 import { type ChildProcess, spawn } from "node:child_process";
 import { existsSync, mkdtempSync, rmSync } from "node:fs";
-import { createServer } from "node:net";
+import { createConnection, createServer } from "node:net";
 import { tmpdir } from "node:os";
 import { join, resolve } from "node:path";
 
@@ -13,6 +13,7 @@ export interface Gateway {
   base: string; // http://127.0.0.1:<port>
   home: string; // its CART2D_HOME (settings.json, the simulator's EEPROM)
   output: () => string; // what it printed so far (stdout and stderr)
+  simulator: () => string; // the simulator's side channel, host:port (once it runs)
   waitConnected: (timeoutMs?: number) => Promise<void>;
   stop: () => Promise<void>;
 }
@@ -78,5 +79,39 @@ export async function startGateway(host = "127.0.0.1", prefix = "cart2d-panel-")
     await stopChild(child);
     rmSync(home, { recursive: true, force: true });
   };
-  return { base, home, output: () => output, waitConnected, stop };
+  const simulator = (): string => /side channel (\S+)/.exec(output)?.[1] ?? "";
+  return { base, home, output: () => output, simulator, waitConnected, stop };
+}
+
+/** One message to the simulator's side channel (sim/README.md); resolves with its ack. What
+ * the tests do to the robot that the panel cannot: the reset button, placing the cart. */
+export function simControl(address: string, message: Record<string, unknown>): Promise<Record<string, unknown>> {
+  const [host, port] = address.split(":");
+  const id = Math.floor(Math.random() * 1e9);
+  return new Promise((ok, fail) => {
+    const socket = createConnection({ host: host ?? "127.0.0.1", port: Number(port) });
+    const timer = setTimeout(() => {
+      socket.destroy();
+      fail(new Error(`no ack from the simulator at ${address} to ${JSON.stringify(message)}`));
+    }, 5000);
+    let buffer = "";
+    socket.on("connect", () => socket.write(`${JSON.stringify({ ...message, id })}\n`));
+    socket.on("data", (data: Buffer) => {
+      buffer += data.toString();
+      const lines = buffer.split("\n");
+      buffer = lines.pop() ?? "";
+      for (const line of lines) {
+        const reply = JSON.parse(line) as Record<string, unknown>;
+        if (reply["type"] !== "ack" || reply["id"] !== id) continue; // ground truth streams too
+        clearTimeout(timer);
+        socket.end();
+        if (reply["ok"] === true) ok(reply);
+        else fail(new Error(`the simulator refused ${JSON.stringify(message)}: ${String(reply["error"])}`));
+      }
+    });
+    socket.on("error", (err) => {
+      clearTimeout(timer);
+      fail(err);
+    });
+  });
 }

@@ -12,5 +12,6 @@ export default async function globalSetup(): Promise<() => Promise<void>> {
   const gateway = await startGateway();
   process.env["CART2D_URL"] = gateway.base;
   await gateway.waitConnected();
+  process.env["CART2D_SIM_CONTROL"] = gateway.simulator(); // its side channel: the reset button
   return gateway.stop;
 }

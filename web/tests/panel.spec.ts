@@ -5,9 +5,10 @@ import { mkdirSync, readFileSync } from "node:fs";
 import { join, resolve } from "node:path";
 import { expect, test, type Page } from "@playwright/test";
 
-import { startGateway } from "./gateway";
+import { simControl, startGateway } from "./gateway";
 
 const BASE = process.env["CART2D_URL"] ?? "";
+const SIM = process.env["CART2D_SIM_CONTROL"] ?? ""; // the simulator's side channel
 const SHOTS = resolve(import.meta.dirname, "..", "..", "build", "screenshots");
 mkdirSync(SHOTS, { recursive: true });
 
@@ -457,6 +458,115 @@ test("the step response drives straight and plots the wheel speeds against the t
   expect(w.pageErrors).toEqual([]);
 });
 
+interface TruePose {
+  x: number;
+  y: number;
+  theta: number;
+}
+
+async function truePose(): Promise<TruePose> {
+  return (await simControl(SIM, { type: "truth" }))["truth"] as TruePose;
+}
+
+/** The reset button of the simulated Nano, as a fault: nothing the gateway asked for. */
+async function pressReset(page: Page): Promise<void> {
+  const before = ((await (await page.request.get(`${BASE}/api/status`)).json()) as { reset: { noticed: number } }).reset.noticed;
+  await simControl(SIM, { type: "reset" });
+  await expect
+    .poll(async () => ((await (await page.request.get(`${BASE}/api/status`)).json()) as { reset: { noticed: number } }).reset.noticed)
+    .toBe(before + 1);
+}
+
+test("a restart of the controller: a notice says what happened and offers set, reset routine, accept; each works", async ({ page }) => {
+  test.setTimeout(90_000);
+  expect(SIM).toMatch(/^127\.0\.0\.1:\d+$/);
+  const w = await open(page);
+  const notice = page.locator("#reset-notice");
+  const msg = page.locator("#reset-notice-msg");
+  await expect(notice).toBeHidden();
+  await expect(page.locator("body")).toHaveAttribute("data-pose-trusted", "true");
+
+  // 1. The reset button mid-path: the mission fails, the notice tells why and what now.
+  await page.fill("#goto-form input[name=x]", "1.2");
+  await page.fill("#goto-form input[name=y]", "1.2");
+  await page.click("#goto-form button[type=submit]");
+  await expect(page.locator("body")).toHaveAttribute("data-mission", "driving");
+  await page.waitForTimeout(800);
+  await pressReset(page);
+  await expect(notice).toBeVisible();
+  await expect(page.locator("body")).toHaveAttribute("data-pose-trusted", "false");
+  await expect(page.locator("#reset-notice-text")).toContainText(
+    "unexpectedly: the reset button, or the serial port was reopened (a Nano resets when its port opens).",
+  );
+  await expect(page.locator("#reset-notice-text")).toContainText("The mission to (1.20, 1.20) failed.");
+  await expect(page.locator("body")).toHaveAttribute("data-mission", "failed");
+  await expect(page.locator("#mission-detail")).toContainText("the controller restarted");
+  await expect(page.locator("#accept-hint")).toContainText("Accepting keeps");
+  await page.screenshot({ path: `${SHOTS}/restart-notice.png` });
+
+  // The rest of the page works; a goal is refused with the gateway's sentence.
+  await page.fill("#goto-form input[name=x]", "0.4");
+  await page.fill("#goto-form input[name=y]", "0.4");
+  await page.click("#goto-form button[type=submit]");
+  await expect(page.locator("#goto-msg")).toContainText("set the pose, run the reset routine, or accept the pose the firmware has");
+  await expect(page.locator("#mission-state")).toHaveText("failed");
+
+  // Set the pose: bad inputs are refused in the page and send nothing.
+  w.requests.length = 0;
+  for (const [x, y, theta, message] of [["", "0", "0", /x is empty/], ["0.5", "abc", "0", /y is not a number/], ["0.5", "0.5", "400", /θ is in degrees/]] as const) {
+    await page.fill("#pose-form input[name=x]", x);
+    await page.fill("#pose-form input[name=y]", y);
+    await page.fill("#pose-form input[name=theta]", theta);
+    await page.click("#pose-form button[type=submit]");
+    await expect(msg).toHaveText(message);
+    await expect(msg).toHaveClass(/form-error/);
+  }
+  // One beyond the arena's walls: the gateway's 422 sentence, and nothing changes.
+  await page.fill("#pose-form input[name=x]", "9");
+  await page.fill("#pose-form input[name=y]", "0");
+  await page.fill("#pose-form input[name=theta]", "0");
+  await page.click("#pose-form button[type=submit]");
+  await expect(msg).toContainText("beyond the arena's walls");
+  await expect(notice).toBeVisible();
+  expect(w.requests).toEqual(["POST /api/pose"]);
+  // Where the cart really is (the simulator knows): then the notice goes, and goals are planned.
+  const truth = await truePose();
+  await page.fill("#pose-form input[name=x]", truth.x.toFixed(4));
+  await page.fill("#pose-form input[name=y]", truth.y.toFixed(4));
+  await page.fill("#pose-form input[name=theta]", ((truth.theta * 180) / Math.PI).toFixed(3));
+  await page.click("#pose-form button[type=submit]");
+  await expect(notice).toBeHidden();
+  await expect(page.locator("body")).toHaveAttribute("data-pose-trusted", "true");
+  await expect(page.locator("#messages")).toContainText("The pose was set to");
+  await expect.poll(async () => Math.hypot((await pose(page))[0] - truth.x, (await pose(page))[1] - truth.y)).toBeLessThan(0.002);
+  await gotoAndWait(page, [0.8, 0.4]);
+
+  // 2. Accept the firmware's pose.
+  await pressReset(page);
+  await expect(notice).toBeVisible();
+  await page.click("#accept-pose");
+  await expect(notice).toBeHidden();
+  await expect(page.locator("#messages")).toContainText("Accepted the pose the firmware");
+  await expect(page.locator("body")).toHaveAttribute("data-pose-trusted", "true");
+
+  // 3. The reset routine: placed 0.3 m from the east wall, facing it; the routine squares up
+  // there and the pose becomes the reset pose (1.88, 0, 0).
+  await simControl(SIM, { type: "place", x: 1.58, y: 0.0, theta: 0.0 });
+  await pressReset(page);
+  await expect(notice).toBeVisible();
+  await page.click("#run-routine");
+  await expect(msg).toContainText("The reset routine is running");
+  await expect(notice).toBeHidden({ timeout: 30_000 });
+  await expect(page.locator("#messages")).toContainText("The reset routine squared the cart up against the wall");
+  await expect.poll(async () => (await pose(page))[0]).toBeGreaterThan(1.87);
+  expect(Math.abs((await truePose()).x - 1.88)).toBeLessThan(0.005);
+  await gotoAndWait(page, [1.2, 0.4]);
+  const statusNow = (await (await page.request.get(`${BASE}/api/status`)).json()) as { reset: { noticed: number; last: { expected: boolean } } };
+  expect(statusNow.reset.last.expected).toBe(false);
+  expect(w.consoleErrors.filter((e) => !/status of (409|422)/.test(e))).toEqual([]);
+  expect(w.pageErrors).toEqual([]);
+});
+
 test("the gateway panel: network, settings file, soft reset, firmware update; bad inputs change nothing", async ({ page }) => {
   const w = await open(page);
   const gw = async (): Promise<unknown> => (await page.request.get(`${BASE}/api/settings`)).json();
@@ -512,8 +622,15 @@ test("the gateway panel: network, settings file, soft reset, firmware update; ba
   expect(await gw()).toEqual(before);
 
   await page.click("#reset-mcu");
-  await expect(page.locator("#messages")).toContainText("Soft reset sent");
+  await expect(page.locator("#messages")).toContainText("Soft reset: the controller restarted.");
   await expect(page.locator("body")).toHaveAttribute("data-link", "connected", { timeout: 15_000 });
+  const soft = ((await (await page.request.get(`${BASE}/api/status`)).json()) as { reset: { last: { expected: boolean; caused_by: string; pose_restored: boolean } } }).reset.last;
+  expect(soft.expected).toBe(true);
+  expect(soft.caused_by).toBe("a soft reset asked for through the gateway");
+  // the pose stays trusted only if the firmware kept it; else the notice offers the ways out
+  await expect(page.locator("#reset-notice")).toBeVisible({ visible: !soft.pose_restored });
+  if (!soft.pose_restored) await page.click("#accept-pose");
+  await expect(page.locator("#reset-notice")).toBeHidden();
 
   const hex = resolve(import.meta.dirname, "..", "..", "build", "firmware", "cart2d-nano.hex");
   await page.setInputFiles("#fw-update-form input[type=file]", hex);
@@ -523,6 +640,10 @@ test("the gateway panel: network, settings file, soft reset, firmware update; ba
   await expect(page.locator("#fw-update-log")).toContainText("done");
   await expect(page.locator("#fw-update-msg")).toHaveText("The new firmware is running.");
   await expect(page.locator("body")).toHaveAttribute("data-link", "connected", { timeout: 15_000 });
+  // the new firmware starts at (0, 0, 0): the update's restart is told as the gateway's doing
+  await expect(page.locator("#reset-notice")).toBeVisible();
+  await expect(page.locator("#reset-notice-text")).toContainText("as the gateway asked (a firmware update)");
+  await expect(page.locator("#reset-notice-text")).toContainText("Its pose restarted at (0, 0, 0).");
   await page.locator("#gw-title").locator("..").screenshot({ path: `${SHOTS}/gateway.png` });
   expect(w.requests.filter((r) => r.startsWith("PUT") || r.startsWith("POST"))).toEqual([
     "POST /api/settings/file",
@@ -530,6 +651,7 @@ test("the gateway panel: network, settings file, soft reset, firmware update; ba
     "PUT /api/settings/network",
     "POST /api/settings/file",
     "POST /api/reset",
+    ...(soft.pose_restored ? [] : ["POST /api/pose/accept"]),
     "POST /api/firmware/update",
   ]);
   expect(w.pageErrors).toEqual([]);
