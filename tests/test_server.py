@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import json
-import time
 import math
 import os
 import signal
 import socket
 import subprocess
 import sys
+import time
 import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
