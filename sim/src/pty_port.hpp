@@ -1,0 +1,42 @@
+// The simulated Nano's USB serial port as the host sees it: a pseudo-terminal of which we hold
+// only the master side. While no process has the slave open, poll() on the master reports
+// POLLHUP (and read() gives EIO); a process opening the slave ends it. That is how we see the
+// host open the port, the moment a USB-serial adapter raises DTR, which resets a Nano.
+#pragma once
+
+#include <string>
+
+namespace cart2d {
+
+class PtyPort {
+ public:
+  enum class Change { kNone, kOpened, kClosed };
+
+  PtyPort() = default;
+  ~PtyPort();
+  PtyPort(const PtyPort&) = delete;
+  PtyPort& operator=(const PtyPort&) = delete;
+
+  // A raw-mode pty (the settings stay with the pty across opens); nobody has it open after.
+  bool open(std::string* error);
+  bool is_open() const { return master_fd_ >= 0; }
+  const std::string& path() const { return path_; }
+  int fd() const { return master_fd_; }
+
+  // Looks whether a host has the port open now. An open and a close between two looks are
+  // not seen: callers look every few milliseconds of wall time.
+  Change poll_host();
+  bool host_attached() const { return attached_; }
+
+  // Appends what the host wrote, including what a host that has just closed left behind.
+  void read(std::string* in);
+  // Writes what the pty takes and erases it from *out.
+  void write(std::string* out);
+
+ private:
+  int master_fd_ = -1;
+  std::string path_;
+  bool attached_ = false;
+};
+
+}  // namespace cart2d
