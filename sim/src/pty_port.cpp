@@ -5,6 +5,7 @@
 #include <fcntl.h>    // fcntl, O_NONBLOCK
 #include <poll.h>     // poll, POLLHUP
 #include <pty.h>      // openpty
+#include <sys/inotify.h>  // inotify_init1, inotify_add_watch
 #include <termios.h>  // cfmakeraw, tcsetattr
 #include <unistd.h>   // read, write, close
 
@@ -12,6 +13,7 @@ namespace cart2d {
 
 PtyPort::~PtyPort() {
   if (master_fd_ >= 0) close(master_fd_);
+  if (inotify_fd_ >= 0) close(inotify_fd_);
 }
 
 bool PtyPort::open(std::string* error) {
@@ -34,17 +36,40 @@ bool PtyPort::open(std::string* error) {
   fcntl(master_fd_, F_SETFD, FD_CLOEXEC);
   path_ = name;
   attached_ = false;
+  inotify_fd_ = inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
+  if (inotify_fd_ >= 0 && inotify_add_watch(inotify_fd_, name, IN_OPEN | IN_CLOSE) < 0) {
+    close(inotify_fd_);
+    inotify_fd_ = -1;
+  }
   return true;
 }
 
-PtyPort::Change PtyPort::poll_host() {
-  if (master_fd_ < 0) return Change::kNone;
+// With inotify, its events alone tell the story: IN_CLOSE comes before the slave is released,
+// so POLLHUP may still say "open" right after it. inotify merges identical events in a row,
+// which only hides an open or a close by a second process while another holds the port: no
+// DTR edge there. Without inotify, POLLHUP at each look is all there is.
+std::vector<PtyPort::Change> PtyPort::poll_host() {
+  std::vector<Change> changes;
+  if (master_fd_ < 0) return changes;
+  auto to = [&](bool open) {
+    if (open != attached_) changes.push_back(open ? Change::kOpened : Change::kClosed);
+    attached_ = open;
+  };
+  if (inotify_fd_ >= 0) {
+    alignas(inotify_event) char buf[4096];
+    for (ssize_t n; (n = ::read(inotify_fd_, buf, sizeof buf)) > 0;) {
+      for (char* p = buf; p < buf + n;) {
+        const auto* e = reinterpret_cast<const inotify_event*>(p);
+        if (e->mask & IN_OPEN) to(true);
+        if (e->mask & IN_CLOSE) to(false);
+        p += sizeof(inotify_event) + e->len;
+      }
+    }
+    return changes;
+  }
   pollfd p = {master_fd_, POLLIN, 0};
-  if (poll(&p, 1, 0) < 0) return Change::kNone;
-  const bool attached = !(p.revents & POLLHUP);
-  if (attached == attached_) return Change::kNone;
-  attached_ = attached;
-  return attached ? Change::kOpened : Change::kClosed;
+  if (poll(&p, 1, 0) >= 0) to(!(p.revents & POLLHUP));
+  return changes;
 }
 
 void PtyPort::read(std::string* in) {

@@ -2,15 +2,21 @@
 // only the master side. While no process has the slave open, poll() on the master reports
 // POLLHUP (and read() gives EIO); a process opening the slave ends it. That is how we see the
 // host open the port, the moment a USB-serial adapter raises DTR, which resets a Nano.
+// A close and a reopen between two looks leave no trace there, so where inotify works its
+// IN_OPEN/IN_CLOSE on the slave's device file tell instead (a host that closes and at once
+// reopens its port drops and raises DTR all the same).
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace cart2d {
 
 class PtyPort {
  public:
-  enum class Change { kNone, kOpened, kClosed };
+  // What happened since the last look, in order: the port going from nobody to somebody
+  // having it open (kOpened), and back (kClosed).
+  enum class Change { kOpened, kClosed };
 
   PtyPort() = default;
   ~PtyPort();
@@ -23,9 +29,7 @@ class PtyPort {
   const std::string& path() const { return path_; }
   int fd() const { return master_fd_; }
 
-  // Looks whether a host has the port open now. An open and a close between two looks are
-  // not seen: callers look every few milliseconds of wall time.
-  Change poll_host();
+  std::vector<Change> poll_host();
   bool host_attached() const { return attached_; }
 
   // Appends what the host wrote, including what a host that has just closed left behind.
@@ -35,6 +39,7 @@ class PtyPort {
 
  private:
   int master_fd_ = -1;
+  int inotify_fd_ = -1;  // -1: only POLLHUP is looked at
   std::string path_;
   bool attached_ = false;
 };

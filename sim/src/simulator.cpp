@@ -143,15 +143,20 @@ void Simulator::publish_events() {
 }
 
 void Simulator::serve_host_port() {
-  const PtyPort::Change change = rig_.uart().poll_host();
-  if (change == PtyPort::Change::kNone) return;
-  const bool opened = change == PtyPort::Change::kOpened;
-  LOG_INFO("host %s the serial port at t = %.6f s", opened ? "opened" : "closed", rig_.time_s());
-  if (opened && auto_reset_) dtr_reset();
-  json::Object event;
-  event.add("type", "event").add("event", opened ? "host_open" : "host_close").add("t", rig_.time_s());
-  if (opened) event.add("opens", static_cast<unsigned long long>(rig_.uart().stats().host_opens)).add("reset", auto_reset_);
-  control_.broadcast(event.str());
+  const std::vector<PtyPort::Change> changes = rig_.uart().poll_host();
+  uint64_t opens = rig_.uart().stats().host_opens;
+  for (const PtyPort::Change c : changes) opens -= c == PtyPort::Change::kOpened;
+  for (const PtyPort::Change c : changes) {
+    const bool opened = c == PtyPort::Change::kOpened;
+    LOG_INFO("host %s the serial port at t = %.6f s", opened ? "opened" : "closed", rig_.time_s());
+    json::Object event;
+    event.add("type", "event").add("event", opened ? "host_open" : "host_close").add("t", rig_.time_s());
+    if (opened) {
+      if (auto_reset_) dtr_reset();
+      event.add("opens", static_cast<unsigned long long>(++opens)).add("reset", auto_reset_);
+    }
+    control_.broadcast(event.str());
+  }
 }
 
 // A Nano's USB-serial chip drives RESET through a 100 nF capacitor from DTR, which the host

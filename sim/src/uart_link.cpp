@@ -16,11 +16,13 @@ constexpr double kQueueCapBytes = 64 * 1024;  // host bytes the line holds befor
 
 bool UartLink::open_pty(std::string* error) { return pty_.open(error); }
 
-PtyPort::Change UartLink::poll_host() {
-  const PtyPort::Change change = pty_.poll_host();
-  if (change == PtyPort::Change::kOpened) ++stats_.host_opens;
-  if (change == PtyPort::Change::kClosed) host_out_.clear();
-  return change;
+std::vector<PtyPort::Change> UartLink::poll_host() {
+  std::vector<PtyPort::Change> changes = pty_.poll_host();
+  for (const PtyPort::Change c : changes) {
+    if (c == PtyPort::Change::kOpened) ++stats_.host_opens;
+    host_out_.clear();  // nothing for a host that has gone
+  }
+  return changes;
 }
 
 void UartLink::attach(avr_t* avr, uint64_t seed) {
@@ -147,9 +149,9 @@ void UartLink::inject(const std::string& bytes) {
   line_changed();
 }
 
-std::string UartLink::take_output(uint64_t now_cycle) {
+std::string UartLink::take_output(uint64_t now_cycle, std::vector<double>* ready) {
   std::string out;
-  adapter_.collect(static_cast<double>(now_cycle), &out);
+  adapter_.collect(static_cast<double>(now_cycle), &out, ready);
   return out;
 }
 

@@ -17,6 +17,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "faults.hpp"
 #include "pty_port.hpp"
@@ -60,7 +61,7 @@ class UartLink {
   // Whether a host has the port open (always, without a pty).
   bool host_attached() const { return !pty_.is_open() || pty_.host_attached(); }
   // Looks whether the host opened or closed the port since the last look.
-  PtyPort::Change poll_host();
+  std::vector<PtyPort::Change> poll_host();
 
   // Connects to the MCU's USART0 and turns off simavr's poll-sleep and console echo.
   void attach(avr_t* avr, uint64_t seed);
@@ -74,9 +75,10 @@ class UartLink {
   void write_host(uint64_t now_cycle);  // what the host can read by now → pty
   bool host_output_pending() const { return !host_out_.empty(); }
 
-  // Without a pty (tests): the host writes bytes now / reads what reached it by now_cycle.
+  // Without a pty (tests): the host writes bytes now / reads what reached it by now_cycle
+  // (and, if asked, the cycle at which each byte became readable).
   void inject(const std::string& bytes);
-  std::string take_output(uint64_t now_cycle);
+  std::string take_output(uint64_t now_cycle, std::vector<double>* ready = nullptr);
 
   // Cycles per frame and bits per second at the current USART0 settings.
   uint64_t frame_cycles() const;

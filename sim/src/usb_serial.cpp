@@ -58,10 +58,11 @@ void UsbSerialAdapter::receive_until(double now) {
   from_mcu_.forget_before(std::min(receiver_.needed_from(), now));
 }
 
-void UsbSerialAdapter::collect(double now, std::string* out) {
+void UsbSerialAdapter::collect(double now, std::string* out, std::vector<double>* ready) {
   receive_until(now);
   while (!to_host_.empty() && to_host_.front().first <= now) {
     out->push_back(static_cast<char>(to_host_.front().second));
+    if (ready) ready->push_back(to_host_.front().first);
     to_host_.pop_front();
   }
 }

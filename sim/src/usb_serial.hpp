@@ -8,6 +8,7 @@
 #include <deque>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "serial_wire.hpp"
 
@@ -54,8 +55,9 @@ class UsbSerialAdapter {
   void mcu_sent(const LineWaveform::Frame& frame) { from_mcu_.add(frame); }
   // The MCU stopped transmitting at cycle t (reset): the line goes high from the next bit on.
   void mcu_line_released(double t);
-  // Appends what the host can read by cycle now, in order.
-  void collect(double now, std::string* out);
+  // Appends what the host can read by cycle now, in order (and, if asked, the cycle each byte
+  // became readable).
+  void collect(double now, std::string* out, std::vector<double>* ready = nullptr);
   const Stats& stats() const { return stats_; }
 
  private:

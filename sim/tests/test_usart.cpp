@@ -4,6 +4,7 @@
 // All assertions are in simulated time.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -86,6 +87,18 @@ class UsartTest : public ::testing::Test {
     return std::vector<Entry>(all.begin() + static_cast<long>(skip_front), all.end() - 1);
   }
 
+  // Cycles from the host writing 'x' to the echoed 'X' being readable on the host.
+  double echo_round_trip() {
+    run_s(0.005);
+    out();
+    const uint64_t t0 = rig_.cycle();
+    rig_.uart().inject("x");
+    run_s(0.05);
+    std::vector<double> ready;
+    EXPECT_EQ(rig_.uart().take_output(rig_.cycle(), &ready), "X");
+    return ready.empty() ? 0.0 : ready[0] - static_cast<double>(t0);
+  }
+
   static std::string payload(const std::vector<Entry>& entries) {
     std::string s;
     for (const Entry& e : entries) s.push_back(static_cast<char>(e.data));
@@ -122,20 +135,47 @@ TEST_F(UsartTest, ByteIsReadableAtItsStopBitCentre) {
 // 'x' is echoed from the interrupt: in at the stop bit's centre, the echo out at once, and the
 // adapter's 16x receiver done at its own stop bit's centre (153 of its samples).
 TEST_F(UsartTest, EchoRoundTripEndsAtTheHostsStopBitCentre) {
-  out();
-  const uint64_t t0 = rig_.cycle();
-  rig_.uart().inject("x");
-  std::string got;
-  uint64_t done = 0;
-  while (got.empty() && rig_.cycle() < t0 + 40 * kMcuBit) {
-    ASSERT_TRUE(rig_.run_cycles(4));
-    got = out();
-    done = rig_.cycle();
-  }
-  ASSERT_EQ(got, "X");
+  const double rt = echo_round_trip();
   const double in = 77 * kSample, back = 153 * kHostBit / 16;
-  EXPECT_GE(static_cast<double>(done - t0), in + back);
-  EXPECT_LE(static_cast<double>(done - t0), in + kSample + 40 + back + kHostBit / 16 + 4);
+  EXPECT_GE(rt, in + back);
+  EXPECT_LE(rt, in + kSample + 40 + back + kHostBit / 16);
+}
+
+// The USB delays add to the round trip in simulated time, one each way; the sample phases of
+// the two receivers may move by up to one sample each.
+TEST_F(UsartTest, EchoRoundTripGrowsByTheUsbDelays) {
+  const double direct = echo_round_trip();
+  AdapterSettings a = rig_.uart().adapter();
+  a.to_mcu_delay_s = 0.001;
+  a.to_host_delay_s = 0.002;
+  rig_.uart().set_adapter(a);
+  const double ch340 = echo_round_trip();
+  EXPECT_NEAR(ch340 - direct, 0.003 * kHz, kSample + kHostBit / 16 + 8);
+}
+
+// An FT232R holds what it receives until 62 bytes fill a USB packet or its latency timer
+// (16 ms, restarted by every packet) expires: a lone echo waits for an expiry, a 100-byte burst
+// goes as 62 bytes the moment the 62nd arrives and 38 one timer period later.
+TEST_F(UsartTest, FtdiLatencyTimerPacketsTheMcusBytes) {
+  AdapterSettings a = rig_.uart().adapter();
+  a.latency_timer_s = 0.016;
+  rig_.uart().set_adapter(a);
+  const double period = 0.016 * kHz;
+  out();
+  rig_.uart().inject("x");
+  run_s(0.04);
+  std::vector<double> ready;
+  ASSERT_EQ(rig_.uart().take_output(rig_.cycle(), &ready), "X");
+  EXPECT_EQ(std::fmod(ready[0], period), 0.0);  // the timer runs from cycle 0: no packet sent yet
+  out();
+  rig_.uart().inject("t");
+  run_s(0.05);
+  ready.clear();
+  const std::string burst = rig_.uart().take_output(rig_.cycle(), &ready);
+  ASSERT_EQ(burst.size(), 100u);
+  for (int i = 0; i < 62; ++i) EXPECT_EQ(ready[i], ready[61]) << i;
+  for (int i = 62; i < 100; ++i) EXPECT_EQ(ready[i], ready[61] + period) << i;
+  EXPECT_LT(ready[61], ready[0] + period);
 }
 
 // Interrupts off for N frame times while the host streams: the two-byte buffer and the shift
