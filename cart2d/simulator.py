@@ -169,7 +169,10 @@ class Simulator:
             cmd += ["--pty-link", str(o.pty_link)]
         if o.start is not None:
             cmd += ["--start", ",".join(str(v) for v in o.start)]
-        cmd += ["--host-baud", str(o.host_baud), "--usb-latency", ",".join(str(v) for v in o.usb_latency_ms)]
+        if o.host_baud != 115200.0:
+            cmd += ["--host-baud", str(o.host_baud)]
+        if any(o.usb_latency_ms):
+            cmd += ["--usb-latency", ",".join(str(v) for v in o.usb_latency_ms)]
         if o.ftdi_latency_timer_ms > 0:
             cmd += ["--ftdi-latency-timer", str(o.ftdi_latency_timer_ms)]
         if not o.auto_reset:
