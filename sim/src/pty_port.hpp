@@ -28,6 +28,8 @@ class PtyPort {
   bool is_open() const { return master_fd_ >= 0; }
   const std::string& path() const { return path_; }
   int fd() const { return master_fd_; }
+  // Readable when a host opened or closed the port (-1 without inotify): worth a wake-up.
+  int change_fd() const { return inotify_fd_; }
 
   std::vector<Change> poll_host();
   bool host_attached() const { return attached_; }

@@ -176,9 +176,11 @@ void Simulator::save_eeprom(const char* why) {
 void Simulator::wait_for_io(double timeout_s) {
   std::vector<pollfd> fds;
   control_.add_poll_fds(&fds);
-  // Without a host the master reports POLLHUP at once: the timeout paces the next look instead.
+  // Without a host the master reports POLLHUP at once: the timeout paces the next look instead,
+  // and the host opening the port wakes us through its inotify descriptor.
   if (rig_.uart().host_fd() >= 0 && rig_.uart().host_attached())
     fds.push_back({rig_.uart().host_fd(), static_cast<short>(POLLIN | (rig_.uart().host_output_pending() ? POLLOUT : 0)), 0});
+  if (rig_.uart().host_change_fd() >= 0) fds.push_back({rig_.uart().host_change_fd(), POLLIN, 0});
   timespec ts;
   ts.tv_sec = static_cast<time_t>(timeout_s);
   ts.tv_nsec = static_cast<long>((timeout_s - static_cast<double>(ts.tv_sec)) * 1e9);

@@ -58,6 +58,7 @@ class UartLink {
   bool open_pty(std::string* error);
   const std::string& pty_path() const { return pty_.path(); }
   int host_fd() const { return pty_.fd(); }
+  int host_change_fd() const { return pty_.change_fd(); }
   // Whether a host has the port open (always, without a pty).
   bool host_attached() const { return !pty_.is_open() || pty_.host_attached(); }
   // Looks whether the host opened or closed the port since the last look.
