@@ -14,7 +14,20 @@ namespace cart2d {
 
 constexpr double kQueueCapBytes = 64 * 1024;  // host bytes the line holds before dropping
 
+UartLink::~UartLink() {
+  // The MCU outlives us (the Rig destroys us first): take our module out of its list.
+  if (!avr_) return;
+  for (avr_io_t** p = &avr_->io_port; *p; p = &(*p)->next) {
+    if (*p == &reset_hook_.io) {
+      *p = reset_hook_.io.next;
+      break;
+    }
+  }
+}
+
 bool UartLink::open_pty(std::string* error) { return pty_.open(error); }
+
+void UartLink::on_avr_reset(avr_io_t* io) { reinterpret_cast<ResetHook*>(io)->self->rearm_after_reset(); }
 
 std::vector<PtyPort::Change> UartLink::poll_host() {
   std::vector<PtyPort::Change> changes = pty_.poll_host();
@@ -38,6 +51,10 @@ void UartLink::attach(avr_t* avr, uint64_t seed) {
   }
   adapter_.set_cpu_hz(avr_->frequency);
   usart_rx_.attach(avr_, uart_, &adapter_.to_mcu());
+  reset_hook_.io.kind = "cart2d_uart_link";
+  reset_hook_.io.reset = on_avr_reset;
+  reset_hook_.self = this;
+  avr_register_io(avr_, &reset_hook_.io);
   avr_irq_register_notify(avr_io_getirq(avr_, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT), on_output, this);
 }
 
@@ -129,8 +146,10 @@ void UartLink::forget_used_line() {
 }
 
 void UartLink::rearm_after_reset() {
-  // avr_reset() cleared the receiver and our timers; what the host sent goes on arriving (the
+  // avr_reset() cleared the registers and our timers; what the host sent goes on arriving (the
   // sender does not know the MCU reset), and the frame being sent stops after its current bit.
+  // Called from within avr_reset() (before simavr's own UART reset, its list being in reverse
+  // order of registration) and again by the Rig: doing it twice changes nothing.
   usart_rx_.after_reset();
   adapter_.mcu_line_released(static_cast<double>(avr_->cycle));
   tx_line_free_cycle_ = avr_->cycle;

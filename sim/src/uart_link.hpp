@@ -25,7 +25,10 @@
 #include "usart_rx.hpp"
 #include "usb_serial.hpp"
 
-struct avr_t;
+extern "C" {
+#include <sim_io.h>  // avr_io_t
+}
+
 struct avr_irq_t;
 struct avr_uart_t;
 
@@ -51,6 +54,7 @@ class UartLink {
   };
 
   UartLink() = default;
+  ~UartLink();
   UartLink(const UartLink&) = delete;
   UartLink& operator=(const UartLink&) = delete;
 
@@ -88,6 +92,13 @@ class UartLink {
   const UsartReceiver& receiver() const { return usart_rx_; }
 
  private:
+  // Registered with simavr as an I/O module, so every avr_reset() reaches us, whoever calls it
+  // (a reset button, DTR, simavr's own watchdog reset).
+  struct ResetHook {
+    avr_io_t io;  // first: simavr hands the reset callback this address
+    UartLink* self;
+  };
+  static void on_avr_reset(avr_io_t* io);
   static void on_output(avr_irq_t* irq, uint32_t value, void* param);
   void send_to_mcu(uint8_t byte);
   void line_changed();
@@ -98,6 +109,7 @@ class UartLink {
 
   avr_t* avr_ = nullptr;
   avr_uart_t* uart_ = nullptr;
+  ResetHook reset_hook_{};
   PtyPort pty_;
   Faults faults_;
   Rng rng_rx_, rng_tx_;

@@ -11,6 +11,10 @@
 
 #include "rig.hpp"
 
+extern "C" {
+#include <sim_avr.h>  // avr_reset
+}
+
 namespace cart2d {
 namespace {
 
@@ -215,6 +219,19 @@ TEST_F(UsartTest, LongBlockLosesEveryFrameTheShiftRegisterHeld) {
   EXPECT_TRUE(got[2].dor);
   EXPECT_FALSE(got[0].dor || got[1].dor || got[3].dor || got[4].dor);
   EXPECT_EQ(rig_.uart().stats().rx_overruns, 5u);
+}
+
+// A reset by any path (here simavr's avr_reset() itself, as its watchdog does) flushes the
+// receive buffer: frames waiting there before the reset never reach the restarted program.
+TEST_F(UsartTest, ResetOfAnyKindFlushesTheReceiveBuffer) {
+  rig_.uart().inject("b9ABC");  // interrupts off for 9 frames from about when A starts
+  ASSERT_TRUE(rig_.run_cycles(8000));  // A and B done (≈ 4160, 5550), C too (≈ 6940)
+  ASSERT_EQ(rig_.uart().receiver().unread(), 2);
+  ASSERT_TRUE(rig_.uart().receiver().shift_register_full());
+  avr_reset(rig_.mcu().avr());
+  run_s(0.01);
+  EXPECT_EQ(out(), "HELLO\n");
+  EXPECT_EQ(payload(received("", 0)), "");  // the report holds its own 'r' only
 }
 
 // The host at 115 200 baud, the Nano at 117 647 (−2.1 %): every byte arrives exactly.
