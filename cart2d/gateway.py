@@ -136,6 +136,7 @@ class Gateway:
         self._opens_seen = 0  # the link's port openings at the last STATUS
         self._last_tick: int | None = None
         self._expected_reset = ""  # what the gateway is doing that restarts the MCU, if anything
+        self._expected_keeps_pose = True
         self.last_reset: ResetReport | None = None
         self.resets_noticed = 0
         self.pose_trust = PoseTrust()
@@ -145,7 +146,7 @@ class Gateway:
             store.directory,
             sim,
             after=self._check_after_update,
-            resetting=lambda: self._resetting("a firmware update", certain=True),
+            resetting=lambda: self._resetting("a firmware update", certain=True, keeps_pose=False),
         )
         link.subscribe(self._on_telemetry)
         if sim is not None and sim.side is not None:
@@ -480,13 +481,17 @@ class Gateway:
             return self.last_reset if self.resets_noticed != noticed else None
 
     @contextlib.contextmanager
-    def _resetting(self, what: str, certain: bool) -> Iterator[None]:
+    def _resetting(self, what: str, certain: bool, keeps_pose: bool = True) -> Iterator[None]:
         """Restarts noticed inside the block are the gateway's doing (`what`), not faults.
         `certain`: the block restarts the MCU whatever STATUS shows (a new simulator, avrdude's
         reset), so a restart is reported at its end if none was noticed: a fresh MCU whose uptime
-        has overtaken the old one's and whose boot count is 1 again looks like no restart."""
+        has overtaken the old one's and whose boot count is 1 again looks like no restart.
+        `keeps_pose`: a pose the firmware restored from RAM after it is trusted (a REBOOT, a soft
+        reset of the same firmware at rest); after a firmware update it is not (another program,
+        and a cart that may have been moved while it was flashed)."""
         with self._lock:
             self._expected_reset = what
+            self._expected_keeps_pose = keeps_pose
             noticed = self.resets_noticed
         try:
             yield
@@ -530,7 +535,7 @@ class Gateway:
                 )
             else:
                 sentences.append("Its pose restarted at (0, 0, 0).")
-            if not (caused_by and restored):
+            if not (caused_by and restored and self._expected_keeps_pose):
                 what = "kept the pose it had" if restored else "restarted at (0, 0, 0)"
                 self.pose_trust = PoseTrust(False, f"the controller restarted at {when} ({cause}) and {what}")
             if not self.pose_trust.trusted:

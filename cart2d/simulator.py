@@ -47,6 +47,13 @@ class SimOptions:
     pty_link: Path | None = None  # a stable name for the serial port, across restarts
     grid: tuple[int, float] | None = None  # square arena: nodes per side, step (m)
     quiet: bool = False  # only warnings and errors from the simulator on stderr
+    # The host's end of the serial line (sim/README.md, "UART model"): the adapter's baud rate,
+    # the USB delay each way in simulated ms (to the MCU, to the host), the FTDI latency timer
+    # (0: off; an FT232R's default is 16 ms), and whether opening the port resets the MCU (DTR).
+    host_baud: float = 115200.0
+    usb_latency_ms: tuple[float, float] = (0.0, 0.0)
+    ftdi_latency_timer_ms: float = 0.0
+    auto_reset: bool = True
 
 
 class SideChannel:
@@ -163,6 +170,14 @@ class Simulator:
             cmd += ["--pty-link", str(o.pty_link)]
         if o.start is not None:
             cmd += ["--start", ",".join(str(v) for v in o.start)]
+        if o.host_baud != 115200.0:
+            cmd += ["--host-baud", str(o.host_baud)]
+        if any(o.usb_latency_ms):
+            cmd += ["--usb-latency", ",".join(str(v) for v in o.usb_latency_ms)]
+        if o.ftdi_latency_timer_ms > 0:
+            cmd += ["--ftdi-latency-timer", str(o.ftdi_latency_timer_ms)]
+        if not o.auto_reset:
+            cmd.append("--no-auto-reset")
         # Its own session: a Ctrl-C in the terminal reaches us, and we stop it in order. Its stdin
         # is a pipe we hold open: when this process ends, however, the simulator sees the end
         # of file and stops (--exit-with-parent).

@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
+import re
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -143,6 +144,7 @@ def test_the_new_endpoints_are_documented_with_their_errors(rig: Rig) -> None:
 # -- the gateway, against the firmware in the simulator ---------------------------------------
 def test_a_reset_mid_path_fails_the_mission_and_goto_is_refused_until_the_pose_is_set(rig: Rig) -> None:
     events = events_of(rig)
+    boots = status(rig)["status"]["boot_count"]  # opening the port reset the MCU once already
     assert rig.client.post("/api/goto", json={"x": 1.6, "y": 1.6}).status_code == 200
     rig.sim.side.wait_truth(lambda t: math.hypot(t["x"], t["y"]) > 0.3, 30)  # type: ignore[union-attr]
     rig.sim.control("reset")
@@ -154,7 +156,11 @@ def test_a_reset_mid_path_fails_the_mission_and_goto_is_refused_until_the_pose_i
     now = status(rig)
     last = now["reset"]["last"]
     assert now["reset"]["noticed"] == 1
-    assert last["cause"] == ["EXTERNAL"] and last["boot_count"] == 2 and last["cause_words"] == EXTERNAL_WORDS
+    assert (
+        last["cause"] == ["EXTERNAL"]
+        and last["boot_count"] == boots + 1
+        and last["cause_words"] == EXTERNAL_WORDS
+    )
     assert not last["expected"] and last["caused_by"] == "" and last["mission_ended"]
     assert f"unexpectedly: {EXTERNAL_WORDS}." in last["message"]
     assert "The mission to (1.60, 1.60) failed." in last["message"] and WAYS_OUT in last["message"]
@@ -295,7 +301,7 @@ def test_a_restart_during_a_firmware_update_is_the_updates_doing(rig: Rig) -> No
     wait_for(lambda: rig.client.get("/api/firmware/update").json()["state"] != "running", 30)
     last = status(rig)["reset"]["last"]
     assert last is not None and last["expected"] and last["caused_by"] == "a firmware update"
-    assert not last["pose_restored"] and not trusted(rig)  # a new firmware starts at (0, 0, 0)
+    assert not trusted(rig)  # another program, and a cart that may have been moved meanwhile
 
 
 # -- the headless runner and the calibration --------------------------------------------------
@@ -347,5 +353,10 @@ def test_a_reset_during_a_calibration_run_stops_it(tmp_path: Path) -> None:
     finally:
         sim.stop()
     assert pressed.is_set() and not said  # stopped in the first run
-    assert str(stopped.value).startswith(f"the controller restarted (boot 2): {EXTERNAL_WORDS}. That ruins")
+    # boot 2 or 3: power-on, the DTR reset when the link opened the port (unless that came while
+    # the power-on reset still held the MCU), the button
+    assert re.match(
+        rf"the controller restarted \(boot [23]\): {re.escape(EXTERNAL_WORDS)}\. That ruins",
+        str(stopped.value),
+    )
     assert str(stopped.value).endswith("calibration stopped, nothing saved")

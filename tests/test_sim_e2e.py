@@ -185,6 +185,12 @@ def test_corrupt_and_dropped_uart_bytes_do_not_derail_the_link(sim: Simulator, l
     assert status[7] > 0  # the firmware counted the corrupt packets it dropped
 
 
+def wait_for_event(sim: Simulator, name: str) -> None:
+    side = sim.side
+    assert side is not None
+    wait_for(lambda: any(e.get("event") == name for e in side.events), 10)
+
+
 def struct_f32(value: float) -> float:
     import struct
 
@@ -209,15 +215,17 @@ def test_manual_drive_stops_without_refresh(tmp_path: Path) -> None:
 
 
 def test_same_seed_and_inputs_give_the_same_trajectory(tmp_path: Path) -> None:
-    """Deterministic: both runs start paused, boot for 0.1 s, get the command queued while
-    paused, and run exactly 6 s more of simulated time; seeded faults included."""
+    """Deterministic: both runs start paused, open the port (which resets the MCU, as on a
+    Nano), boot for 0.1 s, get the command queued while paused, and run exactly 6 s more of
+    simulated time; seeded faults included."""
     endings = []
     for run in range(2):
         sim = start_sim(tmp_path / str(run), seed=7, paused=True)
         try:
             sim.control("faults", enc_miss_prob=0.001, enc_radius_scale_l=1.01)
-            sim.run_for(0.1)  # boot: before its UART is enabled the MCU would drop the bytes
             with serial.Serial(sim.pty, 115200) as port:
+                wait_for_event(sim, "host_open")
+                sim.run_for(0.1)  # boot: before its UART is enabled the MCU would drop the bytes
                 port.write(encode_request(1, SPEC.code("GOTO"), [1.0, 0.5]))
                 port.flush()
                 time.sleep(0.1)  # the simulator has read the bytes before it runs

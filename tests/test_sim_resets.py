@@ -38,9 +38,9 @@ def stats(sim: Simulator) -> dict[str, Any]:
 def test_reboot_leaves_the_cart_drivable(sim: Simulator, link: Link) -> None:
     """COMMAND_REBOOT ends in a watchdog reset inside simavr, which cleared every cycle timer:
     the physics step, the encoders and the ground truth stopped, and the cart never moved again."""
-    link.call("REBOOT")
-    wait_for(lambda: len(events(sim, "mcu_reset")) == 1)
-    assert events(sim, "mcu_reset")[0]["cause"] == "watchdog"
+    link.call("REBOOT")  # (opening the port reset the MCU once already: DTR, "external")
+    wait_for(lambda: any(e["cause"] == "watchdog" for e in events(sim, "mcu_reset")))
+    (watchdog,) = [e for e in events(sim, "mcu_reset") if e["cause"] == "watchdog"]
     sim.wait_running()
     link.call("HEARTBEAT")  # the firmware answers again
     assert read_status(link).reset_cause == ["WATCHDOG", "REBOOT"]
@@ -50,7 +50,7 @@ def test_reboot_leaves_the_cart_drivable(sim: Simulator, link: Link) -> None:
     assert sim.side is not None and sim.side.truth is not None
     pushed = sim.side.truth  # sent from the physics step: truth keeps arriving
     assert abs(pushed["x"] - 0.5) < 0.01
-    assert pushed["t"] > events(sim, "mcu_reset")[0]["t"] + 0.5
+    assert pushed["t"] > watchdog["t"] + 0.5
     assert stats(sim)["resets"]["watchdog"] == 1
 
 
@@ -98,15 +98,21 @@ def test_motor_inputs_float_during_a_reset(tmp_path: Path, pulldowns: int) -> No
         assert during["wheel_l"] < -5.0 and during["wheel_r"] < -5.0  # already racing backwards
 
 
-def save_then_reset_mid_write(sim: Simulator) -> None:
-    """Sends SAVE once (no retransmission, which would save again after the reset) with the
-    simulator paused, runs until the first EEPROM write has begun, 2 ms more, and resets."""
+def save_then_reset_mid_write(sim: Simulator, tolerance: float) -> None:
+    """Sets tol_final to `tolerance` and sends SAVE once (no retransmission, which would save
+    again after the reset) with the simulator paused, runs until the first EEPROM write has
+    begun, 2 ms more, and resets."""
     sim.control("pause")
-    started = stats(sim)["eeprom_ops"]["writes_started"]
     with serial.Serial(sim.pty, 115200) as port:
-        port.write(encode_request(77, SPEC.code("SAVE")))
+        sim.run_for(0.2)  # opening the port reset the MCU (DTR): its time-out and boot
+        port.write(encode_request(76, SPEC.code("TOL_SET"), [tolerance]))
         port.flush()
         time.sleep(0.1)  # the simulator has read the bytes before it runs
+        sim.run_for(0.05)
+        started = stats(sim)["eeprom_ops"]["writes_started"]
+        port.write(encode_request(77, SPEC.code("SAVE")))
+        port.flush()
+        time.sleep(0.1)
         for _ in range(400):
             sim.run_for(0.0005)
             if stats(sim)["eeprom_ops"]["writes_started"] > started:
@@ -128,8 +134,7 @@ def test_a_reset_during_save_keeps_the_previous_settings(tmp_path: Path) -> None
             link.call("TOL_SET", 0.02)
             link.call("SAVE")
             wait_for(lambda: link.call("STATUS")[EEPROM_BUSY] == 0.0)
-            link.call("TOL_SET", 0.03)  # in RAM: the SAVE below writes it
-        save_then_reset_mid_write(sim)
+        save_then_reset_mid_write(sim, 0.03)
         with Link(sim.pty) as link:
             source = link.call("STATUS")[SETTINGS_SOURCE]
             tolerance = link.call("TOL_GET")[0]
@@ -139,13 +144,12 @@ def test_a_reset_during_save_keeps_the_previous_settings(tmp_path: Path) -> None
     assert abs(tolerance - 0.02) < 1e-6  # the record saved before
 
 
-def drive_then_hang(sim: Simulator) -> float:
+def drive_then_hang(sim: Simulator, link: Link) -> float:
     """Manual driving at 0.3 m/s (refreshed), then a hang; returns the time the hang began."""
-    with Link(sim.pty) as link:
-        for _ in range(8):
-            link.call("VELOCITY", 0.3, 0.0)
-            time.sleep(0.1)
-        sim.control("hang")  # at the next wake: the control tick, within 8 ms
+    for _ in range(8):
+        link.call("VELOCITY", 0.3, 0.0)
+        time.sleep(0.1)
+    sim.control("hang")  # at the next wake: the control tick, within 8 ms
     wait_for(lambda: len(events(sim, "hang")) == 1, wall_timeout_s=10)
     began: float = events(sim, "hang")[0]["t"]
     return began
@@ -158,12 +162,12 @@ def test_a_hung_main_loop_is_stopped_by_the_watchdog(tmp_path: Path) -> None:
         sim.control("truth_rate", hz=1000)
         assert sim.side is not None
         sim.side.subscribe(truths.append)
-        began = drive_then_hang(sim)
-        sim.control("pause")
-        sim.run_for(0.2)
-        resets = events(sim, "mcu_reset")
-        sim.control("resume")
-        with Link(sim.pty) as link:
+        with Link(sim.pty) as link:  # open throughout: reopening the port would reset the MCU (DTR)
+            began = drive_then_hang(sim, link)
+            sim.control("pause")
+            sim.run_for(0.2)
+            resets = [e for e in events(sim, "mcu_reset") if e["t"] >= began]
+            sim.control("resume")
             status = read_status(link)
     finally:
         sim.stop()

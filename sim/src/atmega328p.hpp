@@ -20,10 +20,14 @@ constexpr int kCOM1B0 = 4;  // COM1B1:0 = TCCR1A bits 5:4
 
 // USART0 (datasheet §19.10).
 constexpr uint16_t kUCSR0A = 0xC0, kUCSR0B = 0xC1, kUCSR0C = 0xC2, kUBRR0L = 0xC4, kUBRR0H = 0xC5;
+constexpr uint16_t kUDR0 = 0xC6;
+constexpr int kRXC0 = 7, kFE0 = 4, kDOR0 = 3, kUPE0 = 2;  // UCSR0A receiver flags
 constexpr int kU2X0 = 1;    // UCSR0A
+constexpr int kRXCIE0 = 7, kRXEN0 = 4;  // UCSR0B
 constexpr int kUCSZ02 = 2;  // UCSR0B
 constexpr int kUCSZ00 = 1;  // UCSR0C bits 2:1
 constexpr int kUSBS0 = 3;   // UCSR0C
+constexpr int kUPM00 = 4;   // UCSR0C: odd parity when set (with UPM01)
 constexpr int kUPM01 = 5;   // UCSR0C: parity enabled when set
 
 // Reset and watchdog (datasheet §11.9): MCUSR flags, WDTCSR enables.

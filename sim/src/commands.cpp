@@ -92,6 +92,7 @@ std::string Simulator::dispatch(int client, const std::string& type, const json:
     return "";
   }
   if (type == "speed") return cmd_speed(msg);
+  if (type == "link") return cmd_link(msg, extra);
   if (type == "profile") return cmd_profile(msg, extra);
   if (type == "run") return cmd_run(msg);
   if (type == "stats") {
@@ -225,6 +226,54 @@ std::string Simulator::cmd_speed(const json::Value& msg) {
   return "";
 }
 
+// {"type":"link", "host_baud":B, "usb_latency_ms":MS or [TO_MCU, TO_HOST],
+//  "ftdi_latency_timer_ms":MS (0 = off), "auto_reset":bool}: the host's end of the serial line,
+// any subset, all or nothing. The ack carries "link" with the settings in force.
+std::string Simulator::cmd_link(const json::Value& msg, std::string* extra) {
+  AdapterSettings next = rig_.uart().adapter();
+  bool auto_reset = auto_reset_;
+  double v = 0.0;
+  if (msg.find("host_baud")) {
+    if (!number_member(msg, "host_baud", &v) || v < 300.0 || v > 4e6) return "host_baud must be in [300, 4000000]";
+    next.baud = v;
+  }
+  if (const json::Value* lat = msg.find("usb_latency_ms")) {
+    double to_mcu = 0.0, to_host = 0.0;
+    if (lat->is_number()) to_mcu = to_host = lat->number;
+    else if (!pair_of(*lat, &to_mcu, &to_host)) return "usb_latency_ms must be MS or [TO_MCU_MS, TO_HOST_MS]";
+    if (!(to_mcu >= 0.0 && to_mcu <= 1000.0 && to_host >= 0.0 && to_host <= 1000.0))
+      return "usb_latency_ms must be in [0, 1000]";
+    next.to_mcu_delay_s = to_mcu / 1000.0;
+    next.to_host_delay_s = to_host / 1000.0;
+  }
+  if (msg.find("ftdi_latency_timer_ms")) {
+    if (!number_member(msg, "ftdi_latency_timer_ms", &v) || v < 0.0 || v > 255.0)
+      return "ftdi_latency_timer_ms must be in [0, 255] (0 = off)";
+    next.latency_timer_s = v / 1000.0;
+  }
+  if (const json::Value* a = msg.find("auto_reset")) {
+    if (!a->is_bool()) return "auto_reset must be true or false";
+    auto_reset = a->boolean;
+  }
+  rig_.uart().set_adapter(next);
+  auto_reset_ = auto_reset;
+  *extra = "\"link\":" + link_json();
+  return "";
+}
+
+std::string Simulator::link_json() const {
+  const AdapterSettings& a = rig_.uart().adapter();
+  return json::Object()
+      .add("host_baud", a.baud)
+      .add_raw("usb_latency_ms", "[" + json::number(a.to_mcu_delay_s * 1000.0) + "," +
+                                     json::number(a.to_host_delay_s * 1000.0) + "]")
+      .add("ftdi_latency_timer_ms", a.latency_timer_s * 1000.0)
+      .add("auto_reset", auto_reset_)
+      .add("host_open", rig_.uart().host_attached())
+      .add("mcu_baud", rig_.uart().mcu_baud())
+      .str();
+}
+
 std::string Simulator::cmd_truth_rate(int client, const json::Value& msg) {
   double hz = 0.0;
   if (!number_member(msg, "hz", &hz) || hz < 0.0 || hz > 4000.0) return "hz must be a rate in [0, 4000] (0 = off)";
@@ -247,7 +296,7 @@ std::string Simulator::stats_json() const {
         .str();
   };
   const uint64_t period = rig_.mcu().frequency_hz() / static_cast<uint64_t>(params::control::tick_hz);
-  const UartLink::Stats& u = rig_.uart().stats();
+  const UartLink::Stats u = rig_.uart().stats();
   json::Object o;
   o.add("t", rig_.time_s())
       .add("cycles", static_cast<unsigned long long>(rig_.cycle()))
@@ -262,13 +311,21 @@ std::string Simulator::stats_json() const {
       .add_raw("cpu_window", cpu_json(rig_.cpu().window(), period))
       .add_raw("uart", json::Object()
                            .add("rx_bytes", static_cast<unsigned long long>(u.rx_bytes))
+                           .add("rx_line_bytes", static_cast<unsigned long long>(u.rx_line_bytes))
                            .add("rx_dropped", static_cast<unsigned long long>(u.rx_dropped))
                            .add("rx_corrupted", static_cast<unsigned long long>(u.rx_corrupted))
+                           .add("rx_overruns", static_cast<unsigned long long>(u.rx_overruns))
+                           .add("rx_frame_errors", static_cast<unsigned long long>(u.rx_frame_errors))
+                           .add("rx_parity_errors", static_cast<unsigned long long>(u.rx_parity_errors))
                            .add("tx_bytes", static_cast<unsigned long long>(u.tx_bytes))
                            .add("tx_dropped", static_cast<unsigned long long>(u.tx_dropped))
                            .add("tx_corrupted", static_cast<unsigned long long>(u.tx_corrupted))
+                           .add("tx_frame_errors", static_cast<unsigned long long>(u.tx_frame_errors))
+                           .add("tx_no_host", static_cast<unsigned long long>(u.tx_no_host))
                            .add("host_overflow", static_cast<unsigned long long>(u.host_overflow))
+                           .add("host_opens", static_cast<unsigned long long>(u.host_opens))
                            .str())
+      .add_raw("link", link_json())
       .add_raw("encoders", json::Object()
                                .add("edges_l", static_cast<unsigned long long>(rig_.encoder_left().edges_emitted()))
                                .add("edges_r", static_cast<unsigned long long>(rig_.encoder_right().edges_emitted()))

@@ -33,6 +33,10 @@ std::string usage() {
          "  --pty-link PATH       also make PATH a symlink to the pty (a stable port name)\n"
          "  --exit-with-parent    stop when stdin (a pipe from the launcher) closes: the launcher died\n"
          "  --grid NODES,STEP     the square node grid the walls surround (default 10,0.2)\n"
+         "  --host-baud B         the host's (USB adapter's) baud rate (default 115200)\n"
+         "  --usb-latency MS[,MS] USB delay host->MCU[,MCU->host] in simulated ms (default 0)\n"
+         "  --ftdi-latency-timer MS  hold MCU->host bytes until 62 or the timer expires (FTDI: 16)\n"
+         "  --no-auto-reset       opening the port does not reset the MCU (DTR reset defeated)\n"
          "  --verbose | --quiet   more / less logging on stderr\n";
 }
 
@@ -78,6 +82,35 @@ bool parse_options(int argc, char** argv, Options* opts, bool* help, std::string
         return false;
       }
       opts->grid_nodes = static_cast<int>(nodes);
+    } else if (!std::strcmp(arg, "--host-baud")) {
+      if (!value(&v)) return false;
+      if (!parse_double(v, &opts->host_baud) || opts->host_baud < 300.0 || opts->host_baud > 4e6) {
+        *error = "--host-baud takes a baud rate in [300, 4000000]";
+        return false;
+      }
+    } else if (!std::strcmp(arg, "--usb-latency")) {
+      if (!value(&v)) return false;
+      const std::string s = v;
+      const size_t comma = s.find(',');
+      const bool ok = comma == std::string::npos
+                          ? parse_double(v, &opts->usb_to_mcu_ms)
+                          : parse_double(s.substr(0, comma).c_str(), &opts->usb_to_mcu_ms) &&
+                                parse_double(s.substr(comma + 1).c_str(), &opts->usb_to_host_ms);
+      if (comma == std::string::npos) opts->usb_to_host_ms = opts->usb_to_mcu_ms;
+      if (!ok || opts->usb_to_mcu_ms < 0 || opts->usb_to_mcu_ms > 1000 || opts->usb_to_host_ms < 0 ||
+          opts->usb_to_host_ms > 1000) {
+        *error = "--usb-latency takes MS or TO_MCU_MS,TO_HOST_MS in [0, 1000]";
+        return false;
+      }
+    } else if (!std::strcmp(arg, "--ftdi-latency-timer")) {
+      if (!value(&v)) return false;
+      if (!parse_double(v, &opts->ftdi_latency_timer_ms) || opts->ftdi_latency_timer_ms < 0 ||
+          opts->ftdi_latency_timer_ms > 255) {
+        *error = "--ftdi-latency-timer takes MS in [0, 255] (0 = off)";
+        return false;
+      }
+    } else if (!std::strcmp(arg, "--no-auto-reset")) {
+      opts->auto_reset = false;
     } else if (!std::strcmp(arg, "--exit-with-parent")) {
       opts->exit_with_parent = true;
     } else if (!std::strcmp(arg, "--paused")) {

@@ -25,6 +25,11 @@ struct Options {
   bool exit_with_parent = false;  // stop when the launching process dies
   int grid_nodes = static_cast<int>(params::sim::grid_nodes);  // the square arena's node grid
   double grid_step_m = params::sim::grid_step_m;
+  // The host's end of the serial line (usb_serial.hpp) and the Nano's DTR auto-reset.
+  double host_baud = 115200.0;
+  double usb_to_mcu_ms = 0.0, usb_to_host_ms = 0.0;  // USB delay each way
+  double ftdi_latency_timer_ms = 0.0;                // > 0: FTDI packet/latency-timer mode
+  bool auto_reset = true;                            // a host opening the port resets the MCU
 };
 
 // Fills *opts (pre-set with defaults) from argv. False with a message on a bad command line;

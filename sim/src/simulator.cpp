@@ -21,6 +21,7 @@ Simulator::Simulator(const Options& opts)
     : opts_(opts), eeprom_(opts.eeprom.empty() ? EepromStore::default_path() : opts.eeprom) {
   pacer_.set_factor(opts.speed);
   paused_ = opts.start_paused;
+  auto_reset_ = opts.auto_reset;
 }
 
 bool Simulator::init(std::string* error) {
@@ -35,6 +36,12 @@ bool Simulator::init(std::string* error) {
   rc.grid_nodes = opts_.grid_nodes;
   rc.grid_step_m = opts_.grid_step_m;
   if (!rig_.init(rc, error)) return false;
+  AdapterSettings adapter;
+  adapter.baud = opts_.host_baud;
+  adapter.to_mcu_delay_s = opts_.usb_to_mcu_ms / 1000.0;
+  adapter.to_host_delay_s = opts_.usb_to_host_ms / 1000.0;
+  adapter.latency_timer_s = opts_.ftdi_latency_timer_ms / 1000.0;
+  rig_.uart().set_adapter(adapter);
 
   const World& w = rig_.world();
   const double r = params::body::footprint_radius_m;
@@ -151,6 +158,31 @@ void Simulator::publish_events() {
   }
 }
 
+void Simulator::serve_host_port() {
+  const std::vector<PtyPort::Change> changes = rig_.uart().poll_host();
+  uint64_t opens = rig_.uart().stats().host_opens;
+  for (const PtyPort::Change c : changes) opens -= c == PtyPort::Change::kOpened;
+  for (const PtyPort::Change c : changes) {
+    const bool opened = c == PtyPort::Change::kOpened;
+    LOG_INFO("host %s the serial port at t = %.6f s", opened ? "opened" : "closed", rig_.time_s());
+    json::Object event;
+    event.add("type", "event").add("event", opened ? "host_open" : "host_close").add("t", rig_.time_s());
+    if (opened) {
+      if (auto_reset_) dtr_reset();
+      event.add("opens", static_cast<unsigned long long>(++opens)).add("reset", auto_reset_);
+    }
+    control_.broadcast(event.str());
+  }
+}
+
+// A Nano's USB-serial chip drives RESET through a 100 nF capacitor from DTR, which the host
+// raises when it opens the port: the MCU restarts (the bootloader is not simulated).
+void Simulator::dtr_reset() {
+  rig_.reset_mcu();
+  mcu_dead_reported_ = false;
+  LOG_INFO("MCU reset by DTR at t = %.6f s", rig_.time_s());
+}
+
 void Simulator::save_eeprom(const char* why) {
   std::string error;
   if (eeprom_.save(rig_.mcu().avr(), &error)) LOG_DEBUG("EEPROM saved (%s)", why);
@@ -160,8 +192,11 @@ void Simulator::save_eeprom(const char* why) {
 void Simulator::wait_for_io(double timeout_s) {
   std::vector<pollfd> fds;
   control_.add_poll_fds(&fds);
-  if (rig_.uart().host_fd() >= 0)
+  // Without a host the master reports POLLHUP at once: the timeout paces the next look instead,
+  // and the host opening the port wakes us through its inotify descriptor.
+  if (rig_.uart().host_fd() >= 0 && rig_.uart().host_attached())
     fds.push_back({rig_.uart().host_fd(), static_cast<short>(POLLIN | (rig_.uart().host_output_pending() ? POLLOUT : 0)), 0});
+  if (rig_.uart().host_change_fd() >= 0) fds.push_back({rig_.uart().host_change_fd(), POLLIN, 0});
   timespec ts;
   ts.tv_sec = static_cast<time_t>(timeout_s);
   ts.tv_nsec = static_cast<long>((timeout_s - static_cast<double>(ts.tv_sec)) * 1e9);
@@ -180,6 +215,7 @@ int Simulator::run(volatile std::sig_atomic_t* stop) {
       LOG_INFO("the launching process is gone: stopping");
       break;
     }
+    serve_host_port();
     rig_.uart().read_host();
     control_.poll_input(opts_.truth_hz, [this](int client, const std::string& line) { handle_line(client, line); });
     if (quit_) break;

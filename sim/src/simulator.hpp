@@ -41,12 +41,17 @@ class Simulator {
   std::string cmd_obstacles(const json::Value& msg);
   std::string cmd_speed(const json::Value& msg);
   std::string cmd_truth_rate(int client, const json::Value& msg);
+  std::string cmd_link(const json::Value& msg, std::string* extra);
+  std::string link_json() const;
   std::string stats_json() const;
 
   // truth.cpp
   std::string truth_json() const;
 
   void on_physics_step(uint64_t end_cycle);
+  // The host opening or closing the serial port; an open pulses DTR, which resets a Nano.
+  void serve_host_port();
+  void dtr_reset();
   void publish_events();
   void save_eeprom(const char* why);
   void wait_for_io(double timeout_s);
@@ -60,6 +65,7 @@ class Simulator {
   uint64_t pause_at_cycle_ = UINT64_MAX;  // set by a "run" message
   bool quit_ = false;
   bool mcu_dead_reported_ = false;
+  bool auto_reset_ = true;  // --no-auto-reset, or the "link" message
   std::string firmware_path_;
   double wall_start_s_ = 0.0;
   double next_eeprom_check_s_ = 0.0;

@@ -1,14 +1,9 @@
 #include "uart_link.hpp"
 
-#include <cerrno>    // errno
-#include <cstring>   // strcmp, strerror
-#include <fcntl.h>   // fcntl, O_NONBLOCK
-#include <pty.h>     // openpty
-#include <termios.h> // cfmakeraw, tcsetattr
-#include <unistd.h>  // read, write, close
+#include <algorithm>  // std::max, std::min
+#include <cstring>    // strcmp
 
 #include "atmega328p.hpp"
-#include "log.hpp"
 
 extern "C" {
 #include <avr_uart.h>  // avr_uart_t, UART_IRQ_*, AVR_IOCTL_UART_*
@@ -17,30 +12,30 @@ extern "C" {
 
 namespace cart2d {
 
-constexpr size_t kQueueCap = 64 * 1024;  // bytes the link holds per direction before dropping
+constexpr double kQueueCapBytes = 64 * 1024;  // host bytes the line holds before dropping
 
 UartLink::~UartLink() {
-  if (master_fd_ >= 0) close(master_fd_);
-  if (slave_fd_ >= 0) close(slave_fd_);
+  // The MCU outlives us (the Rig destroys us first): take our module out of its list.
+  if (!avr_) return;
+  for (avr_io_t** p = &avr_->io_port; *p; p = &(*p)->next) {
+    if (*p == &reset_hook_.io) {
+      *p = reset_hook_.io.next;
+      break;
+    }
+  }
 }
 
-bool UartLink::open_pty(std::string* error) {
-  char name[256] = {0};
-  if (openpty(&master_fd_, &slave_fd_, name, nullptr, nullptr) != 0) {
-    *error = std::string("openpty: ") + std::strerror(errno);
-    return false;
+bool UartLink::open_pty(std::string* error) { return pty_.open(error); }
+
+void UartLink::on_avr_reset(avr_io_t* io) { reinterpret_cast<ResetHook*>(io)->self->rearm_after_reset(); }
+
+std::vector<PtyPort::Change> UartLink::poll_host() {
+  std::vector<PtyPort::Change> changes = pty_.poll_host();
+  for (const PtyPort::Change c : changes) {
+    if (c == PtyPort::Change::kOpened) ++stats_.host_opens;
+    host_out_.clear();  // nothing for a host that has gone
   }
-  termios tio;
-  tcgetattr(slave_fd_, &tio);
-  cfmakeraw(&tio);
-  cfsetispeed(&tio, B115200);
-  cfsetospeed(&tio, B115200);
-  tcsetattr(slave_fd_, TCSANOW, &tio);
-  fcntl(master_fd_, F_SETFL, fcntl(master_fd_, F_GETFL) | O_NONBLOCK);
-  fcntl(master_fd_, F_SETFD, FD_CLOEXEC);
-  fcntl(slave_fd_, F_SETFD, FD_CLOEXEC);
-  pty_path_ = name;
-  return true;
+  return changes;
 }
 
 void UartLink::attach(avr_t* avr, uint64_t seed) {
@@ -54,22 +49,41 @@ void UartLink::attach(avr_t* avr, uint64_t seed) {
     if (std::strcmp(io->kind, "uart") == 0 && reinterpret_cast<avr_uart_t*>(io)->name == '0')
       uart_ = reinterpret_cast<avr_uart_t*>(io);  // avr_uart_t begins with its avr_io_t
   }
-  irq_input_ = avr_io_getirq(avr_, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
+  adapter_.set_cpu_hz(avr_->frequency);
+  usart_rx_.attach(avr_, uart_, &adapter_.to_mcu());
+  reset_hook_.io.kind = "cart2d_uart_link";
+  reset_hook_.io.reset = on_avr_reset;
+  reset_hook_.self = this;
+  avr_register_io(avr_, &reset_hook_.io);
   avr_irq_register_notify(avr_io_getirq(avr_, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT), on_output, this);
-  avr_irq_register_notify(avr_io_getirq(avr_, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF), on_xoff, this);
 }
 
-uint64_t UartLink::frame_cycles() const {
+void UartLink::set_adapter(const AdapterSettings& s) {
+  adapter_.set_settings(s, avr_ ? static_cast<double>(avr_->cycle) : 0.0);
+}
+
+uint64_t UartLink::bit_cycles() const {
   const uint8_t* d = avr_->data;
   const unsigned ubrr = d[m328p::kUBRR0L] | ((d[m328p::kUBRR0H] & 0x0Fu) << 8);
   const bool u2x = (d[m328p::kUCSR0A] >> m328p::kU2X0) & 1;
-  const unsigned ucsz = ((d[m328p::kUCSR0C] >> m328p::kUCSZ00) & 0x3u) | (((d[m328p::kUCSR0B] >> m328p::kUCSZ02) & 1u) << 2);
-  static const unsigned kDataBits[8] = {5, 6, 7, 8, 8, 8, 8, 9};
-  const unsigned parity = (d[m328p::kUCSR0C] >> m328p::kUPM01) & 1u;
-  const unsigned stop = 1 + ((d[m328p::kUCSR0C] >> m328p::kUSBS0) & 1u);
-  // Datasheet §19.3.1: bit time = (UBRR + 1)·16 cycles, ·8 with U2X.
-  return static_cast<uint64_t>(ubrr + 1) * (u2x ? 8 : 16) * (1 + kDataBits[ucsz] + parity + stop);
+  return static_cast<uint64_t>(ubrr + 1) * (u2x ? 8 : 16);  // datasheet §19.3.1
 }
+
+FrameFormat UartLink::tx_format() const {
+  const uint8_t* d = avr_->data;
+  const unsigned ucsz = ((d[m328p::kUCSR0C] >> m328p::kUCSZ00) & 0x3u) | (((d[m328p::kUCSR0B] >> m328p::kUCSZ02) & 1u) << 2);
+  FrameFormat f;
+  f.data_bits = ucsz < 4 ? 5 + static_cast<int>(ucsz) : 8;  // 9-bit characters: not modelled
+  const bool parity = (d[m328p::kUCSR0C] >> m328p::kUPM01) & 1;
+  const bool odd = (d[m328p::kUCSR0C] >> m328p::kUPM00) & 1;
+  f.parity = !parity ? Parity::kNone : odd ? Parity::kOdd : Parity::kEven;
+  f.stop_bits = 1 + ((d[m328p::kUCSR0C] >> m328p::kUSBS0) & 1);
+  return f;
+}
+
+uint64_t UartLink::frame_cycles() const { return bit_cycles() * static_cast<uint64_t>(tx_format().bits()); }
+
+double UartLink::mcu_baud() const { return static_cast<double>(avr_->frequency) / static_cast<double>(bit_cycles()); }
 
 void UartLink::correct_simavr_timing() {
   if (uart_) uart_->cycles_per_byte = frame_cycles();
@@ -79,120 +93,115 @@ void UartLink::on_output(avr_irq_t*, uint32_t value, void* param) {
   auto* self = static_cast<UartLink*>(param);
   // Raised from simavr's UDR write, before it schedules its TX-complete timer.
   self->correct_simavr_timing();
-  const uint64_t frame = self->frame_cycles();
-  const uint64_t start = self->avr_->cycle > self->tx_line_free_cycle_ ? self->avr_->cycle : self->tx_line_free_cycle_;
-  self->tx_line_free_cycle_ = start + frame;
+  const FrameFormat format = self->tx_format();
+  const uint64_t bit = self->bit_cycles();
+  const uint64_t start = std::max(self->avr_->cycle, self->tx_line_free_cycle_);
+  self->tx_line_free_cycle_ = start + bit * static_cast<uint64_t>(format.bits());
   ++self->stats_.tx_bytes;
   uint8_t byte = static_cast<uint8_t>(value);
   if (self->rng_tx_.chance(self->faults_.uart_tx_drop)) {
     ++self->stats_.tx_dropped;
-    return;
+    return;  // the line stays idle for its frame
   }
   if (self->rng_tx_.chance(self->faults_.uart_tx_corrupt)) {
-    byte ^= static_cast<uint8_t>(1u << self->rng_tx_.below(8));
+    byte ^= static_cast<uint8_t>(1u << self->rng_tx_.below(static_cast<uint32_t>(format.data_bits)));
     ++self->stats_.tx_corrupted;
   }
-  if (self->tx_queue_.size() >= kQueueCap) {
-    ++self->stats_.host_overflow;
+  LineWaveform::Frame f;
+  f.start = static_cast<double>(start);
+  f.bit = static_cast<double>(bit);
+  f.bits = static_cast<uint8_t>(format.bits());
+  f.levels = frame_levels(byte, format);
+  self->adapter_.mcu_sent(f);
+}
+
+void UartLink::send_to_mcu(uint8_t byte) {
+  const double now = static_cast<double>(avr_->cycle);
+  const double frame = adapter_.bit_cycles() * 10.0;
+  if (adapter_.to_mcu_idle_at() - now > kQueueCapBytes * frame) {
+    ++stats_.host_overflow;
     return;
   }
-  self->tx_queue_.emplace_back(start + frame, byte);
+  if (rng_rx_.chance(faults_.uart_rx_drop)) {
+    ++stats_.rx_dropped;
+    adapter_.send_nothing(now);  // the byte's time on the wire passes all the same
+    return;
+  }
+  if (rng_rx_.chance(faults_.uart_rx_corrupt)) {
+    byte ^= static_cast<uint8_t>(1u << rng_rx_.below(8));
+    ++stats_.rx_corrupted;
+  }
+  ++stats_.rx_line_bytes;
+  adapter_.send(byte, now);
 }
 
-void UartLink::on_xoff(avr_irq_t*, uint32_t value, void* param) { static_cast<UartLink*>(param)->xoff_ = value != 0; }
-
-void UartLink::start_pump() {
-  if (pumping_ || rx_queue_.empty() || !avr_) return;
-  pumping_ = true;
-  const uint64_t at = line_free_cycle_ > avr_->cycle ? line_free_cycle_ : avr_->cycle;
-  avr_cycle_timer_register(avr_, at - avr_->cycle, rx_pump, this);
+void UartLink::line_changed() {
+  usart_rx_.line_changed();
+  forget_used_line();
 }
 
-uint64_t UartLink::rx_pump(avr_t*, uint64_t when, void* param) {
-  auto* self = static_cast<UartLink*>(param);
-  const uint64_t frame = self->frame_cycles();
-  if (self->rx_queue_.empty()) {
-    self->pumping_ = false;
-    return 0;
-  }
-  if (self->xoff_) return when + frame;  // receiver FIFO full: the host waits (flow control)
-  uint8_t byte = self->rx_queue_.front();
-  self->rx_queue_.pop_front();
-  self->line_free_cycle_ = when + frame;
-  if (self->rng_rx_.chance(self->faults_.uart_rx_drop)) {
-    ++self->stats_.rx_dropped;
-    return when + frame;  // the byte's time on the wire passes all the same
-  }
-  if (self->rng_rx_.chance(self->faults_.uart_rx_corrupt)) {
-    byte ^= static_cast<uint8_t>(1u << self->rng_rx_.below(8));
-    ++self->stats_.rx_corrupted;
-  }
-  ++self->stats_.rx_bytes;
-  self->correct_simavr_timing();  // before simavr schedules its RXC timer with it
-  avr_raise_irq(self->irq_input_, byte);
-  return when + frame;
+void UartLink::forget_used_line() {
+  const double now = static_cast<double>(avr_->cycle);
+  adapter_.forget_to_mcu_before(std::min(usart_rx_.needed_from(), now));
 }
 
 void UartLink::rearm_after_reset() {
-  // avr_reset() dropped our pump timer and emptied the receiver; bytes still queued on the host
-  // side go on arriving (the sender does not know the MCU reset).
-  pumping_ = false;
-  xoff_ = false;
-  line_free_cycle_ = 0;
-  start_pump();
+  // avr_reset() cleared the registers and our timers; what the host sent goes on arriving (the
+  // sender does not know the MCU reset), and the frame being sent stops after its current bit.
+  // Called from within avr_reset() (before simavr's own UART reset, its list being in reverse
+  // order of registration) and again by the Rig: doing it twice changes nothing.
+  usart_rx_.after_reset();
+  adapter_.mcu_line_released(static_cast<double>(avr_->cycle));
+  tx_line_free_cycle_ = avr_->cycle;
 }
 
 void UartLink::read_host() {
-  if (master_fd_ < 0) return;
-  uint8_t buf[4096];
-  for (;;) {
-    const ssize_t n = read(master_fd_, buf, sizeof buf);
-    if (n <= 0) break;
-    for (ssize_t i = 0; i < n; ++i) {
-      if (rx_queue_.size() >= kQueueCap) {
-        ++stats_.host_overflow;
-        continue;
-      }
-      rx_queue_.push_back(buf[i]);
-    }
-  }
-  start_pump();
+  std::string in;
+  pty_.read(&in);
+  if (in.empty()) return;
+  for (const char c : in) send_to_mcu(static_cast<uint8_t>(c));
+  line_changed();
 }
 
 void UartLink::inject(const std::string& bytes) {
-  for (const char c : bytes) rx_queue_.push_back(static_cast<uint8_t>(c));
-  start_pump();
+  for (const char c : bytes) send_to_mcu(static_cast<uint8_t>(c));
+  line_changed();
 }
 
-void UartLink::release_finished(uint64_t now_cycle, std::string* out) {
-  while (!tx_queue_.empty() && tx_queue_.front().first <= now_cycle) {
-    out->push_back(static_cast<char>(tx_queue_.front().second));
-    tx_queue_.pop_front();
-  }
-}
-
-std::string UartLink::take_output(uint64_t now_cycle) {
+std::string UartLink::take_output(uint64_t now_cycle, std::vector<double>* ready) {
   std::string out;
-  release_finished(now_cycle, &out);
+  adapter_.collect(static_cast<double>(now_cycle), &out, ready);
   return out;
 }
 
 void UartLink::write_host(uint64_t now_cycle) {
-  release_finished(now_cycle, &host_out_);
-  if (master_fd_ < 0) {
-    host_out_.clear();
+  std::string out;
+  adapter_.collect(static_cast<double>(now_cycle), &out);
+  forget_used_line();
+  if (!pty_.is_open()) return;
+  if (!pty_.host_attached()) {
+    stats_.tx_no_host += out.size();  // the adapter drops what no host reads
     return;
   }
-  while (!host_out_.empty()) {
-    const ssize_t n = write(master_fd_, host_out_.data(), host_out_.size());
-    if (n <= 0) break;
-    host_out_.erase(0, static_cast<size_t>(n));
+  host_out_ += out;
+  pty_.write(&host_out_);
+  // The host does not read: keep the newest bytes only, as a UART with no listener loses them anyway.
+  const size_t cap = static_cast<size_t>(kQueueCapBytes);
+  if (host_out_.size() > cap) {
+    stats_.host_overflow += host_out_.size() - cap;
+    host_out_.erase(0, host_out_.size() - cap);
   }
-  // Nobody reading: keep the newest bytes only, as a UART with no listener loses them anyway.
-  if (host_out_.size() > kQueueCap) {
-    stats_.host_overflow += host_out_.size() - kQueueCap;
-    host_out_.erase(0, host_out_.size() - kQueueCap);
-  }
+}
+
+UartLink::Stats UartLink::stats() const {
+  Stats s = stats_;
+  const UsartReceiver::Stats& r = usart_rx_.stats();
+  s.rx_bytes = r.frames;
+  s.rx_overruns = r.overruns;
+  s.rx_frame_errors = r.frame_errors;
+  s.rx_parity_errors = r.parity_errors;
+  s.tx_frame_errors = adapter_.stats().frame_errors;
+  return s;
 }
 
 }  // namespace cart2d

@@ -232,7 +232,9 @@ TEST_F(ResetTest, WriteOnlyModeTakes1_8msAndCanOnlyClearBits) {
   rig_.uart().inject("o");
   const uint64_t start = until_eepe(true, 0.01, 1);
   const uint64_t end = until_eepe(false, 0.01, 1);
-  EXPECT_NEAR(static_cast<double>(end - start), 28800.0, 50.0);  // 1.8 ms
+  // Sampled between instructions: while the program sleeps the next look comes at the next
+  // simulator event (the USART's bit sampling among them), up to ~100 cycles after the change.
+  EXPECT_NEAR(static_cast<double>(end - start), 28800.0, 100.0);  // 1.8 ms
   EXPECT_EQ(eeprom_at(0x10), 0x5A & 0x0F);
 }
 

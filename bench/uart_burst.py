@@ -1,0 +1,129 @@
+"""Request bursts through the simulator's strict UART (sim/README.md, "UART model"): the host
+streams at 115 200 baud with no flow control into the Nano's two-byte receive buffer. Prints,
+for each burst, what the USART received and lost (data overruns), what the firmware counted
+as bad packets, and how many replies came back; then the round trip of one request in
+simulated time for a few USB-serial adapters. `python -m bench.uart_burst`.
+
+Each run: a paused simulator, the port opened (the DTR reset) and 0.2 s of boot, optionally a
+GOTO under way (the heaviest control ticks), then the whole burst written at once and 1 s of
+simulated time stepped 1 ms at a time while the replies are read.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from bench.firmware import F_CPU, Port, call, paused_sim
+from cart2d.protocol import encode_request
+from cart2d.simulator import SimOptions, Simulator
+from cart2d.spec import load_spec
+
+
+@dataclass
+class Burst:
+    name: str
+    requests: list[tuple[str, tuple[float, ...]]]
+    driving: bool = False
+
+
+def bursts() -> list[Burst]:
+    heartbeats: list[tuple[str, tuple[float, ...]]] = [("HEARTBEAT", ())] * 100
+    points = tuple(v for i in range(15) for v in (0.1 * (i + 1), 0.4 + 0.2 * (i % 2)))
+    path = [("WAIT_XY_ARRAY", (15.0, *points))]
+    return [
+        Burst("100 HEARTBEAT, idle", heartbeats),
+        Burst("100 HEARTBEAT, driving", heartbeats, driving=True),
+        Burst("WAIT_XY_ARRAY, 31 args, idle", path),
+        Burst("WAIT_XY_ARRAY, 31 args, driving", path, driving=True),
+        Burst("10 x WAIT_XY_ARRAY, driving", path * 10, driving=True),
+    ]
+
+
+def run(burst: Burst) -> dict[str, Any]:
+    spec = load_spec()
+    with tempfile.TemporaryDirectory() as tmp, paused_sim(tmp) as sim:
+        port = Port(sim.pty, seed=0)  # the open resets the MCU (DTR), at t = 0 while paused
+        sim.run_for(0.2)
+        if burst.driving:
+            call(sim, port, "GOTO", 1.5, 0.3)
+            sim.run_for(0.3)
+        before_status = call(sim, port, "STATUS")
+        before = sim.control("stats")["stats"]["uart"]
+        # Written while paused: the simulator reads it all at one instant and the adapter sends
+        # it back to back.
+        seqs = [port.send(command, *args) for command, args in burst.requests]
+        data = b"".join(encode_request(0, spec.code(c), a) for c, a in burst.requests)  # for its length
+        sim.run_for(0.001)
+        for _ in range(1000):
+            sim.run_for(0.001)
+            port.poll()
+        answered = sum(1 for s in set(seqs) if s in port.replies)
+        after = sim.control("stats")["stats"]["uart"]
+        status = call(sim, port, "STATUS")
+        port.close()
+    return {
+        "burst": burst.name,
+        "bytes": len(data),
+        "line_ms": len(data) * 10 / 115200 * 1000,  # at the host's 115 200 baud
+        "usart_received": after["rx_bytes"] - before["rx_bytes"],
+        "overruns": after["rx_overruns"] - before["rx_overruns"],
+        "frame_errors": after["rx_frame_errors"] - before["rx_frame_errors"],
+        "bad_packets": int(status[7] - before_status[7]),
+        "replies": f"{answered}/{len(set(seqs))}",
+        "replies_dropped": int(status[14] - before_status[14]) if len(status) > 14 else "n/a",
+        "cpu_max_pct": int(status[6]),
+    }
+
+
+ADAPTERS: dict[str, dict[str, Any]] = {
+    "none (0 ms)": {},
+    "CH340-like, 1 ms each way": {"usb_latency_ms": (1.0, 1.0)},
+    "FT232R, 16 ms latency timer, 1 ms each way": {
+        "usb_latency_ms": (1.0, 1.0),
+        "ftdi_latency_timer_ms": 16.0,
+    },
+}
+
+
+def round_trip_ms(adapter: dict[str, Any], command: str = "STATUS", tries: int = 10) -> list[float]:
+    """Simulated ms from writing a request to reading its whole reply (CPU cycles from the
+    stats; stepped 0.1 ms at a time, and a sleeping MCU runs on to its next event, so each
+    figure may be up to one 0.25 ms physics step late)."""
+    times = []
+    with tempfile.TemporaryDirectory() as tmp:
+        options = SimOptions(speed="max", eeprom=Path(tmp) / "eeprom.bin", quiet=True, paused=True, **adapter)
+        with Simulator(options) as sim:
+            port = Port(sim.pty, seed=0)
+            sim.run_for(0.2)
+            for k in range(tries):
+                sim.run_for(0.0037 * (k + 1))  # a different phase of the ticks and timers each time
+                start = sim.control("stats")["stats"]["cycles"]
+                seq = port.send(command)
+                while seq not in port.replies:
+                    sim.run_for(0.0001)
+                    port.poll()
+                times.append((sim.control("stats")["stats"]["cycles"] - start) / F_CPU * 1000)
+            port.close()
+    return times
+
+
+def main() -> None:
+    rows = [run(b) for b in bursts()]
+    keys = list(rows[0])
+    print("| " + " | ".join(keys) + " |")
+    print("|" + "---|" * len(keys))
+    for r in rows:
+        print("| " + " | ".join(f"{r[k]:.1f}" if isinstance(r[k], float) else str(r[k]) for k in keys) + " |")
+    print()
+    print("| adapter | STATUS round trip, ms (min / median / max of 10) |")
+    print("|---|---|")
+    for name, adapter in ADAPTERS.items():
+        t = sorted(round_trip_ms(adapter))
+        print(f"| {name} | {t[0]:.1f} / {t[len(t) // 2]:.1f} / {t[-1]:.1f} |")
+
+
+if __name__ == "__main__":
+    main()
