@@ -572,18 +572,22 @@ class Gateway:
             self._wake.clear()
             if self._stop.is_set() or not self.link.connected.is_set():
                 continue
+            with self._lock:  # a STATUS asked for before a new path or routine says nothing about it
+                mission, routine = self.mission, self.routine
             try:
                 status = self.read_status()
-                self._follow(status)
+                self._follow(status, mission, routine)
             except (LinkError, CommandRefused):
                 continue  # the link is reconnecting: the firmware keeps driving on its own
 
-    def _follow(self, status: firmware.Status) -> None:
+    def _follow(self, status: firmware.Status, mission: Mission, routine: Routine) -> None:
+        """Ends `mission` or `routine` (those running when `status` was asked for) when `status`
+        shows their end. A path or routine started while the STATUS was on its way is a new
+        object: the stale IDLE of before it must not end it."""
         outcome = status.path_outcome()
         with self._lock:
-            if outcome is not None and self.mission.state == "driving":
+            if outcome is not None and self.mission is mission and mission.state == "driving":
                 self._end_mission("failed" if outcome else "arrived", outcome)
-            routine = self.routine
         if routine.state != "running" or status.mode == "RESET_ROUTINE":
             return
         pose = self._pose()
