@@ -165,7 +165,8 @@ def run(out: Path, quick: bool) -> Section:
     md.append(
         "Requests the host sends without waiting for replies (the gateway never does: one request "
         "outstanding) wait in the firmware's 64-byte receive ring while the 144-byte transmit ring "
-        "drains; what the ring cannot hold is lost and counted (bad packets), no reply is dropped.\n"
+        "drains; what the ring cannot hold is lost and counted (STATUS rx_errors: bytes the ring "
+        "lost and packets that failed their CRC), and no reply is dropped.\n"
     )
     md.append(
         table(
@@ -174,10 +175,11 @@ def run(out: Path, quick: bool) -> Section:
         )
     )
     md.append(
-        "The direct figure is the line itself at 115 200 baud (0.6 ms out, 5.9 ms back) plus the wait "
-        "for the next control tick's end; an FTDI chip holds the reply until its latency timer runs "
-        "out (16 ms by default; `setserial /dev/ttyUSB0 low_latency` or the latency_timer file in "
-        "sysfs sets 1 ms).\n"
+        "The direct figure is mostly the line at 115 200 baud (0.6 ms out, 5.9 ms for the 68 bytes "
+        "back); the slowest tries waited behind a telemetry frame (72 bytes, 6.3 ms) already on its "
+        "way. An FTDI chip holds the reply until its latency timer runs out (16 ms by default; "
+        "`setserial /dev/ttyUSB0 low_latency`, or 1 in /sys/bus/usb-serial/devices/ttyUSB0/latency_timer, "
+        "makes it 1 ms)\n"
     )
     md.append(f"\n_{'quick' if quick else 'full'} mode, {time.monotonic() - started:.0f} s._\n")
     return Section(

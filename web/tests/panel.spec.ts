@@ -643,7 +643,9 @@ test("the gateway panel: network, settings file, soft reset, firmware update; ba
   // the new firmware starts at (0, 0, 0): the update's restart is told as the gateway's doing
   await expect(page.locator("#reset-notice")).toBeVisible();
   await expect(page.locator("#reset-notice-text")).toContainText("as the gateway asked (a firmware update)");
-  await expect(page.locator("#reset-notice-text")).toContainText("Its pose restarted at (0, 0, 0).");
+  // The new simulator powers up, then the link's opening resets it (DTR): whether the pose then
+  // comes back from RAM depends on whether the firmware had booted in between. Untrusted either way.
+  await expect(page.locator("#reset-notice-text")).toContainText("No goal is planned from it until you");
   await page.locator("#gw-title").locator("..").screenshot({ path: `${SHOTS}/gateway.png` });
   expect(w.requests.filter((r) => r.startsWith("PUT") || r.startsWith("POST"))).toEqual([
     "POST /api/settings/file",
