@@ -154,7 +154,7 @@ def run(out: Path, quick: bool) -> Section:
                 "USART received",
                 "overruns",
                 "framing errors",
-                "bad packets",
+                "rx_errors",
                 "replies",
                 "replies dropped",
                 "CPU max %",
