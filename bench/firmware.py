@@ -41,10 +41,10 @@ import matplotlib.pyplot as plt
 import serial
 
 from bench.common import Section, percentile, section_main, spread, table
-from cart2d.firmware import POINTS_PER_FRAME
 from cart2d.link import Link
+from cart2d.link.firmware import POINTS_PER_FRAME
+from cart2d.link.protocol import Decoder, Reply, Telemetry, decode_reply, encode_request
 from cart2d.params import robot
-from cart2d.protocol import Decoder, Reply, Telemetry, decode_reply, encode_request
 from cart2d.simulator import SimOptions, Simulator, default_firmware
 from cart2d.spec import load_spec, repo_file
 from tools.firmware_size import CHIP_FLASH, FLASH_BUDGET, RAM_BUDGET, RAM_TOTAL, sections, usage

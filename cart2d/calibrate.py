@@ -48,9 +48,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Literal, Protocol
 
-from cart2d import firmware
-from cart2d.firmware import ControllerRestarted, ResetWatch
-from cart2d.link import CommandRefused, Link, LinkError
+from cart2d.link import CommandRefused, Link, LinkError, firmware
+from cart2d.link.firmware import ControllerRestarted, ResetWatch
 from cart2d.params import robot, setting_id
 from cart2d.simulator import SimOptions, Simulator, SimulatorError
 

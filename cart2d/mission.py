@@ -24,10 +24,9 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 from tqdm import tqdm
 
-from cart2d import firmware
 from cart2d.baseline import SEED_SETTINGS, seed_path
 from cart2d.gateway import Gateway, PoseUntrusted
-from cart2d.link import Link, LinkError
+from cart2d.link import Link, LinkError, firmware
 from cart2d.params import robot, setting_id
 from cart2d.planner import Grid, PlanError, Point, point_polyline_distance, polyline_length
 from cart2d.simulator import SimOptions, Simulator, SimulatorError

@@ -27,7 +27,7 @@ from schemathesis import Case
 from schemathesis.config import SchemathesisConfig
 from schemathesis.schemas import BaseSchema
 
-from cart2d import firmware
+from cart2d.link import firmware
 from cart2d.spec import load_spec, repo_file
 from tests.conftest import wait_for
 from tests.test_server import Rig

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from cart2d import firmware
-from cart2d.link import CommandRefused, Link
+from cart2d.link import CommandRefused, Link, firmware
 from cart2d.params import settings_table
 from cart2d.simulator import Simulator
 from tests.conftest import wait_idle

@@ -14,9 +14,9 @@ from typing import Any
 import pytest
 import serial
 
-from cart2d.firmware import read_status
 from cart2d.link import Link
-from cart2d.protocol import Decoder, Packet, Reply, Telemetry, decode_reply, encode_request
+from cart2d.link.firmware import read_status
+from cart2d.link.protocol import Decoder, Packet, Reply, Telemetry, decode_reply, encode_request
 from cart2d.simulator import Simulator
 from cart2d.spec import load_spec
 from tests.conftest import start_sim, wait_idle

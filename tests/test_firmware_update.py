@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from cart2d.flashing import APPLICATION_BYTES, check_hex
+from cart2d.link.flashing import APPLICATION_BYTES, check_hex
 from cart2d.simulator import default_firmware
 from tests.conftest import wait_for
 from tests.test_server import Rig

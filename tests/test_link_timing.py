@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 import serial
 
-from cart2d.link import RETRANSMIT_WINDOW_S, Link, LinkTimeout
-from cart2d.protocol import (
+from cart2d.link import Link, LinkTimeout
+from cart2d.link.protocol import (
     PARTIAL_MARGIN_S,
     Decoder,
     Packet,
@@ -24,6 +24,7 @@ from cart2d.protocol import (
     encode_request,
     encode_telemetry,
 )
+from cart2d.link.transport import RETRANSMIT_WINDOW_S
 from cart2d.spec import load_spec, load_vectors
 from tests.conftest import start_sim
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 import serial
 
-from cart2d.protocol import (
+from cart2d.link.protocol import (
     Decoder,
     Packet,
     Telemetry,

@@ -9,7 +9,7 @@ from pathlib import Path
 import serial
 
 from cart2d.link import Link
-from cart2d.protocol import encode_request
+from cart2d.link.protocol import encode_request
 from cart2d.simulator import Simulator
 from cart2d.spec import load_spec
 from tests.conftest import run_for, start_sim, wait_for, wait_idle

@@ -1,4 +1,4 @@
-// The gateway's API (cart2d/server.py, GET /openapi.json): the shapes the panel reads, and one
+// The gateway's API (cart2d/server/, GET /openapi.json): the shapes the panel reads, and one
 // fetch wrapper that turns every failure into a sentence a person can act on.
 
 export type Point = [number, number];
@@ -53,7 +53,7 @@ export interface Pose {
   theta: number;
 }
 
-/** A restart of the controller the gateway noticed (cart2d/gateway.py, ResetReport). */
+/** A restart of the controller the gateway noticed (cart2d/gateway/state.py, ResetReport). */
 export interface ResetReport {
   time: string; // ISO 8601, UTC
   cause: string[];

@@ -1,4 +1,4 @@
-// The notice after the controller restarted (cart2d/gateway.py): what happened, in the gateway's
+// The notice after the controller restarted (cart2d/gateway/): what happened, in the gateway's
 // words, and the three ways to give the gateway a pose it can plan from again: set the pose
 // (x, y, θ), run the reset routine, or accept the pose the firmware has. It sits above the page,
 // in the flow: everything else keeps working (stop, manual driving, the command form).

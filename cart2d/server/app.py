@@ -15,124 +15,34 @@ import json
 import logging
 from collections.abc import Awaitable, Callable
 from dataclasses import asdict
-from pathlib import Path
-from typing import Annotated, Any
+from typing import Any
 
 from fastapi import Depends, FastAPI, HTTPException, Request, Response, WebSocket, WebSocketDisconnect
 from fastapi.exception_handlers import http_exception_handler
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import HTMLResponse, JSONResponse
-from pydantic import BaseModel, ConfigDict, Field, JsonValue, field_validator
 from starlette.exceptions import HTTPException as StarletteHTTPException
-from starlette.routing import BaseRoute, Match, Mount
-from starlette.staticfiles import StaticFiles
-from starlette.types import Receive, Scope, Send
-from starlette.websockets import WebSocketClose
+from starlette.routing import Match
 
-from cart2d import firmware
 from cart2d.gateway import Gateway, PoseUntrusted
-from cart2d.link import CommandRefused, LinkError
+from cart2d.link import CommandRefused, LinkError, firmware
 from cart2d.planner import PlanError
-from cart2d.protocol import MAX_ARGS
+from cart2d.server.models import (
+    MAX_BODY_BYTES,
+    CommandIn,
+    DriveIn,
+    ObstacleIn,
+    PointIn,
+    PoseIn,
+    SettingIn,
+    errors,
+    inline_refs,
+)
+from cart2d.server.panel import MINIMAL_PAGE, PANEL_DIR, PanelFiles
 from cart2d.spec import load_spec
-from cart2d.store import GatewaySettings, Integer, NetworkSettings, parse_settings
+from cart2d.store import GatewaySettings, NetworkSettings, parse_settings
 
 log = logging.getLogger(__name__)
-
-PANEL_DIR = Path(__file__).parent / "panel"  # the built control panel (web/, `make panel`)
-MAX_BODY_BYTES = 256 * 1024  # the largest request: an imported settings file
-# Numbers the firmware accepts (docs/protocol.md): finite, magnitude below 2^20.
-Number = Annotated[float, Field(allow_inf_nan=False, gt=-1048576.0, lt=1048576.0)]
-
-
-class Strict(BaseModel):
-    # strict: no coercion, so `true` is not 1.0 m/s and "1" is not a number, as the schema says
-    model_config = ConfigDict(extra="forbid", strict=True)
-
-
-class Problem(BaseModel):
-    detail: str = Field(description="what is wrong, in a sentence")
-
-
-ERRORS = {
-    400: "the body is not readable (not UTF-8 JSON)",
-    401: "the access token is missing or wrong (a gateway bound off loopback)",
-    409: "the firmware refused the command (a value out of its range, busy, wrong mode), or the gateway "
-    "does not trust the pose since the controller restarted",
-    413: f"the request body is over {MAX_BODY_BYTES} bytes",
-    422: "the request is invalid, or (goals, obstacles) off the map, blocked or unreachable, or (a pose) "
-    "beyond the arena's walls",
-    503: "the robot is not reachable (link down, no reply)",
-}
-
-
-def errors(*codes: int) -> dict[int | str, dict[str, Any]]:
-    """OpenAPI `responses` for the error statuses an operation can answer, all {"detail": str}."""
-    return {code: {"model": Problem, "description": ERRORS[code]} for code in codes}
-
-
-# The commands of the generic form (codes 0..2 are reply statuses), without the COMMAND_ prefix.
-COMMAND_NAMES = sorted(c.name.removeprefix("COMMAND_") for c in load_spec().commands.values() if c.code > 2)
-COMMAND_ENUM: list[JsonValue] = list(COMMAND_NAMES)
-
-
-def inline_refs(schema: dict[str, Any]) -> dict[str, Any]:
-    """A pydantic JSON schema with its $defs inlined, for an OpenAPI document of its own."""
-    defs = schema.pop("$defs", {})
-
-    def resolve(node: Any) -> Any:
-        if isinstance(node, dict):
-            if "$ref" in node:
-                return resolve(defs[node["$ref"].rsplit("/", 1)[-1]])
-            return {key: resolve(value) for key, value in node.items()}
-        if isinstance(node, list):
-            return [resolve(value) for value in node]
-        return node
-
-    resolved: dict[str, Any] = resolve(schema)
-    return resolved
-
-
-class PointIn(Strict):
-    x: Number = Field(description="m")
-    y: Number = Field(description="m")
-
-
-class ObstacleIn(PointIn):
-    present: bool = Field(True, description="true adds the obstacle at the nearest node, false removes it")
-
-
-class CommandIn(Strict):
-    name: str = Field(
-        description="a command of docs/protocol.md, e.g. POSE or GOTO",
-        json_schema_extra={"enum": COMMAND_ENUM},
-    )
-    args: list[Number] = Field(default_factory=list, max_length=MAX_ARGS)
-
-    @field_validator("name")
-    @classmethod
-    def known_command(cls, name: str) -> str:
-        if name not in COMMAND_NAMES:
-            raise ValueError(f"unknown command {name!r}; GET /api/protocol lists them")
-        return name
-
-
-class PoseIn(Strict):
-    x: Number = Field(description="m")
-    y: Number = Field(description="m")
-    theta: float = Field(
-        allow_inf_nan=False, ge=-100.0, le=100.0, description="heading, rad (wrapped into [-pi, pi])"
-    )
-
-
-class DriveIn(Strict):
-    v: Number = Field(description="linear speed, m/s")
-    omega: Number = Field(description="angular speed, rad/s")
-
-
-class SettingIn(Strict):
-    id: Integer = Field(ge=0, le=255, description="stable setting id (config/robot.toml)")
-    value: Number
 
 
 async def read_body(request: Request) -> bytes:
@@ -507,46 +417,3 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
             return MINIMAL_PAGE
 
     return app
-
-
-MINIMAL_PAGE = """<!doctype html><html><head><meta charset="utf-8"><title>cart2d</title>
-<meta name="viewport" content="width=device-width, initial-scale=1"></head>
-<body style="font-family: sans-serif; max-width: 40em; margin: 2em auto">
-<h1>cart2d gateway</h1>
-<p>The control panel is on its way. Meanwhile the API is live:
-<a href="/docs">interactive API documentation</a>, <a href="/openapi.json">OpenAPI schema</a>.</p>
-<pre id="status">loading status...</pre>
-<script>
-async function refresh() {
-  const r = await fetch('/api/status');
-  document.getElementById('status').textContent = JSON.stringify(await r.json(), null, 2);
-}
-refresh(); setInterval(refresh, 1000);
-</script></body></html>
-"""
-
-
-class PanelFiles(StaticFiles):
-    """The panel's files, mounted at / after the API. The API keeps its own answers: a wrong
-    method on an API path is a 405 with its Allow (not a missing file), an unknown /api/ path a
-    404, a WebSocket to any path but /ws is closed."""
-
-    def __init__(self, *, directory: Path, api_routes: list[BaseRoute]) -> None:
-        super().__init__(directory=directory, html=True)
-        self.api_routes = api_routes
-
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http":
-            await WebSocketClose()(scope, receive, send)
-            return
-        routes = [r for r in self.api_routes if not isinstance(r, Mount)]
-        if any(route.matches(scope)[0] is Match.PARTIAL for route in routes):
-            raise StarletteHTTPException(405)  # the app's handler lists the allowed methods
-        path: str = scope["path"]
-        if path == "/api" or path.startswith("/api/"):
-            raise StarletteHTTPException(404)
-        if scope["method"] not in ("GET", "HEAD"):
-            response = JSONResponse({"detail": "Method Not Allowed"}, 405, headers={"Allow": "GET, HEAD"})
-            await response(scope, receive, send)
-            return
-        await super().__call__(scope, receive, send)

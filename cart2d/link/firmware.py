@@ -8,7 +8,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from cart2d.link import Link, LinkError
+from cart2d.link.transport import Link, LinkError
 from cart2d.params import settings_table
 from cart2d.spec import load_spec
 

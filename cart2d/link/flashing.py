@@ -17,7 +17,7 @@ from pathlib import Path
 
 from intelhex import IntelHex, IntelHexError
 
-from cart2d.link import Link
+from cart2d.link.transport import Link
 from cart2d.simulator import Simulator
 
 # ATmega328P: 32 KiB of flash, the top 512 bytes hold the Optiboot bootloader.

@@ -1,4 +1,4 @@
-"""The gateway: what the seed's ESP32 did, as one object the HTTP API (server.py) and the
+"""The gateway: what the seed's ESP32 did, as one object the HTTP API (cart2d/server/) and the
 command line use. It owns the link to the firmware, the map and its planner, the mission
 (idle / driving / arrived / failed) and the fan-out of live data to viewers.
 
@@ -8,7 +8,12 @@ backwards (telemetry's TICK going backwards makes it look at once). The first ST
 baseline: opening a Nano's port resets it. A restart ends any mission, is told to viewers and
 the log in words, and, unless the gateway asked for it and the firmware kept its pose, leaves
 the pose untrusted: no goal is planned from it until the user sets the pose, runs the reset
-routine or accepts the pose the firmware has."""
+routine or accepts the pose the firmware has.
+
+One class of ~570 lines on purpose: one lock guards the settings, the planner, the mission, the
+reset routine and the pose trust, and every method here keeps an invariant across them (a path
+is sent and its mission recorded together; a restart ends the mission and untrusts the pose
+together). What it keeps is in state.py."""
 
 from __future__ import annotations
 
@@ -19,15 +24,30 @@ import math
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict
 from typing import Any
 
-from cart2d import firmware
-from cart2d.flashing import Flasher
-from cart2d.link import CommandRefused, Link, LinkError
+from cart2d.gateway.state import (
+    BUSY_POLL_S,
+    RESET_POSE_SETTINGS,
+    ROUTINE_HEADING_TOLERANCE_RAD,
+    ROUTINE_POSE_TOLERANCE_M,
+    STATUS_POLL_S,
+    WAYS_OUT,
+    Mission,
+    PathTooLong,
+    PoseOutsideArena,
+    PoseTrust,
+    PoseUntrusted,
+    ResetReport,
+    Routine,
+    pose_text,
+)
+from cart2d.link import CommandRefused, Link, LinkError, firmware
+from cart2d.link.flashing import Flasher
+from cart2d.link.protocol import Reply, Telemetry
 from cart2d.params import footprint_radius_m, planning_radius_m, robot, setting_id
-from cart2d.planner import Grid, Plan, PlanError, Planner, polyline_length
-from cart2d.protocol import Reply, Telemetry
+from cart2d.planner import Grid, Plan, Planner, polyline_length
 from cart2d.simulator import Simulator, SimulatorError
 from cart2d.smoothing import round_corners
 from cart2d.spec import load_spec
@@ -36,79 +56,6 @@ from cart2d.store import GatewaySettings, MapSettings, Store
 log = logging.getLogger(__name__)
 
 Listener = Callable[[dict[str, Any]], None]
-
-
-class PathTooLong(PlanError):
-    """More waypoints than the firmware's buffer holds."""
-
-
-class PoseOutsideArena(PlanError):
-    """A pose the user gave that lies beyond the arena's walls."""
-
-
-class PoseUntrusted(RuntimeError):
-    """No goal is planned from a pose the gateway knows may be wrong (after an MCU restart)."""
-
-
-STATUS_POLL_S = 0.25  # STATUS reads while nothing moves: a restart is noticed within this
-BUSY_POLL_S = 0.1  # while a mission or the reset routine runs
-# How far the pose may lie from the configured reset pose once the reset routine ended for it
-# to count as squared up (the cart rests against the wall; a stop before that leaves it far off).
-ROUTINE_POSE_TOLERANCE_M = 0.005
-ROUTINE_HEADING_TOLERANCE_RAD = 0.01
-RESET_POSE_SETTINGS = ("reset_x_m", "reset_y_m", "reset_theta_rad")
-WAYS_OUT = "set the pose, run the reset routine, or accept the pose the firmware has"
-
-
-def pose_text(x: float, y: float, theta: float) -> str:
-    return f"({x:.3f} m, {y:.3f} m, {math.degrees(theta):.1f}°)"
-
-
-@dataclass(frozen=True)
-class ResetReport:
-    """An MCU restart the gateway noticed, for the log, /api/status and viewers."""
-
-    time: str  # when the gateway noticed it, ISO 8601 UTC
-    cause: list[str]  # STATUS reset_cause (docs/protocol.md, Reset causes)
-    cause_words: str
-    expected: bool  # the gateway caused it (a soft reset, a firmware update)
-    caused_by: str  # what the gateway did, if it did
-    boot_count: int
-    pose_restored: bool  # flag POSE_RESTORED: the pose at the reset, from RAM
-    pose: dict[str, float] | None  # the firmware's pose once it restarted
-    mission_ended: bool
-    message: str  # all of the above in sentences
-
-
-@dataclass(frozen=True)
-class PoseTrust:
-    trusted: bool = True
-    reason: str = ""  # why not, in words
-
-    def refusal(self) -> str:
-        return (
-            f"the pose is not trusted: {self.reason}; {WAYS_OUT} (POST /api/pose, "
-            "/api/pose/reset-routine or /api/pose/accept) before the next goal"
-        )
-
-
-@dataclass(frozen=True)
-class Routine:
-    """The reset routine as started through the gateway."""
-
-    state: str = "idle"  # idle | running | done | failed
-    words: str = ""
-    expected_pose: tuple[float, float, float] | None = None
-
-
-@dataclass
-class Mission:
-    state: str = "idle"  # idle | driving | arrived | failed
-    goal: tuple[float, float] | None = None
-    reason: str = ""
-    started_s: float = 0.0
-    ended_s: float = 0.0
-    plan: dict[str, Any] | None = field(default=None, repr=False)
 
 
 class Gateway:

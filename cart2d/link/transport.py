@@ -5,7 +5,7 @@ request that gets no reply within the timeout is retransmitted with the same seq
 which the firmware answers from memory instead of executing it twice; it remembers a request
 for 2 s, so a request is retransmitted only within RETRANSMIT_WINDOW_S of its first
 transmission. A reader thread decodes everything the firmware sends, and drops a partial
-packet that waited too long (cart2d/protocol.py, Decoder). If the port disappears (USB
+packet that waited too long (protocol.py, Decoder). If the port disappears (USB
 unplugged, simulator restarted) the link reopens it in the background; requests in the
 meantime fail with LinkDown.
 """
@@ -21,7 +21,15 @@ from collections.abc import Callable, Iterator, Sequence
 
 import serial
 
-from cart2d.protocol import Decoder, Packet, ProtocolError, Reply, Telemetry, decode_reply, encode_request
+from cart2d.link.protocol import (
+    Decoder,
+    Packet,
+    ProtocolError,
+    Reply,
+    Telemetry,
+    decode_reply,
+    encode_request,
+)
 from cart2d.spec import load_spec
 
 log = logging.getLogger(__name__)

@@ -1,0 +1,83 @@
+"""What the gateway knows besides the map: the mission, the reset routine as started through
+it, how far it trusts the pose, the restarts it noticed, and the errors that refuse a goal."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from cart2d.planner import PlanError
+
+
+class PathTooLong(PlanError):
+    """More waypoints than the firmware's buffer holds."""
+
+
+class PoseOutsideArena(PlanError):
+    """A pose the user gave that lies beyond the arena's walls."""
+
+
+class PoseUntrusted(RuntimeError):
+    """No goal is planned from a pose the gateway knows may be wrong (after an MCU restart)."""
+
+
+STATUS_POLL_S = 0.25  # STATUS reads while nothing moves: a restart is noticed within this
+BUSY_POLL_S = 0.1  # while a mission or the reset routine runs
+# How far the pose may lie from the configured reset pose once the reset routine ended for it
+# to count as squared up (the cart rests against the wall; a stop before that leaves it far off).
+ROUTINE_POSE_TOLERANCE_M = 0.005
+ROUTINE_HEADING_TOLERANCE_RAD = 0.01
+RESET_POSE_SETTINGS = ("reset_x_m", "reset_y_m", "reset_theta_rad")
+WAYS_OUT = "set the pose, run the reset routine, or accept the pose the firmware has"
+
+
+def pose_text(x: float, y: float, theta: float) -> str:
+    return f"({x:.3f} m, {y:.3f} m, {math.degrees(theta):.1f}°)"
+
+
+@dataclass(frozen=True)
+class ResetReport:
+    """An MCU restart the gateway noticed, for the log, /api/status and viewers."""
+
+    time: str  # when the gateway noticed it, ISO 8601 UTC
+    cause: list[str]  # STATUS reset_cause (docs/protocol.md, Reset causes)
+    cause_words: str
+    expected: bool  # the gateway caused it (a soft reset, a firmware update)
+    caused_by: str  # what the gateway did, if it did
+    boot_count: int
+    pose_restored: bool  # flag POSE_RESTORED: the pose at the reset, from RAM
+    pose: dict[str, float] | None  # the firmware's pose once it restarted
+    mission_ended: bool
+    message: str  # all of the above in sentences
+
+
+@dataclass(frozen=True)
+class PoseTrust:
+    trusted: bool = True
+    reason: str = ""  # why not, in words
+
+    def refusal(self) -> str:
+        return (
+            f"the pose is not trusted: {self.reason}; {WAYS_OUT} (POST /api/pose, "
+            "/api/pose/reset-routine or /api/pose/accept) before the next goal"
+        )
+
+
+@dataclass(frozen=True)
+class Routine:
+    """The reset routine as started through the gateway."""
+
+    state: str = "idle"  # idle | running | done | failed
+    words: str = ""
+    expected_pose: tuple[float, float, float] | None = None
+
+
+@dataclass
+class Mission:
+    state: str = "idle"  # idle | driving | arrived | failed
+    goal: tuple[float, float] | None = None
+    reason: str = ""
+    started_s: float = 0.0
+    ended_s: float = 0.0
+    plan: dict[str, Any] | None = field(default=None, repr=False)

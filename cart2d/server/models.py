@@ -1,0 +1,106 @@
+"""What the API takes and answers: the request bodies (strict: no coercion, bounded numbers and
+arrays, known names), the error body and the OpenAPI error responses."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from pydantic import BaseModel, ConfigDict, Field, JsonValue, field_validator
+
+from cart2d.link.protocol import MAX_ARGS
+from cart2d.spec import load_spec
+from cart2d.store import Integer
+
+MAX_BODY_BYTES = 256 * 1024  # the largest request: an imported settings file
+# Numbers the firmware accepts (docs/protocol.md): finite, magnitude below 2^20.
+Number = Annotated[float, Field(allow_inf_nan=False, gt=-1048576.0, lt=1048576.0)]
+
+
+class Strict(BaseModel):
+    # strict: no coercion, so `true` is not 1.0 m/s and "1" is not a number, as the schema says
+    model_config = ConfigDict(extra="forbid", strict=True)
+
+
+class Problem(BaseModel):
+    detail: str = Field(description="what is wrong, in a sentence")
+
+
+ERRORS = {
+    400: "the body is not readable (not UTF-8 JSON)",
+    401: "the access token is missing or wrong (a gateway bound off loopback)",
+    409: "the firmware refused the command (a value out of its range, busy, wrong mode), or the gateway "
+    "does not trust the pose since the controller restarted",
+    413: f"the request body is over {MAX_BODY_BYTES} bytes",
+    422: "the request is invalid, or (goals, obstacles) off the map, blocked or unreachable, or (a pose) "
+    "beyond the arena's walls",
+    503: "the robot is not reachable (link down, no reply)",
+}
+
+
+def errors(*codes: int) -> dict[int | str, dict[str, Any]]:
+    """OpenAPI `responses` for the error statuses an operation can answer, all {"detail": str}."""
+    return {code: {"model": Problem, "description": ERRORS[code]} for code in codes}
+
+
+# The commands of the generic form (codes 0..2 are reply statuses), without the COMMAND_ prefix.
+COMMAND_NAMES = sorted(c.name.removeprefix("COMMAND_") for c in load_spec().commands.values() if c.code > 2)
+COMMAND_ENUM: list[JsonValue] = list(COMMAND_NAMES)
+
+
+def inline_refs(schema: dict[str, Any]) -> dict[str, Any]:
+    """A pydantic JSON schema with its $defs inlined, for an OpenAPI document of its own."""
+    defs = schema.pop("$defs", {})
+
+    def resolve(node: Any) -> Any:
+        if isinstance(node, dict):
+            if "$ref" in node:
+                return resolve(defs[node["$ref"].rsplit("/", 1)[-1]])
+            return {key: resolve(value) for key, value in node.items()}
+        if isinstance(node, list):
+            return [resolve(value) for value in node]
+        return node
+
+    resolved: dict[str, Any] = resolve(schema)
+    return resolved
+
+
+class PointIn(Strict):
+    x: Number = Field(description="m")
+    y: Number = Field(description="m")
+
+
+class ObstacleIn(PointIn):
+    present: bool = Field(True, description="true adds the obstacle at the nearest node, false removes it")
+
+
+class CommandIn(Strict):
+    name: str = Field(
+        description="a command of docs/protocol.md, e.g. POSE or GOTO",
+        json_schema_extra={"enum": COMMAND_ENUM},
+    )
+    args: list[Number] = Field(default_factory=list, max_length=MAX_ARGS)
+
+    @field_validator("name")
+    @classmethod
+    def known_command(cls, name: str) -> str:
+        if name not in COMMAND_NAMES:
+            raise ValueError(f"unknown command {name!r}; GET /api/protocol lists them")
+        return name
+
+
+class PoseIn(Strict):
+    x: Number = Field(description="m")
+    y: Number = Field(description="m")
+    theta: float = Field(
+        allow_inf_nan=False, ge=-100.0, le=100.0, description="heading, rad (wrapped into [-pi, pi])"
+    )
+
+
+class DriveIn(Strict):
+    v: Number = Field(description="linear speed, m/s")
+    omega: Number = Field(description="angular speed, rad/s")
+
+
+class SettingIn(Strict):
+    id: Integer = Field(ge=0, le=255, description="stable setting id (config/robot.toml)")
+    value: Number
