@@ -81,8 +81,9 @@ def command_then_run(
 def started(tmp: Path, start: tuple[float, float, float]) -> tuple[Simulator, Link, Recorder]:
     sim = Simulator(SimOptions(speed="max", eeprom=tmp / "eeprom.bin", start=start, paused=True, quiet=True))
     sim.start()
-    sim.run_for(0.5)  # boot
     link = Link(sim.pty, timeout_s=2.0).open()
+    time.sleep(0.05)  # the simulator has seen the port open: the DTR reset, at t = 0 while paused
+    sim.run_for(0.5)  # the reset's time-out and the boot
     recorder = Recorder()
     assert sim.side is not None
     sim.side.subscribe(recorder)
