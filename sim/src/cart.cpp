@@ -10,13 +10,20 @@ void Cart::place(const Pose& pose) {
   probes_world_ = nullptr;
 }
 
+// A switch closes when its point is within travel of a wall or box, or when a corner presses the
+// bumper on its side: the bumper is a plate on the two switches, and the one nearer the push
+// carries the larger share of the force (lever rule); a push in the middle closes both.
 void Cart::sense(const World& world) {
   world.probes(body_.pose(), p_.geometry, &probes_);
   probes_world_ = &world;
+  probes_version_ = world.version();
   double gap_l = 1e9, gap_r = 1e9;
   for (const auto& probe : probes_) {
-    if (probe.feature == WallProbe::kSwitchLeft && probe.gap_m < gap_l) gap_l = probe.gap_m;
-    if (probe.feature == WallProbe::kSwitchRight && probe.gap_m < gap_r) gap_r = probe.gap_m;
+    const bool bumper = probe.feature == ContactProbe::kBumper;
+    if ((probe.feature == ContactProbe::kSwitchLeft || (bumper && probe.lateral_m >= 0.0)) && probe.gap_m < gap_l)
+      gap_l = probe.gap_m;
+    if ((probe.feature == ContactProbe::kSwitchRight || (bumper && probe.lateral_m <= 0.0)) && probe.gap_m < gap_r)
+      gap_r = probe.gap_m;
   }
   switch_l_ = gap_l <= p_.switch_travel_m;
   switch_r_ = gap_r <= p_.switch_travel_m;
@@ -31,7 +38,7 @@ void Cart::step(double h, double duty_l, double duty_r, const World& world) {
   // Contacts are speculative: a feature within reach this step may close its gap exactly to zero
   // (J·u ≥ −gap/h) but not beyond; one already inside a wall is pushed out over a few steps.
   // The last step's sense() measured them at this pose already.
-  if (probes_world_ != &world) world.probes(body_.pose(), p_.geometry, &probes_);
+  if (probes_world_ != &world || probes_version_ != world.version()) world.probes(body_.pose(), p_.geometry, &probes_);
   constraints_.clear();
   constexpr double kReachM = 0.02;
   constexpr double kPushOut = 0.2;  // fraction of a penetration removed per step

@@ -1,8 +1,10 @@
-// The physical cart: two motors, the body, its bumper switches and its contacts with the walls.
+// The physical cart: two motors, the body, its bumper switches and its contacts with the world's
+// walls and boxes.
 // Everything here is pure physics on a fixed step; the simavr parts feed it duties and read its
 // state, and tests drive it directly.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "body.hpp"
@@ -17,7 +19,7 @@ struct CartParams {
   MotorParams motor;
   BodyParams body;
   RobotGeometry geometry;
-  double switch_travel_m = params::sim::switch_travel_m;  // a switch closes when its point is this close to a wall
+  double switch_travel_m = params::sim::switch_travel_m;  // a switch closes when its point is this close to a wall or box
 };
 
 class Cart {
@@ -50,8 +52,8 @@ class Cart {
   double current_r_a() const { return current_r_a_; }
   bool switch_left() const { return switch_l_; }
   bool switch_right() const { return switch_r_; }
-  // The wall probes at the current pose (for contact statistics).
-  const std::vector<WallProbe>& probes() const { return probes_; }
+  // The contact probes at the current pose (for contact statistics).
+  const std::vector<ContactProbe>& probes() const { return probes_; }
   const CartParams& params() const { return p_; }
 
  private:
@@ -59,8 +61,10 @@ class Cart {
   Body body_;
   double current_l_a_ = 0.0, current_r_a_ = 0.0;
   bool switch_l_ = false, switch_r_ = false;
-  std::vector<WallProbe> probes_;
-  const World* probes_world_ = nullptr;  // probes_ hold for the current pose in this world (else null)
+  std::vector<ContactProbe> probes_;
+  // probes_ hold for the current pose in this world at this version (else probes_world_ is null)
+  const World* probes_world_ = nullptr;
+  uint64_t probes_version_ = 0;
   std::vector<VelocityConstraint> constraints_;
 };
 

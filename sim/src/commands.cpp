@@ -1,10 +1,10 @@
 // The side channel's control messages: one JSON object per line with a "type" and an optional
 // "id", each answered by {"type":"ack","id":...,"ok":true|false[,"error":...][, results]}.
 // A rejected message changes nothing.
-#include <cmath>  // std::isfinite, std::fabs, std::llround
+#include <cmath>  // std::isfinite, std::llround
 
 #include "log.hpp"
-#include "robot_params.hpp"  // params::body
+#include "robot_params.hpp"  // params::control
 #include "simulator.hpp"
 
 namespace cart2d {
@@ -73,10 +73,10 @@ std::string Simulator::dispatch(int client, const std::string& type, const json:
     return "";
   }
   if (type == "place") return cmd_place(msg);
-  if (type == "obstacles") {
-    const std::string error = cmd_obstacles(msg);
-    if (error.empty()) *extra = "\"count\":" + std::to_string(rig_.world().obstacles().size());
-    return error;
+  if (type == "obstacles" || type == "world" || type == "boxes") return cmd_world_change(type, msg, extra);
+  if (type == "world_get") {
+    *extra = "\"world\":" + world_json();
+    return "";
   }
   if (type == "faults") {
     Faults next = rig_.faults();
@@ -172,44 +172,8 @@ std::string Simulator::cmd_place(const json::Value& msg) {
   Pose p;
   if (!number_member(msg, "x", &p.x_m) || !number_member(msg, "y", &p.y_m)) return "place needs numbers x and y (m)";
   if (msg.find("theta") && !number_member(msg, "theta", &p.theta_rad)) return "theta must be a number (rad)";
-  const World& w = rig_.world();
-  const double r = params::body::footprint_radius_m;
-  if (p.x_m - r < w.x_min() || p.x_m + r > w.x_max() || p.y_m - r < w.y_min() || p.y_m + r > w.y_max())
-    return "the footprint would cross a wall (walls at x, y in [" + json::number(w.x_min()) + ", " +
-           json::number(w.x_max()) + "])";
+  if (const std::string what = footprint_overlap(p); !what.empty()) return "the footprint would overlap " + what;
   rig_.place(p);
-  return "";
-}
-
-std::string Simulator::cmd_obstacles(const json::Value& msg) {
-  const ArenaParams& arena = rig_.world().arena();
-  double step = arena.grid_step_m, ox = 0.0, oy = 0.0;
-  double size = arena.grid_nodes;
-  if (msg.find("step") && (!number_member(msg, "step", &step) || step <= 0.0 || step > 10.0))
-    return "step must be a positive number (m)";
-  if (const json::Value* o = msg.find("origin"); o && !pair_of(*o, &ox, &oy)) return "origin must be [x, y] (m)";
-  if (msg.find("size") && (!number_member(msg, "size", &size) || size < 1 || size > 1000 || size != std::floor(size)))
-    return "size must be a whole number of nodes per side";
-  std::vector<Obstacle> next;
-  if (const json::Value* cells = msg.find("cells")) {
-    if (!cells->is_array()) return "cells must be an array of [i, j] node indices";
-    for (const auto& c : cells->array) {
-      double i = 0, j = 0;
-      if (!pair_of(c, &i, &j) || i != std::floor(i) || j != std::floor(j) || i < 0 || j < 0 || i >= size || j >= size)
-        return "each cell must be [i, j] with whole i, j in [0, size)";
-      next.push_back({ox + i * step, oy + j * step, step / 2.0});
-    }
-  }
-  if (const json::Value* points = msg.find("points")) {
-    if (!points->is_array()) return "points must be an array of [x, y] cell centres (m)";
-    for (const auto& c : points->array) {
-      double x = 0, y = 0;
-      if (!pair_of(c, &x, &y) || std::fabs(x) > 1000 || std::fabs(y) > 1000) return "each point must be [x, y] (m)";
-      next.push_back({x, y, step / 2.0});
-    }
-  }
-  rig_.world().set_obstacles(std::move(next));
-  rig_.contacts().obstacles_changed();
   return "";
 }
 
@@ -336,7 +300,12 @@ std::string Simulator::stats_json() const {
                                .str())
       .add("collisions", static_cast<long long>(rig_.contacts().collisions()))
       .add("wall_contacts", static_cast<long long>(rig_.contacts().wall_contacts()))
+      .add("box_contacts", static_cast<long long>(rig_.contacts().box_contacts()))
       .add("obstacles", static_cast<unsigned long long>(rig_.world().obstacles().size()))
+      .add("boxes", static_cast<unsigned long long>(rig_.world().count(BoxKind::kBox)))
+      .add("walls", static_cast<unsigned long long>(rig_.world().count(BoxKind::kWall)))
+      .add("world_version", static_cast<unsigned long long>(rig_.world().version()))
+      .add("scheduled_changes", static_cast<unsigned long long>(scheduled_.size()))
       .add_raw("faults", faults_json(rig_.faults()))
       .add("eeprom", eeprom_.path())
       .add_raw("resets", resets_json())

@@ -22,8 +22,7 @@ bool Rig::init(const RigConfig& config, std::string* error) {
   eeprom_ = std::make_unique<EepromPart>(avr, config.seed);
   if (!eeprom_->attach(error)) return false;
 
-  world_.set_margin(config.arena_margin_m);
-  world_.set_grid(config.grid_nodes, config.grid_step_m);
+  world_.set_square_arena(ArenaParams{config.grid_step_m, config.grid_nodes, config.arena_margin_m});
   cart_ = std::make_unique<Cart>(CartParams{});
   cart_->place(config.start);
   cart_->sense(world_);
@@ -79,6 +78,8 @@ uint64_t Rig::physics_step(uint64_t when) {
   enc_r_->advance(adv.angle_r_rad, when, step_cycles_, qfaults_);
   switches_->set_pressed(cart_->switch_left(), cart_->switch_right());
 
+  if (!world_.deferred().empty()) world_.settle(cart_->pose(), cart_->params().geometry);
+
   const uint64_t end = when + step_cycles_;
   contacts_.update(static_cast<double>(end) / mcu_.frequency_hz(), world_, cart_->pose(), cart_->params().geometry,
                    cart_->probes());
@@ -112,6 +113,12 @@ void Rig::after_mcu_reset(ResetCause cause) {
 
 void Rig::place(const Pose& pose) {
   cart_->place(pose);
+  cart_->sense(world_);
+  switches_->set_pressed(cart_->switch_left(), cart_->switch_right());
+}
+
+void Rig::world_changed() {
+  world_.defer_overlapping(cart_->pose(), cart_->params().geometry);
   cart_->sense(world_);
   switches_->set_pressed(cart_->switch_left(), cart_->switch_right());
 }

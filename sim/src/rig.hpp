@@ -64,6 +64,9 @@ class Rig {
   void inject_hang() { mcu_.request_hang(); }
   // Teleports the cart (at rest); the wheels do not turn, so no encoder edges.
   void place(const Pose& pose);
+  // After any change to world()'s rectangles: those under the cart are deferred (World), the
+  // switches and contacts re-measured.
+  void world_changed();
   void set_faults(const Faults& faults);
   const Faults& faults() const { return faults_; }
   // Replaces the dynamics by a prescribed twist (tests); nullopt restores the dynamics.

@@ -1,5 +1,6 @@
 #include "simulator.hpp"
 
+#include <algorithm>  // std::min
 #include <cerrno>   // errno
 #include <climits>  // PATH_MAX
 #include <cstdio>   // std::rename
@@ -43,13 +44,11 @@ bool Simulator::init(std::string* error) {
   adapter.latency_timer_s = opts_.ftdi_latency_timer_ms / 1000.0;
   rig_.uart().set_adapter(adapter);
 
-  const World& w = rig_.world();
-  const double r = params::body::footprint_radius_m;
-  const Pose& s = opts_.start;
-  if (s.x_m - r < w.x_min() || s.x_m + r > w.x_max() || s.y_m - r < w.y_min() || s.y_m + r > w.y_max()) {
-    *error = "--start puts the cart's footprint outside the walls";
+  if (const std::string what = footprint_overlap(opts_.start); !what.empty()) {
+    *error = "--start puts the cart's footprint over " + what;
     return false;
   }
+  const double r = params::body::footprint_radius_m;
   if (opts_.arena_margin_m < r)
     LOG_WARN("arena margin %.3f m is below the footprint radius %.3f m: edge nodes are unreachable", opts_.arena_margin_m, r);
 
@@ -108,11 +107,13 @@ bool Simulator::parent_gone() {
   return ::read(STDIN_FILENO, &byte, 1) == 0;
 }
 
-// Runs one slice, or less if a "run" message asked to pause at an earlier cycle.
+// Runs one slice, or less if a "run" message asked to pause, or a world change is due, earlier.
 void Simulator::run_slice(uint64_t slice) {
   const uint64_t now = rig_.cycle();
-  const uint64_t left = pause_at_cycle_ > now ? pause_at_cycle_ - now : 0;
+  const uint64_t stop = std::min(pause_at_cycle_, next_change_cycle());
+  const uint64_t left = stop > now ? stop - now : 0;
   rig_.run_cycles(left < slice ? left : slice);
+  apply_due_changes();
   if (rig_.cycle() < pause_at_cycle_) return;
   paused_ = true;
   pause_at_cycle_ = UINT64_MAX;
@@ -121,13 +122,10 @@ void Simulator::run_slice(uint64_t slice) {
 
 void Simulator::publish_events() {
   for (const auto& e : rig_.contacts().take_events()) {
-    control_.broadcast(json::Object()
-                           .add("type", "event")
-                           .add("event", e.kind)
-                           .add("t", e.t_s)
-                           .add("x", e.x_m)
-                           .add("y", e.y_m)
-                           .str());
+    json::Object event;
+    event.add("type", "event").add("event", e.kind).add("t", e.t_s).add("x", e.x_m).add("y", e.y_m);
+    if (!e.id.empty()) event.add("id", e.id);
+    control_.broadcast(event.str());
   }
   for (const Rig::ResetEvent& r : rig_.take_reset_events()) {
     control_.broadcast(json::Object()

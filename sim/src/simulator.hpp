@@ -6,6 +6,7 @@
 
 #include <csignal>
 #include <string>
+#include <vector>
 
 #include "control_channel.hpp"
 #include "eeprom_store.hpp"
@@ -13,6 +14,7 @@
 #include "options.hpp"
 #include "pacer.hpp"
 #include "rig.hpp"
+#include "world_change.hpp"
 
 namespace cart2d {
 
@@ -38,7 +40,15 @@ class Simulator {
   std::string cmd_run(const json::Value& msg);
   void run_slice(uint64_t slice);
   static bool parent_gone();
-  std::string cmd_obstacles(const json::Value& msg);
+  // world_commands.cpp
+  std::string cmd_world_change(const std::string& type, const json::Value& msg, std::string* extra);
+  void apply_change(const std::string& type, const WorldChange& change);
+  void apply_due_changes();
+  uint64_t next_change_cycle() const;
+  std::string world_json() const;
+  std::string world_counts_json() const;
+  // "" if the cart's footprint at this pose overlaps nothing, else what it overlaps.
+  std::string footprint_overlap(const Pose& pose) const;
   std::string cmd_speed(const json::Value& msg);
   std::string cmd_truth_rate(int client, const json::Value& msg);
   std::string cmd_link(const json::Value& msg, std::string* extra);
@@ -64,6 +74,12 @@ class Simulator {
   bool paused_ = false;
   uint64_t pause_at_cycle_ = UINT64_MAX;  // set by a "run" message
   bool quit_ = false;
+  struct ScheduledChange {
+    uint64_t cycle;  // the first cycle it applies at
+    std::string type;
+    WorldChange change;
+  };
+  std::vector<ScheduledChange> scheduled_;  // in order of cycle, then of arrival
   bool mcu_dead_reported_ = false;
   bool auto_reset_ = true;  // --no-auto-reset, or the "link" message
   std::string firmware_path_;

@@ -55,7 +55,7 @@ TEST(Cart, ZeroDutyBrakesToAStop) {
 
 TEST(Cart, WallStopsTheCartAndClosesBothSwitches) {
   Arena a;
-  const double wall_x = a.world.x_max();  // 2.05 m
+  const double wall_x = a.world.arena().x_max();  // 2.05 m
   const double bumper = a.cart.params().geometry.bumper_x_m;
   a.cart.place({1.5, 0.9, 0.0});
   ContactMonitor monitor;
@@ -104,14 +104,14 @@ TEST(Cart, SquaringUpAgainstTheWall) {
   EXPECT_TRUE(right_first);
   EXPECT_GE(both_for, 400);
   EXPECT_NEAR(a.cart.pose().theta_rad, 0.0, 0.02);
-  EXPECT_NEAR(a.cart.pose().x_m, a.world.x_max() - a.cart.params().geometry.bumper_x_m, 0.005);
+  EXPECT_NEAR(a.cart.pose().x_m, a.world.arena().x_max() - a.cart.params().geometry.bumper_x_m, 0.005);
 }
 
 TEST(Cart, BackingIntoAWallStopsOnTheFootprintDisc) {
   Arena a;
   a.cart.place({0.2, 0.9, 0.0});
   for (int i = 0; i < 3 * 4000; ++i) a.cart.step(kH, -0.3, -0.3, a.world);
-  EXPECT_NEAR(a.cart.pose().x_m, a.world.x_min() + a.cart.params().geometry.footprint_radius_m, 1e-6);
+  EXPECT_NEAR(a.cart.pose().x_m, a.world.arena().x_min() + a.cart.params().geometry.footprint_radius_m, 1e-6);
   EXPECT_FALSE(a.cart.switch_left());
 }
 

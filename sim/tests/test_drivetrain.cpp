@@ -114,7 +114,7 @@ TEST(Traction, PushingAWallAtFullDutySpinsTheWheels) {
   const double k = m.torque_constant_nm_per_a, r = m.resistance_ohm;
   const double load = kR * tyre_grip_n(a.cart, 0);
   const double expected = (k * m.battery_v / r - m.coulomb_friction_nm - load) / (k * k / r + m.viscous_friction_nms);
-  EXPECT_NEAR(a.cart.pose().x_m, a.world.x_max() - a.cart.params().geometry.bumper_x_m, 1e-6);
+  EXPECT_NEAR(a.cart.pose().x_m, a.world.arena().x_max() - a.cart.params().geometry.bumper_x_m, 1e-6);
   EXPECT_NEAR(a.cart.twist().v_mps, 0.0, 1e-9);
   EXPECT_NEAR(a.cart.wheel_speed_l_radps(), expected, 1e-6);  // ~21.6 rad/s: 0.68 m/s of slip
   EXPECT_NEAR(a.cart.slip_l_mps(), kR * expected, 1e-6);

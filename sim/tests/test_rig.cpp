@@ -118,7 +118,7 @@ TEST_F(RigTest, SwitchesCloseAgainstTheWallWithPullUps) {
   Report rep = report();
   EXPECT_FALSE(rep.sw_left);
   EXPECT_FALSE(rep.sw_right);
-  const double x_touch = rig_->world().x_max() - params::body::bumper_x_m;
+  const double x_touch = rig_->world().arena().x_max() - params::body::bumper_x_m;
   rig_->place(Pose{x_touch, 0.9, 0.0});
   rep = report();
   EXPECT_TRUE(rep.sw_left);
