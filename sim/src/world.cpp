@@ -157,15 +157,14 @@ void World::probe_box(uint32_t index, const Pose& pose, const RobotGeometry& geo
     out->push_back({side == 0 ? ContactProbe::kSwitchLeft : ContactProbe::kSwitchRight, index, d.dist_m,
                     d.nx * c + d.ny * s, -d.nx * ry + d.ny * rx, 0.0});
   }
-  // The bumper between the switches against the rectangle's corners (the switch points cover its
-  // ends; a flat face meets the bumper at the switch points first).
-  const double r2 = geom.footprint_radius_m * geom.footprint_radius_m;
+  // The bumper between the switches against the rectangle's corners ahead of the axle (the switch
+  // points cover its ends; a flat face meets the bumper at the switch points first).
   for (int corner = 0; corner < 4; ++corner) {
     const double qx = b.cx_m + (corner & 1 ? b.hx_m : -b.hx_m) - pose.x_m;
     const double qy = b.cy_m + (corner & 2 ? b.hy_m : -b.hy_m) - pose.y_m;
     const double xb = c * qx + s * qy, yb = -s * qx + c * qy;
     const double gap = xb - geom.bumper_x_m;
-    if (std::fabs(yb) >= geom.switch_y_m || xb <= 0.0 || gap > margin_m || xb * xb + yb * yb < r2) continue;
+    if (std::fabs(yb) >= geom.switch_y_m || xb <= 0.0 || gap > margin_m) continue;
     out->push_back({ContactProbe::kBumper, index, gap, -1.0, yb, yb});
   }
 }
@@ -178,12 +177,11 @@ double World::footprint_gap_m(const Pose& pose, const RobotGeometry& geom, const
     const double rx = c * geom.bumper_x_m - s * by, ry = s * geom.bumper_x_m + c * by;
     gap = std::min(gap, box_distance(b, pose.x_m + rx, pose.y_m + ry).dist_m);
   }
-  const double r2 = geom.footprint_radius_m * geom.footprint_radius_m;
   for (int corner = 0; corner < 4; ++corner) {
     const double qx = b.cx_m + (corner & 1 ? b.hx_m : -b.hx_m) - pose.x_m;
     const double qy = b.cy_m + (corner & 2 ? b.hy_m : -b.hy_m) - pose.y_m;
     const double xb = c * qx + s * qy, yb = -s * qx + c * qy;
-    if (std::fabs(yb) < geom.switch_y_m && xb > 0.0 && xb * xb + yb * yb >= r2) gap = std::min(gap, xb - geom.bumper_x_m);
+    if (std::fabs(yb) < geom.switch_y_m && xb > 0.0) gap = std::min(gap, xb - geom.bumper_x_m);
   }
   return gap;
 }

@@ -42,7 +42,8 @@ void expect_rates_match(const World& w, const Pose& p, size_t min_probes) {
     size_t matched = 0;
     for (const ContactProbe& a : base)
       for (const ContactProbe& b : moved)
-        if (a.feature == b.feature && a.box == b.box && std::fabs(a.lateral_m - b.lateral_m) < 1e-5) {
+        if (a.feature == b.feature && a.box == b.box && std::fabs(a.lateral_m - b.lateral_m) < 1e-5 &&
+            std::fabs(a.gap_m - b.gap_m) < 1e-4) {
           EXPECT_NEAR((b.gap_m - a.gap_m) / d, turn ? a.jw : a.jv, 1e-5) << "feature " << a.feature << " box " << a.box;
           ++matched;
         }
