@@ -29,7 +29,7 @@ from cart2d.gateway import Gateway, PoseUntrusted
 from cart2d.link import Link, LinkError, firmware
 from cart2d.params import robot, setting_id
 from cart2d.planner import Grid, PlanError, Point, point_polyline_distance, polyline_length
-from cart2d.simulator import SimOptions, Simulator, SimulatorError
+from cart2d.simulator import SimOptions, Simulator, SimulatorError, arena_world
 from cart2d.store import GatewaySettings, MapSettings, Store
 
 Coordinate = float
@@ -249,7 +249,7 @@ def run_mission(
             seed=seed,
             eeprom=Path(tmp) / "eeprom.bin",
             start=spec.start,
-            grid=(max(g.cols, g.rows), g.step),
+            world=arena_world(g.cols, g.rows, g.step),  # the walls around this grid, square or not
             quiet=True,
         )
         store = Store(Path(tmp) / "gateway")

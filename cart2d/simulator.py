@@ -2,6 +2,10 @@
 
 The simulator prints one JSON line when ready: the pseudo-terminal to open as the robot's
 serial port and the TCP address of the side channel (JSON lines, see sim/README.md).
+
+The simulated world (sim/README.md, "The world") is physical: walls (a boundary, a map's
+occupied cells) and boxes the cart cannot pass. It is not the planner's map: the map holds what
+the gateway believes, the world what is there.
 """
 
 from __future__ import annotations
@@ -14,11 +18,12 @@ import socket
 import subprocess
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from cart2d.params import robot
 from cart2d.spec import repo_file
 
 
@@ -34,6 +39,108 @@ def default_firmware() -> Path:
     return Path(os.environ.get("CART2D_FIRMWARE", repo_file("build", "firmware", "cart2d-nano.elf")))
 
 
+@dataclass(frozen=True)
+class Box:
+    """An axis-aligned box standing on the floor: centre and size (m); height and colour are for
+    the camera (the physics is planar). Boxes with an id can be replaced and removed by it."""
+
+    x: float
+    y: float
+    sx: float
+    sy: float
+    height: float = 0.3
+    colour: str = "#b8742f"
+    id: str | None = None
+
+    def message(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "x": self.x,
+            "y": self.y,
+            "sx": self.sx,
+            "sy": self.sy,
+            "height": self.height,
+            "colour": self.colour,
+        }
+        if self.id is not None:
+            out["id"] = self.id
+        return out
+
+
+def run_lengths(cells: Iterable[bool]) -> list[int]:
+    """Runs alternately free and occupied, starting with free (the side channel's "rle")."""
+    runs: list[int] = []
+    current, length = False, 0
+    for cell in cells:
+        if bool(cell) != current:
+            runs.append(length)
+            current, length = not current, 0
+        length += 1
+    runs.append(length)
+    return runs
+
+
+@dataclass(frozen=True)
+class WallGrid:
+    """An occupancy grid whose occupied cells are walls. Cells row-major from the origin, as in
+    ROS's nav_msgs/OccupancyGrid: cell (i, j) is column i (x) of row j (y), row 0 at the lowest
+    y; `origin` is the lower-left corner of cell (0, 0)."""
+
+    origin: tuple[float, float]
+    resolution: float
+    width: int
+    height: int
+    occupied: tuple[bool, ...]
+
+    @classmethod
+    def from_rows(
+        cls, rows: Sequence[Sequence[bool]], origin: tuple[float, float], resolution: float
+    ) -> WallGrid:
+        """From rows of cells, rows[0] the lowest (an image's top row is its highest: reverse it)."""
+        width = len(rows[0]) if rows else 0
+        if any(len(row) != width for row in rows):
+            raise ValueError("every row must have the same number of cells")
+        return cls(origin, resolution, width, len(rows), tuple(bool(c) for row in rows for c in row))
+
+    def message(self) -> dict[str, Any]:
+        return {
+            "origin": list(self.origin),
+            "resolution": self.resolution,
+            "width": self.width,
+            "height": self.height,
+            "rle": run_lengths(self.occupied),
+        }
+
+
+@dataclass(frozen=True)
+class World:
+    """The simulator's physical world: walls from a grid, a boundary (None: around the grid if
+    there is one; False: none; or (x_min, y_min, x_max, y_max) in m) and boxes."""
+
+    boxes: tuple[Box, ...] = ()
+    walls: WallGrid | None = None
+    boundary: tuple[float, float, float, float] | bool | None = None
+
+    def message(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"boxes": [b.message() for b in self.boxes]}
+        if self.walls is not None:
+            out["walls"] = self.walls.message()
+        if isinstance(self.boundary, bool):
+            out["boundary"] = self.boundary
+        elif self.boundary is not None:
+            out["boundary"] = list(self.boundary)
+        return out
+
+
+def arena_world(
+    cols: int, rows: int, step: float, margin: float | None = None, origin: tuple[float, float] = (0.0, 0.0)
+) -> World:
+    """Walls `margin` (robot.toml's [sim] arena_margin_m by default) outside a node grid of
+    cols x rows nodes `step` apart from `origin`: today's arena, for any size."""
+    m = float(robot()["sim"]["arena_margin_m"]) if margin is None else margin
+    x0, y0 = origin
+    return World(boundary=(x0 - m, y0 - m, x0 + (cols - 1) * step + m, y0 + (rows - 1) * step + m))
+
+
 @dataclass
 class SimOptions:
     firmware: Path = field(default_factory=default_firmware)
@@ -46,6 +153,9 @@ class SimOptions:
     paused: bool = False  # start paused: nothing runs until resume() or run_for()
     pty_link: Path | None = None  # a stable name for the serial port, across restarts
     grid: tuple[int, float] | None = None  # square arena: nodes per side, step (m)
+    # The physical world, set before the firmware runs (it replaces the square arena of `grid`);
+    # `start` is then checked against it.
+    world: World | None = None
     quiet: bool = False  # only warnings and errors from the simulator on stderr
     # The host's end of the serial line (sim/README.md, "UART model"): the adapter's baud rate,
     # the USB delay each way in simulated ms (to the MCU, to the host), the FTDI latency timer
@@ -160,7 +270,7 @@ class Simulator:
         cmd += ["--truth-hz", str(o.truth_hz)]
         if o.eeprom is not None:
             cmd += ["--eeprom", str(o.eeprom)]
-        if o.paused:
+        if o.paused or o.world is not None:
             cmd.append("--paused")
         if o.quiet:
             cmd.append("--quiet")
@@ -168,7 +278,7 @@ class Simulator:
             cmd += ["--grid", f"{o.grid[0]},{o.grid[1]}"]
         if o.pty_link is not None:
             cmd += ["--pty-link", str(o.pty_link)]
-        if o.start is not None:
+        if o.start is not None and o.world is None:
             cmd += ["--start", ",".join(str(v) for v in o.start)]
         if o.host_baud != 115200.0:
             cmd += ["--host-baud", str(o.host_baud)]
@@ -192,12 +302,54 @@ class Simulator:
         self.pty = ready["pty"]
         self.control_address = ready["control"]
         self.side = SideChannel(self.control_address)
+        if o.world is not None:
+            try:
+                self.set_world(o.world)
+                if o.start is not None:
+                    x, y, theta = o.start
+                    self.control("place", x=x, y=y, theta=theta)
+            except SimulatorError:
+                self.stop()
+                raise
+            if not o.paused:
+                self.control("resume")
         return self
 
     def control(self, kind: str, **members: Any) -> dict[str, Any]:
         if self.side is None:
             raise SimulatorError("the simulator is not running")
         return self.side.request({"type": kind, **members})
+
+    def set_world(self, world: World, at_s: float | None = None) -> dict[str, Any]:
+        """Replaces the physical world, now or at simulated time at_s; returns the ack."""
+        return self.control("world", **world.message(), **_at(at_s))
+
+    def add_boxes(self, boxes: Sequence[Box], at_s: float | None = None) -> dict[str, Any]:
+        return self.control("boxes", add=[b.message() for b in boxes], **_at(at_s))
+
+    def remove_boxes(self, ids: Sequence[str], at_s: float | None = None) -> dict[str, Any]:
+        return self.control("boxes", remove=list(ids), **_at(at_s))
+
+    def change_obstacles(
+        self,
+        add: Sequence[tuple[float, float]] = (),
+        remove: Sequence[tuple[float, float]] = (),
+        step: float | None = None,
+        physical: bool = False,
+        at_s: float | None = None,
+    ) -> dict[str, Any]:
+        """Adds and removes virtual obstacles (cell centres, m; cells of side `step`), now or at
+        simulated time at_s. Physical: each added one is also a box of its cell (a mission's event
+        obstacle: the cart cannot pass it, and overlapping it still counts as a collision)."""
+        members: dict[str, Any] = {"add": [list(p) for p in add], "remove": [list(p) for p in remove]}
+        if step is not None:
+            members["step"] = step
+        return self.control("obstacles", physical=physical, **members, **_at(at_s))
+
+    def world_state(self) -> dict[str, Any]:
+        """The world as the simulator holds it: walls, boxes, obstacles, scheduled changes."""
+        state: dict[str, Any] = self.control("world_get")["world"]
+        return state
 
     def run_for(self, seconds: float, wall_timeout_s: float = 60.0) -> dict[str, Any]:
         """Runs exactly `seconds` of simulated time, then pauses; returns the truth there."""
@@ -275,3 +427,7 @@ class Simulator:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
+
+
+def _at(at_s: float | None) -> dict[str, Any]:
+    return {} if at_s is None else {"at": at_s}

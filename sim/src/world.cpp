@@ -276,18 +276,22 @@ void World::obstacles_near(double x_m, double y_m, double r_m, std::vector<uint3
 
 void ContactMonitor::update(double t_s, const World& world, const Pose& pose, const RobotGeometry& geom,
                             const std::vector<ContactProbe>& probes) {
-  update_obstacles(t_s, world, pose, geom.footprint_radius_m);
   update_boxes(t_s, world, pose, geom, probes);
+  update_obstacles(t_s, world, pose, geom.footprint_radius_m);
 }
 
+// An obstacle is touched when the footprint overlaps it or, if it is physical, touches its box
+// (which the footprint cannot overlap).
 void ContactMonitor::update_obstacles(double t_s, const World& world, const Pose& pose, double radius_m) {
   scratch_.clear();
-  world.obstacles_near(pose.x_m, pose.y_m, radius_m, &scratch_);
+  world.obstacles_near(pose.x_m, pose.y_m, radius_m + kReleaseM, &scratch_);
   std::sort(scratch_.begin(), scratch_.end());  // events in the obstacles' order
   std::vector<Centre> now;
   for (uint32_t k : scratch_) {
     const Obstacle& o = world.obstacles()[k];
-    if (!world.disc_overlaps(o, pose.x_m, pose.y_m, radius_m)) continue;
+    const bool twin_touched = std::any_of(touching_twins_.begin(), touching_twins_.end(),
+                                          [&](const Centre& c) { return same_place(c.x_m, c.y_m, o.cx_m, o.cy_m); });
+    if (!twin_touched && !world.disc_overlaps(o, pose.x_m, pose.y_m, radius_m)) continue;
     now.push_back({o.cx_m, o.cy_m});
     const bool was = std::any_of(touching_obstacles_.begin(), touching_obstacles_.end(),
                                  [&](const Centre& c) { return same_place(c.x_m, c.y_m, o.cx_m, o.cy_m); });
@@ -313,6 +317,7 @@ void ContactMonitor::update_boxes(double t_s, const World& world, const Pose& po
 
   double wall_gap = 1e9;
   std::vector<uint64_t> touching;
+  touching_twins_.clear();
   for (const auto& [k, gap] : gaps) {
     const Box& b = boxes[k];
     if (b.kind == BoxKind::kWall) {
@@ -323,6 +328,7 @@ void ContactMonitor::update_boxes(double t_s, const World& world, const Pose& po
     if (gap <= kTouchM || (was && gap <= kReleaseM)) {
       if (std::find(touching.begin(), touching.end(), b.serial) != touching.end()) continue;
       touching.push_back(b.serial);
+      if (b.obstacle_twin) touching_twins_.push_back({b.cx_m, b.cy_m});
       if (was) continue;
       ++box_contacts_;
       if (first_box_contact_t_ < 0) first_box_contact_t_ = t_s;

@@ -157,8 +157,9 @@ class World {
 };
 
 // Counts contact onsets along the trajectory, with the first time of each kind: obstacle
-// collisions (each virtual obstacle the footprint starts to overlap), wall contacts (any feature
-// reaching any wall) and box contacts (each box a feature starts to touch).
+// collisions (each virtual obstacle the footprint starts to overlap, or whose box, if it is
+// physical, a feature starts to touch), wall contacts (any feature reaching any wall) and box
+// contacts (each box a feature starts to touch).
 class ContactMonitor {
  public:
   struct Event {
@@ -195,6 +196,7 @@ class ContactMonitor {
     double x_m, y_m;
   };
   std::vector<Centre> touching_obstacles_;
+  std::vector<Centre> touching_twins_;  // physical obstacles' boxes in contact
   std::vector<uint64_t> touching_boxes_;  // serials
   bool in_wall_contact_ = false;
   long collisions_ = 0;
