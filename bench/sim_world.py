@@ -1,9 +1,9 @@
 """The simulator's speed against the size of its world: simulated seconds per wall second in fast
 mode (`--speed max`) while the real firmware drives the bench square (bench/firmware.py's
-drive_square), and per CPU second of the simulator process (the figure that does not depend on
-what else the machine runs; medians and ranges), with 0, 100 and 5000 boxes in a 22 m x 22 m arena. The boxes (0.1-0.3 m) are
-scattered at random but kept 0.25-0.3 m clear of the route, so the cart passes close to many of
-them (the broad phase and the probes work) and touches none (the route is the same in every run).
+drive_square), and per CPU second of the simulator process (the figure that depends least on what
+else the machine runs); medians and ranges, with 0, 100 and 5000 boxes in a 22 m x 22 m arena.
+The boxes (0.1-0.3 m) are scattered at random but kept 0.25 m or more clear of the route, so the
+cart passes close to many of them (the broad phase and the probes work) and touches none.
 
     python -m bench.sim_world [--runs 3] [--counts 0,100,5000]
 """
@@ -11,6 +11,7 @@ them (the broad phase and the probes work) and touches none (the route is the sa
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
 import os
 import random
@@ -40,7 +41,7 @@ def scattered_boxes(count: int, seed: int = 1) -> tuple[Box, ...]:
     while len(boxes) < count:
         sx, sy = rng.uniform(0.1, 0.3), rng.uniform(0.1, 0.3)
         x, y = rng.uniform(ARENA[0] + 0.5, ARENA[2] - 0.5), rng.uniform(ARENA[1] + 0.5, ARENA[3] - 0.5)
-        near = min(_segment_distance(x, y, a, b) for a, b in zip(ROUTE, ROUTE[1:], strict=False))
+        near = min(_segment_distance(x, y, a, b) for a, b in itertools.pairwise(ROUTE))
         if near - math.hypot(sx, sy) / 2 < CLEARANCE_M:
             continue
         boxes.append(Box(x, y, sx, sy, id=f"b{len(boxes)}"))

@@ -153,6 +153,40 @@ TEST(BoxContacts, ABoxThatAppearsUnderTheCartBecomesSolidWhenTheCartHasLeftIt) {
   EXPECT_EQ(monitor.box_contacts(), 2);
 }
 
+// A physical obstacle (a mission's event obstacle) stops the cart before its footprint can overlap
+// the obstacle's cell: touching its box counts as the obstacle's collision, once, and as a box
+// contact; an ordinary box of the same size there is no collision.
+TEST(BoxContacts, TouchingAPhysicalObstacleCountsAsItsCollision) {
+  for (bool twin : {true, false}) {
+    World world(ArenaParams{0.2, 20, 0.25});
+    Obstacle o;
+    o.cx_m = 1.4;
+    o.cy_m = 0.9;
+    o.half_m = 0.1;
+    if (twin) world.add_obstacle(o);
+    Box b = box_at(1.4, 0.9, 0.2, 0.2, twin ? "obstacle@1.4,0.9" : "crate");
+    b.obstacle_twin = twin;
+    world.add(b);
+    Cart cart{CartParams{}};
+    cart.set_caster_angle(0.0);
+    cart.place({0.6, 0.9, 0.0});
+    ContactMonitor monitor;
+    run(&cart, &world, &monitor, 4.0, 0.3, 0.3);
+    EXPECT_NEAR(cart.pose().x_m, 1.3 - 0.17, 1e-6);
+    EXPECT_EQ(monitor.box_contacts(), 1);
+    EXPECT_EQ(monitor.collisions(), twin ? 1 : 0);
+    EXPECT_EQ(monitor.in_collision(), twin);
+    // Stopped 50 um short, as the firmware's bumper stop may leave it: touching, not overlapping.
+    const RobotGeometry& g = cart.params().geometry;
+    cart.place({1.3 - g.footprint_radius_m - 5e-5, 0.9, 0.0});
+    cart.sense(world);
+    ContactMonitor still;
+    still.update(0.0, world, cart.pose(), g, cart.probes());
+    EXPECT_EQ(still.box_contacts(), 1);
+    EXPECT_EQ(still.collisions(), twin ? 1 : 0);
+  }
+}
+
 // A map: a 0.6 m thick wall across the floor with a 0.5 m corridor through it (the cart is 0.34 m
 // wide, its bumper ends 0.394 m apart).
 World corridor_world() {
