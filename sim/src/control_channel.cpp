@@ -16,7 +16,7 @@
 
 namespace cart2d {
 
-constexpr size_t kMaxLine = 1 << 20;          // longest accepted input line
+constexpr size_t kMaxLine = 4u << 20;         // longest accepted input line (a world message with a 4000 × 4000 bitmap)
 constexpr size_t kTruthBacklog = 1 << 20;     // above this, truth lines are skipped
 constexpr size_t kHardBacklog = 16u << 20;    // above this, the client is disconnected
 
