@@ -70,8 +70,8 @@ void World::add_wall_grid(double origin_x_m, double origin_y_m, double resolutio
   }
 }
 
-size_t World::add(Box b) {
-  if (!b.id.empty()) remove_id(b.id);
+size_t World::add(Box b, bool replace_id) {
+  if (replace_id && !b.id.empty()) remove_id(b.id);
   b.serial = next_serial_++;
   if (!b.solid) deferred_.push_back(static_cast<uint32_t>(boxes_.size()));
   boxes_.push_back(std::move(b));
@@ -79,34 +79,19 @@ size_t World::add(Box b) {
   return boxes_.size() - 1;
 }
 
-// Removal shifts indices: the deferred list is rebuilt from the flags.
-template <class Pred>
-static size_t erase_boxes(std::vector<Box>* boxes, std::vector<uint32_t>* deferred, Pred pred) {
-  const size_t before = boxes->size();
-  boxes->erase(std::remove_if(boxes->begin(), boxes->end(), pred), boxes->end());
-  deferred->clear();
-  for (size_t k = 0; k < boxes->size(); ++k)
-    if (!(*boxes)[k].solid) deferred->push_back(static_cast<uint32_t>(k));
-  return before - boxes->size();
+void World::rebuild_deferred() {
+  deferred_.clear();
+  for (size_t k = 0; k < boxes_.size(); ++k)
+    if (!boxes_[k].solid) deferred_.push_back(static_cast<uint32_t>(k));
 }
 
 size_t World::remove_id(const std::string& id) {
   if (id.empty()) return 0;
-  const size_t n = erase_boxes(&boxes_, &deferred_, [&](const Box& b) { return b.id == id; });
-  if (n) changed();
-  return n;
-}
-
-size_t World::remove_twins_at(double x_m, double y_m) {
-  const size_t n = erase_boxes(&boxes_, &deferred_, [&](const Box& b) {
-    return b.obstacle_twin && same_place(b.cx_m, b.cy_m, x_m, y_m);
-  });
-  if (n) changed();
-  return n;
+  return remove_boxes_if([&](const Box& b) { return b.id == id; });
 }
 
 void World::clear_boxes() {
-  if (erase_boxes(&boxes_, &deferred_, [](const Box& b) { return b.kind == BoxKind::kBox; })) changed();
+  remove_boxes_if([](const Box& b) { return b.kind == BoxKind::kBox; });
 }
 
 size_t World::count(BoxKind kind) const {
@@ -236,21 +221,6 @@ void World::settle(const Pose& pose, const RobotGeometry& geom) {
 void World::set_obstacles(std::vector<Obstacle> obstacles) {
   obstacles_ = std::move(obstacles);
   obstacles_dirty_ = true;
-}
-
-void World::add_obstacle(const Obstacle& o) {
-  remove_obstacle_at(o.cx_m, o.cy_m);
-  obstacles_.push_back(o);
-  obstacles_dirty_ = true;
-}
-
-size_t World::remove_obstacle_at(double x_m, double y_m) {
-  const size_t before = obstacles_.size();
-  obstacles_.erase(std::remove_if(obstacles_.begin(), obstacles_.end(),
-                                  [&](const Obstacle& o) { return same_place(o.cx_m, o.cy_m, x_m, y_m); }),
-                   obstacles_.end());
-  obstacles_dirty_ = true;
-  return before - obstacles_.size();
 }
 
 bool World::disc_overlaps(const Obstacle& o, double x_m, double y_m, double r_m) const {

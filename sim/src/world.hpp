@@ -14,6 +14,7 @@
 // (x_b, y_b) in the body frame has gap x_b − bumper_x, and d/dt x_b = −v + ω·y_b.
 #pragma once
 
+#include <algorithm>  // std::remove_if
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -91,12 +92,14 @@ class World {
   // The occupied cells of a grid with its lower-left corner at the origin, merged (occupancy.hpp).
   void add_wall_grid(double origin_x_m, double origin_y_m, double resolution_m, const OccupancyGrid& grid,
                      double height_m = kWallHeightM, uint32_t colour_rgb = kWallColour);
-  // Adds a rectangle (a box with a non-empty id replaces the box of that id); returns its index.
-  size_t add(Box b);
+  // Adds a rectangle (a box with a non-empty id replaces the box of that id, unless the caller
+  // knows there is none); returns its index.
+  size_t add(Box b, bool replace_id = true);
   // Removes the boxes of this id; returns how many.
   size_t remove_id(const std::string& id);
-  // Removes the obstacle twins centred at (x, y); returns how many.
-  size_t remove_twins_at(double x_m, double y_m);
+  // Removes every rectangle for which pred(box) holds, in one pass; returns how many.
+  template <class Pred>
+  size_t remove_boxes_if(Pred pred);
   // Removes every box (kind kBox), walls stay.
   void clear_boxes();
   const std::vector<Box>& boxes() const { return boxes_; }
@@ -121,8 +124,10 @@ class World {
 
   // -- virtual obstacles --
   void set_obstacles(std::vector<Obstacle> obstacles);
-  void add_obstacle(const Obstacle& o);  // replaces one centred at the same place
-  size_t remove_obstacle_at(double x_m, double y_m);
+  void add_obstacle(const Obstacle& o) {  // (tests) after the others
+    obstacles_.push_back(o);
+    obstacles_dirty_ = true;
+  }
   const std::vector<Obstacle>& obstacles() const { return obstacles_; }
   // True if a disc overlaps obstacle o (touching counts: distance < radius + 1e-9).
   bool disc_overlaps(const Obstacle& o, double x_m, double y_m, double r_m) const;
@@ -138,6 +143,7 @@ class World {
     boxes_dirty_ = true;
   }
   void rebuild_boxes() const;
+  void rebuild_deferred();
   void rebuild_obstacles() const;
   void probe_box(uint32_t index, const Pose& pose, const RobotGeometry& geom, double margin_m,
                  std::vector<ContactProbe>* out) const;
@@ -155,6 +161,16 @@ class World {
   mutable uint64_t counted_version_ = UINT64_MAX;
   mutable size_t walls_ = 0;
 };
+
+template <class Pred>
+size_t World::remove_boxes_if(Pred pred) {
+  const size_t before = boxes_.size();
+  boxes_.erase(std::remove_if(boxes_.begin(), boxes_.end(), pred), boxes_.end());
+  if (boxes_.size() == before) return 0;
+  rebuild_deferred();  // indices moved
+  changed();
+  return before - boxes_.size();
+}
 
 // Counts contact onsets along the trajectory, with the first time of each kind: obstacle
 // collisions (each virtual obstacle the footprint starts to overlap, or whose box, if it is

@@ -1,6 +1,8 @@
 #include "world_change.hpp"
 
-#include <cmath>  // std::isfinite, std::floor, std::fabs
+#include <cmath>  // std::isfinite, std::floor, std::fabs, std::llround
+#include <map>
+#include <set>
 
 namespace cart2d {
 
@@ -213,30 +215,41 @@ std::string parse_obstacles(const json::Value& msg, const ArenaParams& arena, Wo
   return optional_colour(msg, "colour", &c->twin_colour);
 }
 
+// A place to micrometres: obstacles and their boxes are matched by centre.
+using Place = std::pair<long long, long long>;
+Place place_of(double x_m, double y_m) { return {std::llround(x_m * 1e6), std::llround(y_m * 1e6)}; }
+
+// In one pass over the obstacles and one over the boxes, whatever their numbers.
 void apply_obstacles(const WorldChange& c, World* world) {
-  if (c.replace_obstacles) {
-    for (const Obstacle& o : world->obstacles()) world->remove_twins_at(o.cx_m, o.cy_m);
-    world->set_obstacles({});
-  }
-  for (const auto& [x, y] : c.remove_obstacles) {
-    world->remove_obstacle_at(x, y);
-    world->remove_twins_at(x, y);
-  }
-  for (const Obstacle& o : c.add_obstacles) {
-    world->remove_twins_at(o.cx_m, o.cy_m);
-    world->add_obstacle(o);
+  std::set<Place> gone;  // obstacles (and their twins) that go: removed, or replaced by an addition
+  for (const auto& [x, y] : c.remove_obstacles) gone.insert(place_of(x, y));
+  for (const Obstacle& o : c.add_obstacles) gone.insert(place_of(o.cx_m, o.cy_m));
+  std::vector<Obstacle> next;
+  if (!c.replace_obstacles)
+    for (const Obstacle& o : world->obstacles())
+      if (!gone.count(place_of(o.cx_m, o.cy_m))) next.push_back(o);
+  world->remove_boxes_if([&](const Box& b) {
+    return b.obstacle_twin && (c.replace_obstacles || gone.count(place_of(b.cx_m, b.cy_m)));
+  });
+  std::map<Place, size_t> last;  // of obstacles added at one place, the last counts
+  for (size_t k = 0; k < c.add_obstacles.size(); ++k) last[place_of(c.add_obstacles[k].cx_m, c.add_obstacles[k].cy_m)] = k;
+  for (size_t k = 0; k < c.add_obstacles.size(); ++k) {
+    const auto it = c.add_obstacles.begin() + static_cast<long>(k);
+    if (last[place_of(it->cx_m, it->cy_m)] != k) continue;
+    next.push_back(*it);
     if (!c.physical) continue;
     Box b;
-    b.cx_m = o.cx_m;
-    b.cy_m = o.cy_m;
-    b.hx_m = b.hy_m = o.half_m;
+    b.cx_m = it->cx_m;
+    b.cy_m = it->cy_m;
+    b.hx_m = b.hy_m = it->half_m;
     b.height_m = c.twin_height_m;
     b.colour_rgb = c.twin_colour;
     b.kind = BoxKind::kBox;
     b.obstacle_twin = true;
-    b.id = "obstacle@" + json::number(o.cx_m) + "," + json::number(o.cy_m);
-    world->add(b);
+    b.id = "obstacle@" + json::number(it->cx_m) + "," + json::number(it->cy_m);
+    world->add(b, false);  // its place held no twin any more: no id to replace
   }
+  world->set_obstacles(std::move(next));
 }
 
 }  // namespace
@@ -272,8 +285,17 @@ void apply_world_change(const WorldChange& c, World* world) {
       world->add_boundary(c.boundary[0], c.boundary[1], c.boundary[2], c.boundary[3], c.wall_height_m, c.wall_colour);
   }
   if (c.clear_boxes) world->clear_boxes();
-  for (const std::string& id : c.remove_ids) world->remove_id(id);
-  for (const Box& b : c.add_boxes) world->add(b);
+  // Removed ids and the ids of added boxes go in one pass; of boxes added with one id, the last.
+  std::set<std::string> ids(c.remove_ids.begin(), c.remove_ids.end());
+  std::map<std::string, size_t> last;
+  for (size_t k = 0; k < c.add_boxes.size(); ++k)
+    if (!c.add_boxes[k].id.empty()) last[c.add_boxes[k].id] = k;
+  for (const auto& [id, k] : last) ids.insert(id);
+  if (!ids.empty()) world->remove_boxes_if([&](const Box& b) { return b.kind == BoxKind::kBox && ids.count(b.id); });
+  for (size_t k = 0; k < c.add_boxes.size(); ++k) {
+    const Box& b = c.add_boxes[k];
+    if (b.id.empty() || last[b.id] == k) world->add(b, false);
+  }
 }
 
 }  // namespace cart2d

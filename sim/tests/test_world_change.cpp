@@ -93,6 +93,9 @@ TEST(WorldChange, BoxesAreAddedReplacedByIdAndRemoved) {
   EXPECT_EQ(w.boxes().back().cx_m, 1.5);
   ASSERT_EQ(change(&w, "boxes", R"({"remove":["a","nobody"]})"), "");
   EXPECT_EQ(w.count(BoxKind::kBox), 1u);
+  ASSERT_EQ(change(&w, "boxes", R"({"add":[{"x":0.2,"y":1,"sx":0.2,"sy":0.2,"id":"d"},{"x":0.6,"y":1,"sx":0.2,"sy":0.2,"id":"d"}]})"), "");
+  ASSERT_EQ(w.count(BoxKind::kBox), 2u);  // of two with one id, the last
+  EXPECT_EQ(w.boxes().back().cx_m, 0.6);
   ASSERT_EQ(change(&w, "boxes", R"({"clear":true})"), "");
   EXPECT_EQ(w.count(BoxKind::kBox), 0u);
   EXPECT_EQ(w.count(BoxKind::kWall), 4u);  // walls stay
@@ -109,8 +112,13 @@ TEST(WorldChange, PhysicalObstaclesHaveBoxTwinsThatGoWithThem) {
   EXPECT_TRUE(twin.obstacle_twin);
   EXPECT_EQ(twin.id, "obstacle@1,0.6");
   EXPECT_NEAR(twin.hx_m, 0.1, 1e-8);  // one cell of the default grid (0.2 m)
-  ASSERT_EQ(change(&w, "obstacles", R"({"add":[[0.4,0.4]]})"), "");  // virtual only
+  ASSERT_EQ(change(&w, "obstacles", R"({"add":[[0.4,0.4],[0.4,0.4]]})"), "");  // virtual only, once
   EXPECT_EQ(w.obstacles().size(), 3u);
+  ASSERT_EQ(change(&w, "obstacles", R"({"add":[[1.2,0.6]]})"), "");  // no longer physical
+  EXPECT_EQ(w.obstacles().size(), 3u);
+  EXPECT_EQ(w.count(BoxKind::kBox), 1u);
+  ASSERT_EQ(change(&w, "obstacles", R"({"add":[[1.2,0.6]],"physical":true})"), "");
+  EXPECT_EQ(w.count(BoxKind::kBox), 2u);
   EXPECT_EQ(w.count(BoxKind::kBox), 2u);
   ASSERT_EQ(change(&w, "obstacles", R"({"remove":[[1.0,0.6]]})"), "");
   EXPECT_EQ(w.obstacles().size(), 2u);
