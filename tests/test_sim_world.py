@@ -89,6 +89,26 @@ def test_the_bumper_stops_the_cart_at_a_box(tmp_path: Path) -> None:
         sim.stop()
 
 
+def test_the_reset_routine_squares_up_against_a_box(tmp_path: Path) -> None:
+    # The routine creeps forwards until a switch closes, holds that side and pushes the other
+    # until both are pressed: against a box's face as against a wall.
+    world = World(boxes=(Box(1.7, 0.9, 0.2, 1.0, id="crate"),), boundary=(-0.25, -0.25, 2.45, 2.05))
+    sim = start_sim(tmp_path, world=world, start=(1.0, 0.9, 0.2))
+    try:
+        with Link(sim.pty) as link:
+            link.call("RESET_ROUTINE")
+            wait_idle(link)
+            status = read_status(link)
+        truth = sim.truth()
+        assert not status.has("ROUTINE_FAILED")
+        assert truth["switch_l"] and truth["switch_r"]
+        assert abs(math.remainder(truth["theta"], 2 * math.pi)) < 0.01  # square to the face at x = 1.6
+        assert truth["x"] + BUMPER_X == pytest.approx(1.6, abs=0.005)
+        assert truth["box_contacts"] >= 1 and truth["wall_contacts"] == 0
+    finally:
+        sim.stop()
+
+
 def corridor_world() -> World:
     """A 3 m x 2 m map at 5 cm from (-0.5, -0.5): a wall x in [1.0, 1.3) across it, but for a
     0.5 m corridor at y in [0.5, 1.0). The cart is 0.34 m wide (its bumper's ends 0.39 m)."""
