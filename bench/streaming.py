@@ -32,8 +32,9 @@ import matplotlib.pyplot as plt
 from bench.common import Section, section_main, table
 from cart2d.link import Link, firmware
 from cart2d.link.protocol import Telemetry
+from cart2d.mission import MissionSpec, run_mission
 from cart2d.params import planning_radius_m, robot, settings_table
-from cart2d.planner import Planner, Point
+from cart2d.planner import Grid, Planner, Point
 from cart2d.simulator import SimOptions, Simulator
 from cart2d.smoothing import CHORD_TURN_RAD, round_corners
 from cart2d.spec import load_spec
@@ -79,6 +80,37 @@ def serpentine(rows: int, y0_m: float = 0.6) -> list[Point]:
         start = x0 if east else x1
         points += [(start + k * step, y) for k in range(1, per_row + 1)]
     return points
+
+
+def serpentine_mission() -> dict[str, Any]:
+    """A `cart2d mission`: six walls across the 4 m arena, alternately open east and west; the
+    gateway's planned and rounded path through them has 111 waypoints."""
+    walls = [
+        [round(0.1 * i, 1), round(0.1 * j, 1)]
+        for k, j in enumerate((6, 12, 18, 24, 30, 36))
+        for i in (range(31) if k % 2 == 0 else range(10, 41))
+    ]
+    return {
+        "grid": {"cols": ARENA_NODES, "rows": ARENA_NODES, "step": ARENA_STEP_M},
+        "obstacles": walls,
+        "start": [0.3, 0.3, 0.0],
+        "goals": [[0.3, 3.8]],
+        "timeout_s": 200.0,
+    }
+
+
+def trace_speeds(trace: list[list[float]], margin_m: float, span: int = 5) -> tuple[list[float], list[float]]:
+    """Times and speeds over `span` samples of a mission's ground-truth trace ([t, x, y] rows),
+    leaving out the first and the last `margin_m` driven (starting, stopping)."""
+    driven = [0.0]
+    for a, b in itertools.pairwise(trace):
+        driven.append(driven[-1] + math.dist(a[1:], b[1:]))
+    times, speeds = [], []
+    for k in range(len(trace) - span):
+        if margin_m < driven[k] and driven[k + span] < driven[-1] - margin_m:
+            times.append(trace[k][0])
+            speeds.append((driven[k + span] - driven[k]) / (trace[k + span][0] - trace[k][0]))
+    return times, speeds
 
 
 @dataclass
@@ -229,7 +261,73 @@ def mission_paths() -> list[tuple[str, Point, list[Point]]]:
             plan.start, plan.waypoints, planner.graph.segment_free, firmware.MAX_PATH_POINTS
         )
         out.append((f"{s.name}, {s.arena}", plan.start, rounded))
+    m = serpentine_mission()
+    grid = Grid(cols=ARENA_NODES, rows=ARENA_NODES, step_m=ARENA_STEP_M)
+    nodes = {grid.nearest_node(x, y) for x, y in m["obstacles"]}
+    planner = Planner(grid, planning_radius_m(), nodes)
+    plan = planner.plan(tuple(m["start"][:2]), tuple(m["goals"][0]))
+    rounded = round_corners(plan.start, plan.waypoints, planner.graph.segment_free, firmware.MAX_PATH_POINTS)
+    out.append(("serpentine mission, 4 m", plan.start, rounded))
     return out
+
+
+# -- the same through the gateway: a planned mission -----------------------------------------------------
+MISSION_FLOOR_MPS = 0.3
+
+
+def run_serpentine_mission(out: Path) -> dict[str, Any]:
+    """serpentine_mission() through `cart2d mission` (planner, rounded corners, the gateway's
+    uploader); its ground-truth speed trace as a figure."""
+    report = run_mission(MissionSpec.model_validate(serpentine_mission()))
+    (goal,) = report["goals"]
+    times, speeds = trace_speeds(goal["trace"], margin_m=0.3)
+    fig, (ax_path, ax_speed) = plt.subplots(1, 2, figsize=(12, 4.8), gridspec_kw={"width_ratios": [1, 1.6]})
+    planned = goal.get("planned_path", [])
+    walls = serpentine_mission()["obstacles"]
+    ax_path.plot([w[0] for w in walls], [w[1] for w in walls], "s", color="0.3", markersize=2, label="walls")
+    if planned:
+        ax_path.plot(*zip(*planned, strict=True), ".", color="tab:gray", markersize=3, label="waypoints")
+    ax_path.plot([s[1] for s in goal["trace"]], [s[2] for s in goal["trace"]], color="tab:blue", linewidth=1)
+    ax_path.set_aspect("equal")
+    ax_path.set_xlabel("x (m)")
+    ax_path.set_ylabel("y (m)")
+    ax_path.legend(loc="lower right", fontsize=8)
+    t0 = goal["trace"][0][0]
+    ax_speed.plot([t - t0 for t in times], speeds, color="tab:blue", linewidth=1)
+    ax_speed.axhline(V_MAX, color="tab:green", linestyle=":", label="v_max")
+    ax_speed.axhline(MISSION_FLOOR_MPS, color="tab:red", linestyle="--", label="floor")
+    ax_speed.set_ylim(0, V_MAX * 1.15)
+    ax_speed.set_xlabel("simulated time (s)")
+    ax_speed.set_ylabel("true speed (m/s), over 0.1 s")
+    ax_speed.set_title(f"The serpentine mission: {len(planned) - 1} waypoints, streamed")
+    ax_speed.legend(loc="lower center", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out / f"{NAME}_mission.png", dpi=110)
+    plt.close(fig)
+    length = goal.get("planned_length_m", 0.0)
+    return {
+        "reached": bool(goal["reached"]),
+        "reason": goal.get("reason", ""),
+        "waypoints": len(planned) - 1,
+        "min_speed_mps": min(speeds) if speeds else 0.0,
+        "time_s": goal.get("time_s", 0.0),
+        "bound_s": length / V_MAX + V_MAX / A_MAX,
+        "final_error_m": goal.get("final_error_m", math.nan),
+        "collisions": report["collisions"],
+    }
+
+
+def mission_markdown(m: dict[str, Any]) -> str:
+    state = "reached" if m["reached"] else f"NOT reached ({m['reason']})"
+    return (
+        "\n### Through the gateway: a serpentine mission\n\n"
+        f"`cart2d mission` with six walls across the 4 m arena (bench/streaming.py, serpentine_mission): "
+        f"the plan has {m['waypoints']} waypoints, all corners rounded. The goal was {state}, "
+        f"{1000 * m['final_error_m']:.1f} mm off, {m['collisions']} collisions, in {m['time_s']:.1f} s "
+        f"against the bound L/v_max + v_max/a_max = {m['bound_s']:.1f} s; the slowest speed between the "
+        f"first and the last 0.3 m was {m['min_speed_mps']:.3f} m/s (floor {MISSION_FLOOR_MPS} m/s).\n\n"
+        f"![mission speed trace]({NAME}_mission.png)\n"
+    )
 
 
 def run(out: Path, quick: bool) -> Section:
@@ -318,6 +416,11 @@ def run(out: Path, quick: bool) -> Section:
             ],
         )
     )
+    mission: dict[str, Any] = {}
+    if not quick:
+        mission = run_serpentine_mission(out)
+        ok = ok and mission["reached"] and mission["min_speed_mps"] >= MISSION_FLOOR_MPS
+        md.append(mission_markdown(mission))
     md.append(f"\n_{'quick' if quick else 'full'} mode, {time.monotonic() - started:.0f} s._\n")
     data = {
         "waypoints": len(points),
@@ -332,6 +435,7 @@ def run(out: Path, quick: bool) -> Section:
         "window_reach": reach_data,
         "serpentine_reach_m": {str(w): r for w, r in serp_reach.items()},
         "checks": {name: met for name, _, met in targets},
+        "mission": mission,
     }
     return Section(NAME, "\n".join(md), data, ok)
 

@@ -37,9 +37,9 @@ uint8_t busy_counts_max = 0;
 uint8_t ticks_in_second = 0;
 bool measuring_tick = false;    // a tick ran since the loop last went to sleep
 // The tick being handled ran the position loop: a request that completes before the loop has
-// caught up with it waits for the next tick (at most 8 ms). Handled at once, a 15-point
-// XY_APPEND (~8 000 cycles) on top of the heaviest ticks took them past 30 % of the period; the
-// next tick is a light one. Requests that complete later are served at once, as ever.
+// caught up with it waits for the next tick (at most 8 ms), a light one. Handled at once, an
+// XY_APPEND of a streamed path on top of the heaviest ticks took them to 31-36 % of the period
+// (make bench-firmware). Requests that complete later are served at once, as ever.
 bool requests_wait = false;
 
 // The rate is looked up once per frame (it costs a division), not at every tick; with
