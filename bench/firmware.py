@@ -4,10 +4,12 @@
 - **CPU per tick**, exactly, in simavr: the simulation is stepped one control tick (8 ms of
   simulated time) at a time and the simulator's `stats` after each step give the cycles of that
   tick: from the Timer2 compare match to the loop going back to sleep, with every interrupt
-  that nests in it. The cart drives two routes at v_max = 0.5 m/s: the bench square (1.6 m
-  straight legs, turns on the spot at the corners) and a 16-gon "circle" of radius 0.6 m
-  (driving and turning at once), with the requests a gateway sends (STATUS and POSE, each 10
-  times a simulated second) written between steps at seeded random moments. Nothing depends
+  that nests in it. The cart drives three routes at v_max = 0.5 m/s: the bench square (1.6 m
+  straight legs, turns on the spot at the corners), a 16-gon "circle" of radius 0.6 m
+  (driving and turning at once) and a 96-gon circle streamed through the waypoint window (the
+  rest of its points arrive in XY_APPEND frames while it drives, as the gateway's uploader
+  sends them), with the requests a gateway sends (STATUS and POSE, each 10 times a simulated
+  second) written between steps at seeded random moments. Nothing depends
   on the wall clock, so a run repeats exactly; each run starts both routes from another corner
   and phase, with another seed.
 - **Interrupt load**: the cycles per invocation of every interrupt handler come from the
@@ -122,6 +124,17 @@ def circle_route(phase: int, sides: int = 16) -> Route:
     return Route("circle", (cx + r * math.cos(phi0), cy + r * math.sin(phi0), heading), points)
 
 
+STREAMED = "streamed circle"
+WINDOW = int(robot()["control"]["waypoint_capacity"])
+STREAM_BATCH = max(1, WINDOW // 4)  # cart2d/link/firmware.py, PathStream: an append per quarter window
+
+
+def streamed_route(phase: int) -> Route:
+    """The circle as a 96-gon: three times the window's points, so most arrive while it drives."""
+    circle = circle_route(phase, sides=96)
+    return Route(STREAMED, circle.start, circle.points)
+
+
 # -- stepping the simulation tick by tick -------------------------------------------------------
 @dataclass
 class Step:
@@ -230,6 +243,10 @@ class Traffic:
         self._slot = 0
         self.next_s = 0.0
 
+    def jitter(self) -> float:
+        """A seeded random share of a step."""
+        return self._rng.uniform(0, 1)
+
     def restart(self) -> None:
         self._slot = 0
         self.next_s = self._rng.uniform(0, self._every_s)
@@ -284,9 +301,12 @@ def drive_stepped(
     sim.control("place", x=x, y=y, theta=theta)
     call(sim, port, "SET_POSE", x, y, theta)
     flat = [c for p in route.points for c in p]
-    call(sim, port, "WAIT_XY_ARRAY", len(route.points), *flat[: 2 * POINTS_PER_FRAME])
-    for first in range(POINTS_PER_FRAME, len(route.points), POINTS_PER_FRAME):
-        call(sim, port, "XY_APPEND", first, *flat[2 * first : 2 * (first + POINTS_PER_FRAME)])
+    n = len(route.points)
+    sent = int(call(sim, port, "WAIT_XY_ARRAY", n, *flat[: 2 * POINTS_PER_FRAME])[0])
+    while sent < min(n, WINDOW):  # as much as the window holds before the drive
+        k = min(POINTS_PER_FRAME, min(n, WINDOW) - sent)
+        sent = int(call(sim, port, "XY_APPEND", sent, *flat[2 * sent : 2 * (sent + k)])[0])
+    appends: list[int] = []  # the sequence numbers of the appends sent while driving
     uploaded = port.telemetry_count
     counters = Counters()
     if samples is not None:
@@ -299,11 +319,26 @@ def drive_stepped(
         probing = probe is not None and samples is not None and len(samples) == probe.step
         if probing:
             sim.control("profile", enable=True)
-        while traffic.next_s < end:  # the requests that fall in this step
-            if traffic.next_s - t > 1e-6:
-                sim.run_for(traffic.next_s - t)
-                t = traffic.next_s
-            traffic.send()
+        # The rest of a streamed route, as the uploader sends it: once telemetry shows room for a
+        # batch, an XY_APPEND at a seeded random moment of the next step.
+        frame = port.telemetry
+        append_at = math.inf
+        if sent < n and frame is not None and port.telemetry_count > uploaded:
+            room = min(n, max(int(frame.waypoint_index) - 1, 0) + WINDOW) - sent
+            if room >= min(STREAM_BATCH, n - sent):
+                append_at = t + traffic.jitter() * step_s
+        while min(traffic.next_s, append_at) < end:  # the requests that fall in this step
+            moment = min(traffic.next_s, append_at)
+            if moment - t > 1e-6:
+                sim.run_for(moment - t)
+                t = moment
+            if moment == append_at:
+                k = min(room, POINTS_PER_FRAME)
+                appends.append(port.send("XY_APPEND", sent, *flat[2 * sent : 2 * (sent + k)]))
+                sent += k
+                append_at = math.inf
+            else:
+                traffic.send()
         sim.run_for(end - t)
         t = end
         if probing and probe is not None:
@@ -330,6 +365,11 @@ def drive_stepped(
             break  # IDLE: the route is done
     else:
         raise RuntimeError(f"the {route.name} was not finished in {max_sim_s} simulated seconds")
+    refused = [seq for seq in appends if seq in port.replies and not port.replies[seq].ok]
+    if sent < n or refused:
+        raise RuntimeError(
+            f"the {route.name} was not streamed whole: {sent} of {n} sent, {len(refused)} refused"
+        )
     truth = sim.truth()
     gx, gy = route.points[-1]
     return math.hypot(truth["x"] - gx, truth["y"] - gy)
@@ -456,7 +496,7 @@ def measure_run(k: int, with_profile: bool, probe: Probe | None = None) -> Run:
         sim.run_for(0.1)  # the firmware starts
         if with_profile:
             sim.control("profile", enable=True)
-        for route in (square_route(k), circle_route(k)):
+        for route in (square_route(k), circle_route(k), streamed_route(k)):
             errors[route.name] = drive_stepped(
                 sim, port, route, Traffic(port, k), 1.0 / TICK_HZ, steps, probe=probe
             )
@@ -496,6 +536,7 @@ def summarize(run: Run, costs: dict[int, float]) -> RunSummary:
     classes: dict[str, Callable[[Step], bool]] = {
         "square (straight legs, turns on the spot)": lambda s: s.route == "square",
         "circle (driving while turning)": lambda s: s.route == "circle",
+        f"{STREAMED} (96 points, XY_APPEND while driving)": lambda s: s.route == STREAMED,
         "straight at full speed (≥ 0.45 m/s)": is_straight,
         "turning (|v_r - v_l| ≥ 0.2 m/s)": is_turning,
         "all driving ticks": lambda s: True,
@@ -707,7 +748,7 @@ def plot_histogram(runs: list[Run], path: Path) -> None:
     fig, ax = plt.subplots(figsize=(8, 4))
     top = max([c for r in runs for s in r.steps for c in s.cycles] + [int(0.33 * PERIOD)])
     edges = list(range(0, top + 1000, 500))
-    for route in ("square", "circle"):
+    for route in ("square", "circle", STREAMED):
         cycles = [c for r in runs for s in r.steps if s.route == route for c in s.cycles]
         ax.hist(cycles, bins=edges, histtype="step", linewidth=1.5, label=route)
     ax.axvline(CPU_MEAN_BUDGET * PERIOD, color="tab:green", linestyle="--", label="mean budget (15 %)")

@@ -18,7 +18,17 @@ from pathlib import Path
 from bench.common import RESULTS, Section, write_json
 
 # In report order; each is bench/<name>.py with run(out, quick) -> Section.
-SECTIONS = ("missions", "umbmark", "planner", "firmware", "safety", "drivetrain", "serial", "system")
+SECTIONS = (
+    "missions",
+    "umbmark",
+    "planner",
+    "firmware",
+    "streaming",
+    "safety",
+    "drivetrain",
+    "serial",
+    "system",
+)
 
 
 def _commit() -> str:

@@ -189,6 +189,13 @@ def _drive_with_cart2d(
 ) -> tuple[list[Point], str]:
     with _in_real_time(sim):
         plan = gateway.go_to(*goal)
+        # A path longer than the firmware's window streams while the cart drives: in real time,
+        # as on a cart, or the uploader's latency would cost it a multiple in simulated time.
+        stream = gateway.path_stream
+        while stream is not None and stream.sending and gateway.mission_view()["state"] == "driving":
+            if sim.truth()["t"] > deadline_t:
+                break
+            time.sleep(0.005)
     while gateway.mission_view()["state"] == "driving":
         if sim.truth()["t"] > deadline_t:
             gateway.stop()

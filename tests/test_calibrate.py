@@ -225,12 +225,13 @@ class FakeCart(Link):
             self.pose = list(args)
         elif name == "WAIT_XY_ARRAY":
             self.pose[0], self.pose[1] = args[1] + self.stop_offset[0], args[2] + self.stop_offset[1]
+            return (args[0], 0.0, 0.0)  # received (a whole one-point path), index, room
         elif name == "VELOCITY":
             self.pose[2] += 0.1 * args[1]
         elif name == "POSE":
             return tuple(self.pose)
         elif name == "STATUS":
-            return (0.0, float(load_spec().flags["ARRIVED"]), *[0.0] * 13)  # IDLE, arrived
+            return (0.0, float(load_spec().flags["ARRIVED"]), *[0.0] * 14)  # IDLE, arrived
         elif name == "MAX_SPEED_GET":
             return (0.5, math.pi)
         elif name == "PARAM_GET":

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from bench.streaming import serpentine_mission, trace_speeds
 from cart2d.mission import MissionSpec, run_mission
 
 WALL = [[0.8, 0.0], [0.8, 0.2], [0.8, 0.4], [0.8, 0.6], [0.8, 0.8]]
@@ -105,3 +106,18 @@ def test_the_seeds_behaviour_sends_every_node_in_buffers_full_and_is_slower() ->
     assert o["time_s"] < 0.8 * s["time_s"]
     assert 8.5 - 0.08 < o["time_s"] < 1.1 * 8.5  # 4 m / 0.5 m/s + 0.5 s, ticks counted to 40 ms
     assert o["max_deviation_m"] < 0.01
+
+
+def test_a_serpentine_of_hundreds_of_waypoints_is_streamed_without_a_stop() -> None:
+    # Six walls across the 4 m arena, alternately open east and west: the planned and rounded
+    # path winds through them in 111 waypoints, more than three windows of the firmware.
+    report = run_mission(MissionSpec.model_validate(serpentine_mission()))
+    (goal,) = report["goals"]
+    assert goal["reached"], goal.get("reason")
+    assert len(goal["planned_path"]) > 100 + 1  # the start, then the waypoints
+    assert report["collisions"] == 0 and report["wall_contacts"] == 0
+    assert goal["final_error_m"] < 0.01
+    # Ground truth: from 0.3 m after the start to 0.3 m before the goal the cart never slows
+    # below 0.3 m/s (every corner is rounded: none needs a stop), so no window boundary stopped it.
+    _, speeds = trace_speeds(goal["trace"], margin_m=0.3)
+    assert len(speeds) > 500 and min(speeds) > 0.3, min(speeds)

@@ -115,11 +115,14 @@ def test_stream_fed_byte_by_byte_gives_the_same_packets() -> None:
 
 
 def test_exchanges_with_the_real_firmware(tmp_path: Path) -> None:
-    """Each exchange vector against a freshly reset firmware with a blank EEPROM."""
+    """Each exchange vector against a freshly reset firmware with a blank EEPROM: its requests,
+    sent back to back, yield its replies in order."""
     sim = start_sim(tmp_path)
     try:
         with serial.Serial(sim.pty, 115200, timeout=0.05) as port:
             for v in (v for v in VECTORS if v.kind == "exchange"):
+                expected = packets(v.reply)
+                assert len(packets(v.data)) == len(expected), f"{v.name}: one reply per request"
                 sim.reset()  # returns after the reset time-out, when the firmware listens again
                 port.reset_input_buffer()
                 port.write(v.data)
@@ -127,11 +130,13 @@ def test_exchanges_with_the_real_firmware(tmp_path: Path) -> None:
                 decoder = Decoder()
                 for _ in range(100):
                     replies += [i for i in decoder.feed(port.read(256)) if isinstance(i, Packet)]
-                    if replies:
+                    if len(replies) >= len(expected):
                         break
-                assert replies, f"{v.name}: no reply"
-                got = replies[0]
-                encoded = encode_reply(got.seq, got.body[0], got.body[1], decode_reply(got).results)
+                assert len(replies) == len(expected), f"{v.name}: {len(replies)} replies"
+                encoded = b"".join(
+                    encode_reply(got.seq, got.body[0], got.body[1], decode_reply(got).results)
+                    for got in replies
+                )
                 assert encoded == v.reply, f"{v.name}: {encoded.hex(' ')} != {v.reply.hex(' ')}"
     finally:
         sim.stop()

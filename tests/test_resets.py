@@ -82,7 +82,7 @@ def test_every_reset_cause_has_its_words(cause: list[str], words: str) -> None:
 
 
 def test_a_restart_is_a_new_boot_count_or_an_uptime_going_backwards() -> None:
-    base = firmware.Status("IDLE", [], 0, 0, 0, 0, 0, 0, "eeprom", False, 10.0, None, ["POWER_ON"], 1, 0)
+    base = firmware.Status("IDLE", [], 0, 0, 0, 0, 0, 0, "eeprom", False, 10.0, None, ["POWER_ON"], 1, 0, 0)
     later = dataclasses.replace(base, uptime_s=10.5)
     watch = firmware.ResetWatch()
     assert not watch.saw(base)  # the first one is the baseline
@@ -96,7 +96,7 @@ def test_a_restart_is_a_new_boot_count_or_an_uptime_going_backwards() -> None:
 
 
 def test_the_new_flag_and_reason_have_words() -> None:
-    base = firmware.Status("IDLE", ["BUMPER"], 0, 3, 0, 0, 0, 0, "eeprom", False, 1.0, None, [], 1, 0)
+    base = firmware.Status("IDLE", ["BUMPER"], 0, 3, 0, 0, 0, 0, "eeprom", False, 1.0, None, [], 1, 0, 0)
     assert base.path_outcome() == (
         "the cart touched something in front: a front switch closed and the firmware stopped it"
     )

@@ -93,8 +93,9 @@ def test_waypoint_path_in_several_frames(sim: Simulator, link: Link) -> None:
         (0.4, 1.0),
     ]
     flat = [c for p in points for c in p]
-    link.call("WAIT_XY_ARRAY", len(points), *flat[:30])
-    assert link.call("XY_APPEND", 15, *flat[30:]) == (20.0,)
+    assert link.call("WAIT_XY_ARRAY", len(points), *flat[:30]) == (15.0, 0.0, 5.0)  # received, index, room
+    received, _index, room = link.call("XY_APPEND", 15, *flat[30:])
+    assert (received, room) == (20.0, 0.0)
     status = wait_idle(link)
     tx, ty, _ = truth_pose(sim)
     assert int(status[1]) & FLAGS["ARRIVED"]
@@ -105,7 +106,7 @@ def test_waypoint_path_in_several_frames(sim: Simulator, link: Link) -> None:
 
 def test_path_over_capacity_is_refused_and_the_cart_keeps_its_path(sim: Simulator, link: Link) -> None:
     link.call("WAIT_XY_ARRAY", 2, 1.0, 0.0, 1.0, 1.0)
-    refused = link.request("WAIT_XY_ARRAY", [33.0])
+    refused = link.request("WAIT_XY_ARRAY", [65536.0])  # a path holds at most 65 535 points
     assert refused.status == 1 and "more waypoints" in refused.describe_error()
     status = wait_idle(link)
     tx, ty, _ = truth_pose(sim)

@@ -68,6 +68,7 @@ class Gateway:
         self.sim = sim
         self.planner = self._planner_for(settings.map)
         self.mission = Mission()
+        self._stream: firmware.PathStream | None = None  # the mission's path, streamed to the firmware
         self._lock = threading.RLock()  # guards settings, planner and mission
         # The listeners have their own lock: the link's reader thread publishes telemetry while
         # another thread may hold _lock waiting for a reply that only that reader can deliver.
@@ -108,6 +109,7 @@ class Gateway:
         self._monitor.start()
 
     def close(self) -> None:
+        self._cancel_stream()
         self._stop.set()
         self._monitor.join(timeout=2.0)
 
@@ -225,14 +227,16 @@ class Gateway:
             if not self.pose_trust.trusted:  # a restart noticed meanwhile
                 raise PoseUntrusted(self.pose_trust.refusal())
             plan = self.planner.plan((pose[0], pose[1]), (x, y))
-            capacity = self.waypoint_capacity
-            if len(plan.waypoints) > capacity:
+            if len(plan.waypoints) > firmware.MAX_PATH_POINTS:
                 raise PathTooLong(
-                    f"the path needs {len(plan.waypoints)} waypoints and the firmware holds {capacity}: "
-                    "remove obstacles or pick a nearer goal"
+                    f"the path needs {len(plan.waypoints)} waypoints and a firmware path holds at most "
+                    f"{firmware.MAX_PATH_POINTS}: remove obstacles or pick a nearer goal"
                 )
-            plan = self._rounded(plan, capacity)
-            firmware.upload_path(self.link, plan.waypoints)
+            plan = self._rounded(plan, firmware.MAX_PATH_POINTS)
+            # The old path's stream stops before the new path replaces it: an append of the old
+            # path must never reach the new one (docs/protocol.md, Paths and the waypoint window).
+            self._cancel_stream()
+            self._stream = firmware.upload_path(self.link, plan.waypoints)
             if self.routine.state == "running":
                 self._end_routine("failed", "a path replaced it before it squared up")
             self.mission = Mission(
@@ -243,8 +247,20 @@ class Gateway:
 
     @property
     def waypoint_capacity(self) -> int:
-        """Points the firmware's path buffer holds (32 until its version has been read)."""
+        """Points the firmware's waypoint window holds (32 until its version has been read)."""
         return self.version.waypoint_capacity if self.version else 32
+
+    @property
+    def path_stream(self) -> firmware.PathStream | None:
+        """The stream of the last path go_to sent (it may still be sending)."""
+        with self._lock:
+            return self._stream
+
+    def _cancel_stream(self) -> None:
+        with self._lock:
+            stream = self._stream
+        if stream is not None:
+            stream.cancel()
 
     def _rounded(self, plan: Plan, capacity: int) -> Plan:
         """The plan with its corners rounded where there is room (cart2d/smoothing.py)."""
@@ -264,6 +280,7 @@ class Gateway:
 
     def stop(self) -> None:
         """Emergency stop: motors off now; a mission in progress fails."""
+        self._cancel_stream()
         self.link.call("STOP")
         with self._lock:
             if self.mission.state == "driving":
@@ -273,6 +290,7 @@ class Gateway:
 
     def drive(self, v_mps: float, omega_radps: float) -> None:
         """Manual driving; the firmware stops by itself without a refresh within its timeout."""
+        self._cancel_stream()
         self.link.call("VELOCITY", v_mps, omega_radps)
         with self._lock:
             if self.mission.state == "driving":
@@ -356,6 +374,8 @@ class Gateway:
             return reply
         if name == "RESET_ROUTINE":
             x, y, theta = (firmware.read_setting(self.link, setting_id(n)) for n in RESET_POSE_SETTINGS)
+        if name in ("WAIT_XY_ARRAY", "XY_APPEND", "GOTO"):
+            self._cancel_stream()  # a path of the user's: the mission's stream must not add to it
         reply = self.link.request(code, args)
         if not reply.ok:
             return reply
@@ -468,6 +488,8 @@ class Gateway:
             )
             sentences = [head]
             ended = self.mission.state == "driving"
+            if self._stream is not None:
+                self._stream.cancel()
             if ended:
                 goal = self.mission.goal or (0.0, 0.0)
                 self._end_mission("failed", f"the controller restarted: {cause}")
@@ -532,6 +554,12 @@ class Gateway:
         shows their end. A path or routine started while the STATUS was on its way is a new
         object: the stale IDLE of before it must not end it."""
         outcome = status.path_outcome()
+        with self._lock:
+            stream = self._stream if self.mission is mission and mission.state == "driving" else None
+        if outcome is None and stream is not None and stream.failure:
+            outcome = f"the path could not be streamed to the firmware: {stream.failure}"
+            with contextlib.suppress(LinkError, CommandRefused):
+                self.link.call("STOP")  # the cart waits at the end of the points it has: stop it
         with self._lock:
             if outcome is not None and self.mission is mission and mission.state == "driving":
                 self._end_mission("failed" if outcome else "arrived", outcome)

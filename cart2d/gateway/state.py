@@ -11,7 +11,7 @@ from cart2d.planner import PlanError
 
 
 class PathTooLong(PlanError):
-    """More waypoints than the firmware's buffer holds."""
+    """More waypoints than a firmware path holds (docs/protocol.md: 65 535)."""
 
 
 class PoseOutsideArena(PlanError):

@@ -1,14 +1,15 @@
 """What the gateway asks of the firmware, in words instead of command codes: compatibility,
-status, resets and their causes, settings by stable id, path uploads split into frames. Built
-on a Link."""
+status, resets and their causes, settings by stable id, paths of any length streamed into the
+waypoint window. Built on a Link."""
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from cart2d.link.transport import Link, LinkError
+from cart2d.link.transport import CommandRefused, Link, LinkError, LinkTimeout
 from cart2d.params import settings_table
 from cart2d.spec import load_spec
 
@@ -48,6 +49,7 @@ class Status:
     reset_cause: list[str]  # why the MCU last restarted (docs/protocol.md, Reset causes)
     boot_count: int  # boots since the MCU's RAM was last lost
     replies_dropped: int
+    waypoints_received: int  # points of the path the firmware has received (absolute)
 
     def has(self, flag: str) -> bool:
         return flag in self.flags
@@ -193,6 +195,7 @@ def read_status(link: Link) -> Status:
         reset_cause=[name for name, bit in spec.reset_causes.items() if int(r[12]) & bit],
         boot_count=int(r[13]),
         replies_dropped=int(r[14]),
+        waypoints_received=int(r[15]),
     )
 
 
@@ -213,11 +216,179 @@ def write_setting(link: Link, setting_id: int, value: float) -> float:
     return link.call("PARAM_SET", setting_id, value)[1]
 
 
-def upload_path(link: Link, points: Sequence[tuple[float, float]]) -> None:
-    """Sends a path: WAIT_XY_ARRAY with the first frame's points, XY_APPEND for the rest."""
-    flat = [c for p in points for c in p]
-    first = flat[: 2 * POINTS_PER_FRAME]
-    link.call("WAIT_XY_ARRAY", len(points), *first)
-    for start in range(POINTS_PER_FRAME, len(points), POINTS_PER_FRAME):
-        chunk = flat[2 * start : 2 * (start + POINTS_PER_FRAME)]
-        link.call("XY_APPEND", start, *chunk)
+# docs/protocol.md, "Paths and the waypoint window": a path has at most this many points.
+MAX_PATH_POINTS = 65535
+# How often the stream looks at the cart's progress (the latest telemetry frame), and after how
+# long without a frame it reads STATUS instead (telemetry off, or late).
+STREAM_POLL_S = 0.005
+TELEMETRY_STALE_S = 0.15
+STATUS_POLL_S = 0.04
+
+Point = tuple[float, float]
+
+
+class PathStream:
+    """A path of any length streamed into the firmware's waypoint window (docs/protocol.md,
+    "Paths and the waypoint window"). start() sends WAIT_XY_ARRAY with the first frame and
+    XY_APPEND while the window has room; if points remain, a thread of its own keeps the window
+    full as the cart passes waypoints, until every point is sent, the firmware leaves PATH mode,
+    the path is replaced, or cancel(). It follows the cart by telemetry's waypoint index and
+    mode, and by STATUS when no frame has come for TELEMETRY_STALE_S (telemetry off). Its
+    requests go through the link, one outstanding at a time like any other."""
+
+    def __init__(self, link: Link, points: Sequence[Point]) -> None:
+        if not 1 <= len(points) <= MAX_PATH_POINTS:
+            raise ValueError(f"a path has 1 to {MAX_PATH_POINTS} points, not {len(points)}")
+        self.link = link
+        self.points = [(float(x), float(y)) for x, y in points]
+        self.sent = 0  # points the firmware has received
+        self.index = 0  # the current waypoint, as last seen
+        self.window = 0  # the window's size W, learnt from the first reply (0: the path fitted)
+        self.appends = 0
+        self.status_reads = 0
+        self.ended = ""  # why it stopped before every point was sent ("" while running or when done)
+        self.failure = ""  # the same when it leaves the cart waiting for points it will not get
+        self.done = threading.Event()  # nothing more will be sent
+        self._cancelled = threading.Event()
+        self._send_lock = threading.Lock()  # held from the cancel check to the append's reply
+        self._thread: threading.Thread | None = None
+
+    @property
+    def count(self) -> int:
+        return len(self.points)
+
+    @property
+    def sending(self) -> bool:
+        """Points are still to be sent (and the stream has not ended)."""
+        return not self.done.is_set()
+
+    def start(self) -> PathStream:
+        """Sends the path's beginning; raises CommandRefused or LinkError (then nothing of it, or
+        only its first frame, reached the firmware: a refused WAIT_XY_ARRAY changes nothing)."""
+        first = self.points[:POINTS_PER_FRAME]
+        reply = self.link.call("WAIT_XY_ARRAY", self.count, *[c for p in first for c in p])
+        received, index, room = (int(v) for v in reply)
+        self.sent, self.index = received, index
+        if received + room < self.count:
+            self.window = received + room  # at index 0 the window starts at point 0
+        frames_seen = self.link.telemetry_count
+        self._fill(room)
+        if self.sent >= self.count:
+            self.done.set()
+        elif not self.done.is_set():
+            self._thread = threading.Thread(
+                target=self._run, args=(frames_seen,), name="path stream", daemon=True
+            )
+            self._thread.start()
+        return self
+
+    def cancel(self) -> None:
+        """Stops streaming: no XY_APPEND is sent once this returns (send it before replacing the
+        path: the firmware would take an old append whose index fits for the new path's)."""
+        self._cancelled.set()
+        with self._send_lock:
+            pass
+        if not self.done.is_set():
+            self._end("cancelled")
+
+    def join(self, timeout_s: float | None = None) -> bool:
+        """Waits until nothing more will be sent; True if so."""
+        return self.done.wait(timeout_s)
+
+    # -- the thread ------------------------------------------------------------------------------
+    @property
+    def _batch(self) -> int:
+        # Points worth a request of their own: a quarter of the window (8 of 32) keeps at least
+        # three quarters of it ahead of the cart with a quarter of the requests of one per point.
+        return max(1, self.window // 4)
+
+    def _room(self) -> int:
+        base = max(self.index - 1, 0)
+        return max(0, min(self.count, base + self.window) - self.sent)
+
+    def _end(self, why: str, failure: bool = False) -> None:
+        self.ended = why
+        if failure:
+            self.failure = why
+        self.done.set()
+
+    def _fill(self, room: int) -> None:
+        """XY_APPEND frames while the window has room (as the last reply said)."""
+        while room > 0 and self.sent < self.count:
+            chunk = self.points[self.sent : self.sent + min(room, POINTS_PER_FRAME)]
+            with self._send_lock:
+                if self._cancelled.is_set():
+                    return
+                try:
+                    reply = self.link.call("XY_APPEND", self.sent, *[c for p in chunk for c in p])
+                except CommandRefused as exc:
+                    self._end(
+                        f"the firmware refused the path's points {self.sent} on ({exc}): "
+                        "the path was replaced or changed by another sender",
+                        failure=True,
+                    )
+                    return
+                except LinkTimeout:
+                    self._resync()
+                    return
+                except LinkError as exc:
+                    self._end(f"the link failed while streaming the path: {exc}", failure=True)
+                    return
+            self.appends += 1
+            received, index, room = (int(v) for v in reply)
+            if received != self.sent + len(chunk):
+                self._end(f"the firmware holds {received} points, not {self.sent + len(chunk)}", failure=True)
+                return
+            self.sent, self.index = received, max(self.index, index)
+
+    def _resync(self) -> None:
+        """After an XY_APPEND whose reply never came: STATUS tells whether it arrived."""
+        try:
+            status = read_status(self.link)
+        except (LinkError, CommandRefused) as exc:
+            self._end(f"the link failed while streaming the path: {exc}", failure=True)
+            return
+        self.status_reads += 1
+        self._follow(status.mode, status.waypoint_index, status.waypoint_count, status.waypoints_received)
+
+    def _follow(self, mode: str, index: int, count: int | None = None, received: int | None = None) -> None:
+        """The cart's progress, from telemetry (mode and index) or STATUS (all four)."""
+        if mode != "PATH":
+            self._end(f"the firmware left PATH mode ({mode}) with {self.count - self.sent} points unsent")
+        elif index < self.index or (count is not None and count != self.count):
+            self._end("the path was replaced by another sender", failure=True)
+        elif received is not None and received != self.sent:
+            if self.sent <= received <= self.sent + POINTS_PER_FRAME:
+                self.sent = received  # an append whose reply was lost had arrived
+            else:
+                self._end(f"the firmware holds {received} points, {self.sent} were sent", failure=True)
+        else:
+            self.index = index
+
+    def _run(self, frames_seen: int) -> None:
+        last_news = time.monotonic()
+        last_status = 0.0
+        while not self._cancelled.is_set() and not self.done.is_set():
+            now = time.monotonic()
+            frame = self.link.telemetry
+            if self.link.telemetry_count != frames_seen and frame is not None:
+                frames_seen = self.link.telemetry_count
+                last_news = now
+                self._follow(mode_name(frame.mode), int(frame.waypoint_index))
+            elif now - last_news > TELEMETRY_STALE_S and now - last_status > STATUS_POLL_S:
+                last_status = now
+                self._resync()
+            else:
+                time.sleep(STREAM_POLL_S)
+                continue
+            room = self._room()
+            if not self.done.is_set() and room >= min(self._batch, self.count - self.sent):
+                self._fill(room)
+                if self.sent >= self.count:
+                    self.done.set()
+
+
+def upload_path(link: Link, points: Sequence[Point]) -> PathStream:
+    """Sends a path of any length (PathStream): returns once its first frame and as many points
+    as the window holds have arrived; the rest follows from the stream's thread."""
+    return PathStream(link, points).start()

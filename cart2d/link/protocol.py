@@ -87,11 +87,13 @@ REASON_TEXT = {
     "ARG_COUNT": "wrong number of arguments",
     "NOT_FINITE": "an argument is NaN or infinite",
     "OUT_OF_RANGE": "an argument is out of range",
-    "OVER_CAPACITY": "more waypoints than the firmware can hold",
+    "OVER_CAPACITY": "more waypoints than a path holds",
     "BAD_STATE": "not possible in the current state",
     "EEPROM_INVALID": "no valid settings stored in EEPROM",
     "MALFORMED": "malformed request",
     "BLOCKED": "a front switch is closed: the cart may only back away from what it touches",
+    "WINDOW_FULL": "the waypoint window has no room for these points yet",
+    "OUT_OF_ORDER": "the points do not continue the path where it stands",
 }
 
 

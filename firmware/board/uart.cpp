@@ -11,9 +11,9 @@ namespace board {
 namespace uart {
 
 // RX: 64 bytes = 5.5 ms of line time at 115200, longer than the busiest tick.
-// TX: room for a telemetry frame (72 B) plus the longest reply (68 B); a ring holds size - 1.
+// TX: room for a telemetry frame (72 B) plus the longest reply (72 B); a ring holds size - 1.
 constexpr uint8_t kRxSize = 64;
-constexpr uint8_t kTxSize = 144;
+constexpr uint8_t kTxSize = 145;
 static_assert(kTxSize - 1 >= core::wire::kTelemetrySize + core::wire::kMaxReply, "TX ring too small");
 
 static volatile uint8_t rx_buf[kRxSize];

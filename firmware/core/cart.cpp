@@ -26,6 +26,12 @@ const OdometryScale& Cart::scale() {
     const WheelGeometry geometry{setting(enc_radius_left_m), setting(enc_radius_right_m), setting(enc_track_m),
                                  kCountsPerRev};
     scale_ = OdometryScale(geometry, kTickPeriod_s);
+    // Also derived from the settings, for the position loop (each multiplication there costs
+    // ~75 cycles per tick on average): the received path beyond a waypoint that lets the cart
+    // brake from v_max (polar_controller.hpp, MotionLimits), and the overshoot pass radius.
+    const float v_max = setting(v_max_mps);
+    stop_horizon_m_ = v_max * v_max / ((2.0f * kBrakingShare) * setting(a_max_mps2));
+    overshoot_radius_m_ = kOvershootPassFactor * setting(tol_pass_m);
     scale_version_ = settings_.version();
     scale_valid_ = true;
   }
@@ -88,13 +94,13 @@ MotorOutput Cart::tick(const TickInput& in) {
 // Computes the speeds that drive the path; false when the cart has just stopped on the end.
 __attribute__((noinline)) bool Cart::follow_path(float& v_mps, float& omega_radps) {
   v_mps = omega_radps = 0.0f;
-  if (path_.upload_open()) return true;  // brake (zero targets) until the rest has arrived
   if (!path_.active()) {
+    if (path_.pending()) return true;  // no point has arrived yet: brake (zero targets) and wait
     safe_stop(0);
     return false;
   }
   const PolarGains gains{setting(pos_rho_kp), setting(pos_phase_kp)};
-  const MotionLimits limits{setting(v_max_mps), setting(w_max_radps), setting(a_max_mps2)};
+  const MotionLimits limits{setting(v_max_mps), setting(w_max_radps), setting(a_max_mps2), stop_horizon_m_};
   const Pose& pose = odometry_.pose();
   const Heading heading{odometry_.cos_theta(), odometry_.sin_theta()};
   // An intermediate waypoint is passed within its pass radius (tol_pass, shrinking to tol_final
@@ -104,23 +110,28 @@ __attribute__((noinline)) bool Cart::follow_path(float& v_mps, float& omega_radp
   const float tol_final = setting(tol_final_m);
   const PolarOutput cmd = polar_control(pose, heading, path_.approach(limits.v_max_mps), gains, limits);
   const float distance_m = fabsf(cmd.rho_m);
-  if (!path_.at_last() && (distance_m < path_.pass_radius(tol_pass, tol_final) ||
-                           (distance_m < kOvershootPassFactor * tol_pass && path_.passed(pose)))) {
-    // Passed. The next waypoint is steered for from the next position tick (16 ms) on: steering
-    // for it at once as well made this the heaviest tick of all.
-    path_.advance();
+  distance_to_waypoint_m_ = distance_m;
+  stopping_ = cmd.stopping;
+  v_mps = cmd.v_mps;
+  omega_radps = cmd.omega_radps;
+  // Only a waypoint with a known successor is passed: on the last one received the cart stops
+  // (and waits for more, unless it is the path's last).
+  if (!path_.at_last_received()) {
+    if (distance_m < path_.pass_radius(tol_pass, tol_final) ||
+        (distance_m < overshoot_radius_m_ && path_.passed(pose))) {
+      // Passed. The next waypoint is steered for from the next position tick (16 ms) on:
+      // steering for it at once as well made this the heaviest tick of all.
+      path_.advance();
+    }
+    return true;
   }
-  distance_to_waypoint_m_ = fabsf(cmd.rho_m);
   // Arrival is judged on the distance between robot and waypoint (the seed compared
   // distances from the origin) and only once the cart has nearly stopped on it.
-  if (path_.at_last() && distance_to_waypoint_m_ < tol_final &&
-      fabsf(odometry_.v_mps()) < params::control::arrive_speed_mps) {
+  if (path_.at_last() && distance_m < tol_final && fabsf(odometry_.v_mps()) < params::control::arrive_speed_mps) {
     path_.advance();
     safe_stop(proto::FLAG_ARRIVED);
     return false;
   }
-  v_mps = cmd.v_mps;
-  omega_radps = cmd.omega_radps;
   return true;
 }
 
@@ -186,18 +197,16 @@ void Cart::safe_stop(uint16_t reason_flag) {
   output_ = MotorOutput();
 }
 
+// A new path replaces the current one at once. Driving, the mode stays PATH and the speed
+// references carry on through the acceleration limiter (enter() resets them only from IDLE).
 void Cart::go_to(const Point& target) {
-  path_.set_single(target);
-  path_.start_from(odometry_.pose());
+  path_.set_single(target, odometry_.pose());
   enter(proto::MODE_PATH);
 }
 
 uint8_t Cart::begin_path(float count, const float* xy, uint8_t n) {
-  if (count >= 1.0f && n > count) return proto::REASON_ARG_COUNT;
-  const uint8_t refused = path_.begin(count);
+  const uint8_t refused = path_.begin(count, xy, n, odometry_.pose());
   if (refused) return refused;
-  path_.start_from(odometry_.pose());
-  path_.append(0.0f, xy, n);
   enter(proto::MODE_PATH);
   return 0;
 }
@@ -208,7 +217,7 @@ uint8_t Cart::append_path(float index, const float* xy, uint8_t n) {
 
 void Cart::start() {
   if (mode_ != proto::MODE_IDLE) return;
-  const bool path_pending = path_.upload_open() || path_.active();
+  const bool path_pending = path_.pending();
   if (path_pending) path_.start_from(odometry_.pose());
   enter(path_pending ? proto::MODE_PATH : proto::MODE_HOLD);
 }
@@ -241,7 +250,12 @@ uint16_t Cart::flags() const {
   if (output_.enabled) f |= proto::FLAG_MOTORS_ENABLED;
   if (switch_left_) f |= proto::FLAG_SWITCH_LEFT;
   if (switch_right_) f |= proto::FLAG_SWITCH_RIGHT;
-  if (path_.upload_open()) f |= proto::FLAG_UPLOAD_OPEN;
+  if (!path_.all_received()) {
+    f |= proto::FLAG_UPLOAD_OPEN;
+    // Fewer points received ahead than the braking distance from v_max (as the position loop
+    // last saw it, or none at all): the cart brakes for the last one unless more arrive.
+    if (mode_ == proto::MODE_PATH && (stopping_ || !path_.active())) f |= proto::FLAG_STARVED;
+  }
   return f;
 }
 

@@ -37,8 +37,8 @@ struct MotorOutput {
 
 class Cart {
  public:
-  // The waypoint buffer is passed in rather than owned so that on the AVR it can sit in .bss
-  // (zero-filled at start-up) instead of .data (its 256 zero bytes copied from flash).
+  // The path (its waypoint window) is passed in rather than owned so that on the AVR it can sit
+  // in .bss (zero-filled at start-up) instead of .data (its zero bytes copied from flash).
   constexpr Cart(const Settings& settings, Path& path) : settings_(settings), path_(path) {}
 
   MotorOutput tick(const TickInput& in);
@@ -85,6 +85,8 @@ class Cart {
   const Settings& settings_;
   Odometry odometry_;
   OdometryScale scale_;
+  float stop_horizon_m_ = 0.0f;      // MotionLimits::stop_horizon_m, refreshed with scale_
+  float overshoot_radius_m_ = 0.0f;  // kOvershootPassFactor * tol_pass, refreshed with scale_
   uint8_t scale_version_ = 0;
   bool scale_valid_ = false;
   SpeedController speed_;
@@ -104,6 +106,7 @@ class Cart {
   float v_ref_mps_ = 0.0f;       // after the acceleration limiter
   float omega_ref_radps_ = 0.0f;
   float distance_to_waypoint_m_ = 0.0f;
+  bool stopping_ = false;  // PolarOutput::stopping of the last position loop
   WheelSpeeds wheel_targets_;
   MotorOutput output_;
 };

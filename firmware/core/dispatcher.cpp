@@ -108,12 +108,13 @@ uint8_t Dispatcher::execute_motion(const Request& r, Results& results) {
       cart_.go_to(Point{a[0], a[1]});
       return 0;
     case proto::COMMAND_WAIT_XY_ARRAY:
-      if (r.argc % 2 == 0) return proto::REASON_ARG_COUNT;  // count + whole (x, y) pairs
-      return cart_.begin_path(a[0], a + 1, (r.argc - 1) / 2);
     case proto::COMMAND_XY_APPEND: {
-      if (r.argc < 3 || r.argc % 2 == 0) return proto::REASON_ARG_COUNT;
-      const uint8_t reason = cart_.append_path(a[0], a + 1, (r.argc - 1) / 2);
-      if (reason == 0) results.add(cart_.path().received());
+      // count or index, then whole (x, y) pairs; an append carries at least one
+      if (r.argc % 2 == 0 || (r.cmd == proto::COMMAND_XY_APPEND && r.argc < 3)) return proto::REASON_ARG_COUNT;
+      const uint8_t n = (r.argc - 1) / 2;
+      const uint8_t reason = r.cmd == proto::COMMAND_WAIT_XY_ARRAY ? cart_.begin_path(a[0], a + 1, n)
+                                                                   : cart_.append_path(a[0], a + 1, n);
+      if (reason == 0) pacing(results);
       return reason;
     }
     case proto::COMMAND_START:
@@ -197,7 +198,7 @@ uint8_t Dispatcher::execute_system(const Request& r, Results& results) {  // non
       results.add(kFirmwareMajor * 10000.0f + kFirmwareMinor * 100.0f + kFirmwarePatch);
       results.add(proto::kDictionaryHash);
       results.add(kLayoutHash);
-      results.add(kWaypointCapacity);
+      results.add(kWindow);
       results.add(kCount);
       return 0;
     case proto::COMMAND_STATUS:
@@ -214,6 +215,14 @@ uint8_t Dispatcher::execute_system(const Request& r, Results& results) {  // non
   }
 }
 
+// What a host streaming a path needs to pace itself (docs/protocol.md, Paths and the waypoint
+// window): received, the current waypoint's index, and the room left in the window.
+void Dispatcher::pacing(Results& results) const {
+  const Path& path = cart_.path();
+  const uint16_t values[] = {path.received(), path.index(), path.room()};
+  for (uint16_t v : values) results.add(v);
+}
+
 void Dispatcher::status(Results& results) const {
   // Whole numbers first, converted in one loop (12 separate conversions cost ~150 B of flash).
   const uint16_t counts[] = {cart_.mode(),          cart_.flags(),          cart_.path().index(),
@@ -226,6 +235,7 @@ void Dispatcher::status(Results& results) const {
   results.add(health_.reset_cause);
   results.add(health_.boot_count);
   results.add(health_.replies_dropped);
+  results.add(cart_.path().received());
 }
 
 }  // namespace core

@@ -60,6 +60,7 @@ class Dispatcher {
   uint8_t execute_system(const Request& request, Results& results);
   uint8_t set_all(const uint8_t* ids, const float* values, uint8_t n, Results& results);
   void get_all(const uint8_t* ids, uint8_t n, Results& results) const;
+  void pacing(Results& results) const;
   void status(Results& results) const;
 
   Cart& cart_;

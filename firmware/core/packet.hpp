@@ -14,7 +14,7 @@ constexpr uint8_t kMaxPacket = kMaxBody + kOverhead;
 constexpr uint8_t kRequestHeader = 2;  // CMD, ARGC
 constexpr uint8_t kReplyHeader = 3;    // STATUS, CMD, ARGC
 constexpr uint8_t kMaxArgs = (kMaxBody - kRequestHeader) / 4;  // 31
-constexpr uint8_t kMaxResults = 15;    // the longest reply is STATUS
+constexpr uint8_t kMaxResults = 16;    // the longest reply is STATUS
 constexpr uint8_t kMaxReply = kOverhead + kReplyHeader + 4 * kMaxResults;
 
 constexpr uint8_t kTelemetrySync0 = 0xAA;
@@ -45,6 +45,10 @@ class PacketReceiver {
   // The line went quiet in the middle of a packet: give up on it and rescan.
   void expire();
   bool holding() const { return held_ > 0; }
+  // The bytes held make up a whole packet by its LEN (its CRC is checked by poll()).
+  bool complete() const {
+    return held_ >= 2 && buf_[1] >= wire::kMinBody && buf_[1] <= wire::kMaxBody && held_ >= buf_[1] + wire::kOverhead;
+  }
 
   // 2 ticks = 16 ms = ~180 byte times: no packet takes that long on the wire.
   static constexpr uint8_t kExpiryTicks = 2;

@@ -18,7 +18,8 @@ void check(bool ok) {
 }
 
 void check_replies(const std::vector<uint8_t>& bytes) {
-  for (const harness::Reply& r : harness::replies(bytes)) check(r.status <= 2 && r.results.size() <= 12);
+  for (const harness::Reply& r : harness::replies(bytes))
+    check(r.status <= 2 && r.results.size() <= core::wire::kMaxResults);
 }
 
 void check_state(const harness::Firmware& fw, const core::MotorOutput& out) {
@@ -27,7 +28,13 @@ void check_state(const harness::Firmware& fw, const core::MotorOutput& out) {
   check(out.pwm.left >= -1000 && out.pwm.left <= 1000 && out.pwm.right >= -1000 && out.pwm.right <= 1000);
   check(out.enabled || (out.pwm.left == 0 && out.pwm.right == 0));
   check(fw.cart.path().index() <= fw.cart.path().count());
-  check(fw.cart.path().count() <= core::kWaypointCapacity);
+  // The window: never ahead of the path, never more than kWindow points from the one before
+  // the current waypoint.
+  const core::Path& path = fw.cart.path();
+  check(path.index() <= path.received() && path.received() <= path.count());
+  const uint16_t base = path.index() > 0 ? path.index() - 1 : 0;
+  check(path.received() <= base + core::kWindow);
+  check(path.room() <= core::kWindow && path.length_ahead_m() >= 0.0f && std::isfinite(path.length_ahead_m()));
   for (uint8_t id = 0; id < core::setting::kCount; ++id)
     check(core::Settings::acceptable(id, fw.settings.get(id)));
 }

@@ -105,6 +105,35 @@ struct Rig {
   }
 };
 
+std::vector<float> flat(const std::vector<core::Point>& pts, size_t first = 0, size_t n = SIZE_MAX) {
+  std::vector<float> xy;
+  for (size_t i = first; i < pts.size() && i < first + n; ++i) xy.insert(xy.end(), {pts[i].x_m, pts[i].y_m});
+  return xy;
+}
+
+// A host streaming `pts` as docs/protocol.md asks: the first frame, then, every `every` ticks,
+// as many points as the window has room for, in frames of up to 15.
+struct Streamer {
+  const std::vector<core::Point>& pts;
+  int every = 5;  // ticks: the telemetry period at 25 Hz
+  int countdown = 0;
+
+  void begin(Rig& rig) {
+    const size_t first = std::min<size_t>(pts.size(), 15);
+    const std::vector<float> xy = flat(pts, 0, first);
+    ASSERT_EQ(rig.cart.begin_path(static_cast<float>(pts.size()), xy.data(), static_cast<uint8_t>(first)), 0);
+  }
+  void refill(Rig& rig) {
+    if (countdown-- > 0) return;
+    countdown = every - 1;
+    while (rig.path.room() > 0) {
+      const uint16_t n = std::min<uint16_t>(rig.path.room(), 15);
+      const std::vector<float> xy = flat(pts, rig.path.received(), n);
+      ASSERT_EQ(rig.cart.append_path(rig.path.received(), xy.data(), static_cast<uint8_t>(n)), 0);
+    }
+  }
+};
+
 void expect_stopped_on_arrival(const Rig& rig) {
   EXPECT_EQ(rig.cart.mode(), proto::MODE_IDLE);
   // Declared only once nearly stopped (arrive_speed_mps = 0.02), not while rolling through.
@@ -354,16 +383,8 @@ TEST(CartLoop, GentlePathIsFollowedWithoutStoppingAtIntermediateWaypoints) {
   // intermediate exit speed is v_max cos(7 deg) ~ 0.496 m/s.
   const std::vector<core::Point> pts{{0.4f, 0.0f}, {0.8f, 0.05f}, {1.2f, 0.15f}, {1.6f, 0.3f}, {2.0f, 0.5f}};
   Rig rig;
-  const float first[] = {pts[0].x_m, pts[0].y_m, pts[1].x_m, pts[1].y_m};
-  ASSERT_EQ(rig.cart.begin_path(5.0f, first, 2), 0);
-  // Upload incomplete: the cart waits (brakes to zero speed) with the upload flag up.
-  for (int i = 0; i < 20; ++i) rig.tick();
-  EXPECT_EQ(rig.cart.mode(), proto::MODE_PATH);
-  EXPECT_TRUE(rig.flag(proto::FLAG_UPLOAD_OPEN));
-  EXPECT_EQ(rig.cart.v_ref_mps(), 0.0f);
-  EXPECT_LT(rig.truth_distance_to(0.0, 0.0), 1e-9);
-  const float rest[] = {pts[2].x_m, pts[2].y_m, pts[3].x_m, pts[3].y_m, pts[4].x_m, pts[4].y_m};
-  ASSERT_EQ(rig.cart.append_path(2.0f, rest, 3), 0);
+  const std::vector<float> xy = flat(pts);
+  ASSERT_EQ(rig.cart.begin_path(5.0f, xy.data(), 5), 0);
   EXPECT_FALSE(rig.flag(proto::FLAG_UPLOAD_OPEN));
 
   std::vector<double> speed_at_switch;
@@ -414,6 +435,157 @@ TEST(CartLoop, SharpCornerIsTakenSlowlyButStillReached) {
   ASSERT_GT(switch_tick, 0);
   EXPECT_LT(min_v_ref_after_switch, 0.3 * rig.settings.get(id::v_max_mps));
   EXPECT_LT(rig.truth_distance_to(0.6, 0.6), rig.settings.get(id::tol_final_m) + 2e-3);
+}
+
+// ---- Streamed paths and replacements --------------------------------------------------------
+
+TEST(CartLoop, AStreamedPathDrivesOnItsFirstPointsAndStopsSmoothlyOnTheLastReceived) {
+  // 3 points along x, 0.4 m apart; only the first 2 have arrived. The cart drives at once,
+  // brakes within the acceleration limit and stops on (0.8, 0) without declaring arrival,
+  // flagging STARVED; when the last point arrives it drives on and arrives there.
+  Rig rig;
+  const double dv_max = rig.settings.get(id::a_max_mps2) * kH;
+  const float first[] = {0.4f, 0.0f, 0.8f, 0.0f};
+  ASSERT_EQ(rig.cart.begin_path(3.0f, first, 2), 0);
+  EXPECT_TRUE(rig.flag(proto::FLAG_UPLOAD_OPEN));
+  float v_prev = 0.0f, v_peak = 0.0f;
+  for (int i = 0; i < 500; ++i) {
+    rig.tick();
+    ASSERT_EQ(rig.cart.mode(), proto::MODE_PATH) << i;
+    ASSERT_LE(std::fabs(rig.cart.v_ref_mps() - v_prev), dv_max + 1e-6) << i;
+    v_prev = rig.cart.v_ref_mps();
+    v_peak = std::fmax(v_peak, v_prev);
+  }
+  EXPECT_GT(v_peak, 0.4f);  // it did not wait for the whole path
+  EXPECT_EQ(rig.path.index(), 1);
+  EXPECT_LT(std::fabs(rig.plant.speed()), 0.005);
+  EXPECT_LT(rig.truth_distance_to(0.8, 0.0), rig.settings.get(id::tol_final_m) + 2e-3);
+  EXPECT_FALSE(rig.flag(proto::FLAG_ARRIVED));
+  EXPECT_TRUE(rig.flag(proto::FLAG_STARVED));
+  EXPECT_TRUE(rig.cart.output().enabled);  // holding still, waiting
+
+  const float last[] = {1.2f, 0.0f};
+  ASSERT_EQ(rig.cart.append_path(2.0f, last, 1), 0);
+  EXPECT_FALSE(rig.flag(proto::FLAG_STARVED));
+  rig.tick();
+  rig.tick();
+  // Standing on the point before the last, it must not take the arrival there for the last's.
+  EXPECT_EQ(rig.cart.mode(), proto::MODE_PATH);
+  rig.run_while(proto::MODE_PATH, 3000);
+  expect_stopped_on_arrival(rig);
+  EXPECT_LT(rig.truth_distance_to(1.2, 0.0), rig.settings.get(id::tol_final_m) + 2e-3);
+}
+
+TEST(CartLoop, ALongStreamedPathIsDrivenAtFullSpeedAcrossEveryWindowBoundary) {
+  // 400 points 2 cm apart on a gentle wave (8 m; the window holds 0.6 m of it), refilled every
+  // 40 ms: never STARVED, never below 0.45 m/s between the first and the last metre.
+  std::vector<core::Point> pts;
+  for (int i = 1; i <= 400; ++i) {
+    const float x = 0.02f * static_cast<float>(i);
+    pts.push_back(core::Point{x, 0.1f * std::sin(x)});
+  }
+  Rig rig;
+  Streamer host{pts};
+  host.begin(rig);
+  double min_speed = 1e9;
+  int starved_ticks = 0;
+  while (rig.cart.mode() == proto::MODE_PATH && rig.ticks < 5000) {
+    host.refill(rig);
+    rig.tick();
+    if (rig.plant.x > 1.0 && rig.plant.x < 7.0) min_speed = std::fmin(min_speed, rig.plant.speed());
+    if (rig.flag(proto::FLAG_STARVED)) ++starved_ticks;
+  }
+  expect_stopped_on_arrival(rig);
+  EXPECT_EQ(rig.path.index(), 400);
+  EXPECT_GT(min_speed, 0.45);
+  EXPECT_EQ(starved_ticks, 0);
+  EXPECT_LT(rig.truth_distance_to(pts.back().x_m, pts.back().y_m), rig.settings.get(id::tol_final_m) + 2e-3);
+}
+
+TEST(CartLoop, AHostThatFallsBehindMakesTheCartStopOnTheLastPointNotOvershootIt) {
+  // The same kind of path, but the host sends its second frame only after 3 s: the cart stops
+  // on point 14 (0.3 m), then drives the rest.
+  std::vector<core::Point> pts;
+  for (int i = 1; i <= 60; ++i) pts.push_back(core::Point{0.02f * static_cast<float>(i), 0.0f});
+  Rig rig;
+  Streamer host{pts, 375};
+  host.countdown = 375;
+  host.begin(rig);
+  double max_x_while_waiting = 0.0;
+  while (rig.cart.mode() == proto::MODE_PATH && rig.ticks < 3000) {
+    host.refill(rig);
+    rig.tick();
+    if (rig.ticks < 375) max_x_while_waiting = std::fmax(max_x_while_waiting, rig.plant.x);
+  }
+  EXPECT_LT(max_x_while_waiting, 0.3 + 0.004);
+  EXPECT_GT(max_x_while_waiting, 0.3 - 0.006);
+  expect_stopped_on_arrival(rig);
+  EXPECT_LT(rig.truth_distance_to(1.2, 0.0), rig.settings.get(id::tol_final_m) + 2e-3);
+}
+
+TEST(CartLoop, AReplacementWhileDrivingIsAtomicAndCarriesTheSpeedThroughTheLimiter) {
+  // Driving along x at full speed towards (3, 0); at x = 1 a new path replaces it: on along x to
+  // (1.8, 0), then a left turn up to (1.8, 0.6). The cart follows the new path only (it never
+  // heads on for the old points beyond x = 1.8), the references change by at most a_max * h and
+  // alpha_max * h per tick, and it does not slow down on the straight part of the new path.
+  Rig rig;
+  const double dv_max = rig.settings.get(id::a_max_mps2) * kH;
+  const double dw_max = rig.settings.get(id::alpha_max_radps2) * kH;
+  std::vector<core::Point> old_pts;
+  for (int i = 1; i <= 15; ++i) old_pts.push_back(core::Point{0.2f * static_cast<float>(i), 0.0f});
+  const std::vector<float> old_xy = flat(old_pts);
+  ASSERT_EQ(rig.cart.begin_path(15.0f, old_xy.data(), 15), 0);
+  while (rig.plant.x < 1.0) rig.tick();
+  ASSERT_NEAR(rig.cart.v_ref_mps(), 0.5, 1e-3);
+  // A refused replacement changes nothing.
+  ASSERT_EQ(rig.cart.begin_path(0.0f, nullptr, 0), proto::REASON_OUT_OF_RANGE);
+  EXPECT_EQ(rig.path.count(), 15);
+  const std::vector<core::Point> fresh{{1.3f, 0.0f}, {1.55f, 0.0f}, {1.8f, 0.0f}, {1.8f, 0.3f}, {1.8f, 0.6f}};
+  const std::vector<float> xy = flat(fresh);
+  ASSERT_EQ(rig.cart.begin_path(5.0f, xy.data(), 5), 0);
+  EXPECT_EQ(rig.path.index(), 0);
+  EXPECT_EQ(rig.path.current().x_m, 1.3f);
+  float v_prev = rig.cart.v_ref_mps(), w_prev = rig.cart.omega_ref_radps();
+  double min_v_straight = 1e9, max_x = 0.0;
+  while (rig.cart.mode() == proto::MODE_PATH && rig.ticks < 5000) {
+    rig.tick();
+    const float v = rig.cart.v_ref_mps(), w = rig.cart.omega_ref_radps();
+    ASSERT_LE(std::fabs(v - v_prev), dv_max + 1e-6) << rig.ticks;
+    ASSERT_LE(std::fabs(w - w_prev), dw_max + 1e-6) << rig.ticks;
+    v_prev = v;
+    w_prev = w;
+    if (rig.plant.x < 1.4) min_v_straight = std::fmin(min_v_straight, rig.plant.speed());
+    max_x = std::fmax(max_x, rig.plant.x);
+  }
+  expect_stopped_on_arrival(rig);
+  EXPECT_GT(min_v_straight, 0.45);
+  EXPECT_LT(max_x, 1.8 + 0.02);
+  EXPECT_LT(rig.truth_distance_to(1.8, 0.6), rig.settings.get(id::tol_final_m) + 2e-3);
+}
+
+TEST(CartLoop, AReplacementWithoutPointsBrakesAtTheLimitsAndWaitsForThem) {
+  Rig rig;
+  const double dv_max = rig.settings.get(id::a_max_mps2) * kH;
+  const float far[] = {3.0f, 0.0f};
+  ASSERT_EQ(rig.cart.begin_path(1.0f, far, 1), 0);
+  while (rig.plant.x < 1.0) rig.tick();
+  ASSERT_EQ(rig.cart.begin_path(10.0f, nullptr, 0), 0);
+  float v_prev = rig.cart.v_ref_mps();
+  for (int i = 0; i < 150; ++i) {
+    rig.tick();
+    ASSERT_EQ(rig.cart.mode(), proto::MODE_PATH);
+    ASSERT_LE(std::fabs(rig.cart.v_ref_mps() - v_prev), dv_max + 1e-6) << i;
+    ASSERT_LE(rig.cart.v_ref_mps(), v_prev + 1e-7) << i;  // only slowing down
+    v_prev = rig.cart.v_ref_mps();
+  }
+  EXPECT_EQ(rig.cart.v_ref_mps(), 0.0f);
+  EXPECT_TRUE(rig.flag(proto::FLAG_STARVED));
+  const double x_stopped = rig.plant.x;
+  EXPECT_LT(x_stopped, 1.0 + 0.16);  // v^2 / (2 a) = 0.125 m, plus the wheels' lag
+  const float pts[] = {static_cast<float>(x_stopped) + 0.5f, 0.0f};
+  ASSERT_EQ(rig.cart.append_path(0.0f, pts, 1), 0);
+  for (int i = 0; i < 100; ++i) rig.tick();
+  EXPECT_GT(rig.plant.x, x_stopped + 0.1);
 }
 
 // ---- Acceleration limiting ----------------------------------------------------------------

@@ -108,34 +108,65 @@ TEST_F(Dispatcher, HugeButFiniteValuesAreRefusedOrWrapped) {
   EXPECT_EQ(proto::MODE_IDLE, fw.cart.mode());
 }
 
-TEST_F(Dispatcher, PathUploadInSeveralFramesStartsWhenComplete) {
+// A path of `n` points along x, 0.1 m apart from x = 1 m: point i as {x, y}.
+std::vector<float> line_points(int first, int n) {
+  std::vector<float> xy;
+  for (int i = first; i < first + n; ++i) xy.insert(xy.end(), {1.0f + 0.1f * i, 0.0f});
+  return xy;
+}
+
+std::vector<float> with_head(float head, const std::vector<float>& xy) {
+  std::vector<float> args = {head};
+  args.insert(args.end(), xy.begin(), xy.end());
+  return args;
+}
+
+TEST_F(Dispatcher, AStreamedPathStartsAtOnceAndEveryReplyCarriesThePacing) {
   Firmware fw;
-  std::vector<float> first = {20.0f};
-  for (int i = 0; i < 15; ++i) first.insert(first.end(), {0.1f * i, 0.0f});
-  EXPECT_EQ(proto::CONTROL_OK, call(fw, proto::COMMAND_WAIT_XY_ARRAY, first).status);
+  // 20 points: 15 in the first frame, 5 appended. Each reply: received, index, room.
+  const Reply begun = call(fw, proto::COMMAND_WAIT_XY_ARRAY, with_head(20.0f, line_points(0, 15)));
+  EXPECT_EQ((std::vector<float>{15.0f, 0.0f, 5.0f}), begun.results);
+  EXPECT_EQ(proto::MODE_PATH, fw.cart.mode());
   EXPECT_TRUE(fw.cart.flags() & proto::FLAG_UPLOAD_OPEN);
-  std::vector<float> rest = {15.0f};
-  for (int i = 15; i < 20; ++i) rest.insert(rest.end(), {0.1f * i, 0.0f});
-  const Reply r = call(fw, proto::COMMAND_XY_APPEND, rest);
-  EXPECT_EQ((std::vector<float>{20.0f}), r.results);
+  const Reply r = call(fw, proto::COMMAND_XY_APPEND, with_head(15.0f, line_points(15, 5)));
+  EXPECT_EQ((std::vector<float>{20.0f, 0.0f, 0.0f}), r.results);
   EXPECT_FALSE(fw.cart.flags() & proto::FLAG_UPLOAD_OPEN);
   EXPECT_EQ(20, fw.cart.path().count());
-  EXPECT_EQ(proto::MODE_PATH, fw.cart.mode());
+  const Reply status = call(fw, proto::COMMAND_STATUS);
+  ASSERT_EQ(16u, status.results.size());
+  EXPECT_EQ(0.0f, status.results[2]);   // waypoint_index
+  EXPECT_EQ(20.0f, status.results[3]);  // waypoint_count
+  EXPECT_EQ(20.0f, status.results[15]);  // waypoints_received
+}
+
+TEST_F(Dispatcher, AppendsBeyondTheWindowOrOutOfOrderAreRefusedAndStoreNothing) {
+  Firmware fw;
+  const float w = core::kWindow;
+  call(fw, proto::COMMAND_WAIT_XY_ARRAY, with_head(100.0f, line_points(0, 15)));
+  EXPECT_EQ((std::vector<float>{30.0f, 0.0f, w - 30.0f}),
+            call(fw, proto::COMMAND_XY_APPEND, with_head(15.0f, line_points(15, 15))).results);
+  expect_error(call(fw, proto::COMMAND_XY_APPEND, with_head(30.0f, line_points(30, w - 29))),
+               proto::REASON_WINDOW_FULL);
+  expect_error(call(fw, proto::COMMAND_XY_APPEND, with_head(29.0f, line_points(29, 1))), proto::REASON_OUT_OF_ORDER);
+  expect_error(call(fw, proto::COMMAND_XY_APPEND, with_head(31.0f, line_points(31, 1))), proto::REASON_OUT_OF_ORDER);
+  EXPECT_EQ(proto::REASON_OUT_OF_ORDER, call(fw, proto::COMMAND_STATUS).results.at(11));  // last_error
+  expect_error(call(fw, proto::COMMAND_XY_APPEND, {30.0f}), proto::REASON_ARG_COUNT);  // no point
+  EXPECT_EQ(30, fw.cart.path().received());
+  EXPECT_EQ((std::vector<float>{w, 0.0f, 0.0f}),
+            call(fw, proto::COMMAND_XY_APPEND, with_head(30.0f, line_points(30, w - 30))).results);
 }
 
 TEST_F(Dispatcher, OverlongPathIsRefusedAndTheCurrentPathKept) {
   Firmware fw;
   call(fw, proto::COMMAND_WAIT_XY_ARRAY, {2.0f, 0.2f, 0.0f, 0.4f, 0.0f});
-  expect_error(call(fw, proto::COMMAND_WAIT_XY_ARRAY, {static_cast<float>(core::kWaypointCapacity + 1)}),
-               proto::REASON_OVER_CAPACITY);
-  expect_error(call(fw, proto::COMMAND_WAIT_XY_ARRAY, {1000.0f}), proto::REASON_OVER_CAPACITY);
+  expect_error(call(fw, proto::COMMAND_WAIT_XY_ARRAY, {65536.0f}), proto::REASON_OVER_CAPACITY);
+  expect_error(call(fw, proto::COMMAND_WAIT_XY_ARRAY, {1e6f}), proto::REASON_OVER_CAPACITY);
   expect_error(call(fw, proto::COMMAND_WAIT_XY_ARRAY, {1.0f, 0.1f, 0.1f, 0.2f, 0.2f}), proto::REASON_ARG_COUNT);
   ASSERT_EQ(2, fw.cart.path().count());
   const core::Approach first = fw.path.approach(0.5f);
   EXPECT_FLOAT_EQ(0.2f, first.x_m);
   fw.path.advance();
   EXPECT_FLOAT_EQ(0.4f, fw.path.approach(0.5f).x_m);
-
 }
 
 TEST_F(Dispatcher, AppendBeyondTheAnnouncedCountIsRefused) {
@@ -144,6 +175,15 @@ TEST_F(Dispatcher, AppendBeyondTheAnnouncedCountIsRefused) {
   expect_error(call(fw, proto::COMMAND_XY_APPEND, {0.0f, 0.1f, 0.1f, 0.2f, 0.2f, 0.3f, 0.3f}),
                proto::REASON_OVER_CAPACITY);
   EXPECT_EQ(0, fw.cart.path().received());
+}
+
+TEST_F(Dispatcher, ARetransmittedAppendIsAnsweredFromMemoryAndNotStoredTwice) {
+  Firmware fw;
+  call(fw, proto::COMMAND_WAIT_XY_ARRAY, with_head(40.0f, line_points(0, 2)));
+  const std::vector<uint8_t> append = harness::request(77, proto::COMMAND_XY_APPEND, with_head(2.0f, line_points(2, 3)));
+  const std::vector<uint8_t> first_reply = fw.send(append);
+  EXPECT_EQ(first_reply, fw.send(append));  // the host lost the reply
+  EXPECT_EQ(5, fw.cart.path().received());
 }
 
 TEST_F(Dispatcher, SaveSurvivesAResetAndLoadRestoresIt) {
@@ -168,7 +208,7 @@ TEST_F(Dispatcher, SaveSurvivesAResetAndLoadRestoresIt) {
 TEST_F(Dispatcher, BlankEepromGivesDefaultsReportedInStatusAndLoadRefused) {
   Firmware fw;
   const Reply status = call(fw, proto::COMMAND_STATUS);
-  ASSERT_EQ(15u, status.results.size());
+  ASSERT_EQ(16u, status.results.size());
   EXPECT_EQ(1.0f, status.results[8]);  // defaults: blank
   EXPECT_TRUE(static_cast<int>(status.results[1]) & proto::FLAG_SETTINGS_DEFAULTED);
   expect_error(call(fw, proto::COMMAND_LOAD), proto::REASON_EEPROM_INVALID);
@@ -193,7 +233,7 @@ TEST_F(Dispatcher, VersionReportsTheTablesItWasBuiltFrom) {
   EXPECT_EQ(proto::kVersion, r.results[0]);
   EXPECT_EQ(static_cast<float>(proto::kDictionaryHash), r.results[2]);
   EXPECT_EQ(static_cast<float>(core::setting::kLayoutHash), r.results[3]);
-  EXPECT_EQ(static_cast<float>(core::kWaypointCapacity), r.results[4]);
+  EXPECT_EQ(static_cast<float>(core::kWindow), r.results[4]);
 }
 
 TEST_F(Dispatcher, TelemetryRateIsRoundedToWholeTickDivisions) {
@@ -252,7 +292,7 @@ TEST(DispatcherStatus, ReportsTheResetCauseBootCountAndDroppedReplies) {
   const std::vector<harness::Reply> r =
       harness::replies(fw.send(harness::request(1, proto::COMMAND_STATUS, {})));
   ASSERT_EQ(1u, r.size());
-  ASSERT_EQ(15u, r[0].results.size());
+  ASSERT_EQ(16u, r[0].results.size());
   EXPECT_EQ(proto::RESET_WATCHDOG | proto::RESET_REBOOT, r[0].results[12]);
   EXPECT_EQ(7.0f, r[0].results[13]);
   EXPECT_EQ(3.0f, r[0].results[14]);

@@ -24,8 +24,12 @@ const core::Pose kOrigin{};
 constexpr double kOmegaTolerance = 4.0 * 2e-5;
 
 core::Approach final_point(float x, float y) { return core::Approach{x, y, 0.0f, true}; }
-core::Approach via_point(float x, float y, float exit_mps) {
-  return core::Approach{x, y, exit_mps, false};
+// A via point with `beyond_m` of the path received beyond it (by default far more than the
+// braking distance from v_max: the window does not limit the speed).
+core::Approach via_point(float x, float y, float exit_mps, float beyond_m = 10.0f) {
+  core::Approach a{x, y, exit_mps, false};
+  a.beyond_m = beyond_m;
+  return a;
 }
 
 TEST(PolarController, TargetAheadDrivesForwardWithoutTurning) {
@@ -143,6 +147,31 @@ TEST(PolarController, ViaPointIsPassedAtSpeedWhenThePathGoesOn) {
   // The same point as the FINAL one: min(kp * 0.05, sqrt(0.1)) = 0.05.
   const core::PolarOutput stop = core::polar_control(kOrigin, final_point(0.05f, 0.0f), kGains, kLimits);
   EXPECT_NEAR(stop.v_mps, 0.05f, 1e-5f);
+}
+
+TEST(PolarController, TheCartCanAlwaysStopWhereTheReceivedPointsEnd) {
+  // A straight-on via point 0.05 m ahead with `beyond` received after it: the speed is capped
+  // to sqrt(2 * 0.8 * a * (0.05 + beyond)); `stopping` says the cap is below v_max.
+  struct Case {
+    float beyond_m;
+    float expected_mps;
+    bool stopping;
+  };
+  const Case cases[] = {
+      {0.0f, 0.28284271f, true},    // sqrt(1.6 * 0.05)
+      {0.05f, 0.4f, true},          // sqrt(1.6 * 0.1)
+      {0.1f, 0.48989795f, true},    // sqrt(1.6 * 0.15)
+      {0.107f, 0.5f, false},        // 1.6 * 0.157 > 0.25: v_max
+      {10.0f, 0.5f, false},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.beyond_m);
+    const core::PolarOutput out =
+        core::polar_control(kOrigin, via_point(0.05f, 0.0f, 0.5f, c.beyond_m), kGains, kLimits);
+    EXPECT_NEAR(out.v_mps, c.expected_mps, 1e-5f);
+    EXPECT_EQ(out.stopping, c.stopping);
+  }
+  EXPECT_TRUE(core::polar_control(kOrigin, final_point(1.0f, 0.0f), kGains, kLimits).stopping);
 }
 
 TEST(PolarController, FinalApproachStopsSteeringAndClosesAlongTheHeading) {
