@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import http.client
 import json
+import logging
 import os
 import re
 import resource
@@ -26,7 +27,8 @@ import pytest
 from starlette.testclient import WebSocketDenialResponse
 from starlette.websockets import WebSocketDisconnect
 
-from cart2d.server.serving import HEADER_TIMEOUT_S
+from cart2d.server.guards import HostAllowlist, machine_addresses, same_origin, split_host
+from cart2d.server.serving import HEADER_TIMEOUT_S, RepeatFilter
 from cart2d.simulator import SideChannel, default_firmware
 from tests.conftest import wait_for
 from tests.test_server import WS_BASE, Rig
@@ -434,3 +436,53 @@ def test_the_websocket_refuses_a_foreign_host(rig: Rig) -> None:
     ):
         pass
     assert refused.value.status_code == 421
+
+
+# -- the rules on their own ------------------------------------------------------------------------
+
+
+def test_host_headers_are_parsed_strictly() -> None:
+    assert split_host("127.0.0.1:8080") == ("127.0.0.1", 8080)
+    assert split_host("[::1]:8080") == ("::1", 8080)
+    assert split_host("LocalHost.") == ("localhost", None)
+    for bad in ("", "a b", "user@127.0.0.1", "127.0.0.1:x", "127.0.0.1:80:80", "[::1", "[nope]:1", "a/b"):
+        assert split_host(bad) is None, bad
+
+
+def test_the_host_allowlist_follows_the_bind_address() -> None:
+    loopback = HostAllowlist("127.0.0.1")
+    for good in ("127.0.0.1:8080", "localhost:1", "[::1]:8080", "[0:0::1]"):
+        assert loopback.allows(good), good
+    for bad in ("evil.example:8080", "127.0.0.2", "10.0.0.1", socket.gethostname(), None):
+        assert not loopback.allows(bad), bad
+    everywhere = HostAllowlist("0.0.0.0", extra=["cart.example"])
+    addresses = machine_addresses()
+    assert "127.0.0.1" in addresses and "::1" in addresses
+    hosts = [f"[{a}]:8080" if ":" in a else f"{a}:8080" for a in addresses]  # IPv6 in brackets
+    for good in [*hosts, socket.gethostname(), "localhost", "cart.example:443"]:
+        assert everywhere.allows(good), good
+    assert not everywhere.allows("evil.example") and not everywhere.allows("192.0.2.77")  # TEST-NET-1
+    one = HostAllowlist("127.0.0.1", extra=["proxy.example"])
+    assert one.allows("proxy.example") and not one.allows("other.example")
+
+
+def test_an_origin_is_compared_by_scheme_host_and_port() -> None:
+    assert same_origin("http://127.0.0.1:8080", "http", "127.0.0.1:8080")
+    assert same_origin("http://127.0.0.1", "http", "127.0.0.1:80")
+    assert same_origin("https://cart.example", "https", "cart.example")  # behind a TLS proxy
+    assert not same_origin("http://127.0.0.1:8081", "http", "127.0.0.1:8080")
+    assert not same_origin("https://127.0.0.1:8080", "http", "127.0.0.1:8080")
+    assert not same_origin("http://localhost:8080", "http", "127.0.0.1:8080")
+    assert not same_origin("null", "http", "127.0.0.1:8080")
+
+
+def test_repeated_log_lines_are_rate_limited() -> None:
+    repeat = RepeatFilter(burst=5, window_s=0.2)
+    record = logging.LogRecord("asyncio", logging.ERROR, __file__, 1, "accept() failed", None, None)
+    assert sum(repeat.filter(record) for _ in range(10_000)) == 5
+    other = logging.LogRecord(
+        "uvicorn.error", logging.WARNING, __file__, 1, "Invalid HTTP request", None, None
+    )
+    assert repeat.filter(other)  # another kind has its own budget
+    time.sleep(0.25)
+    assert repeat.filter(record) and "9995 more like this" in record.getMessage()
