@@ -245,6 +245,30 @@ def test_cross_origin_requests_change_nothing(live: LiveGateway) -> None:
     assert live.get_json("/api/map") == before["map"]
 
 
+def test_the_gateways_own_requests_keep_their_connection(live: LiveGateway) -> None:
+    """Closing after refusals and cut bodies must not close every connection: the panel's requests
+    (reads, bodiless and JSON changes) share one."""
+    conn = http.client.HTTPConnection("127.0.0.1", live.port, timeout=30)
+    json_type = {"Content-Type": "application/json", "Origin": live.origin}
+    try:
+        sock = None
+        for method, path, body in [
+            ("GET", "/api/status", None),
+            ("POST", "/api/stop", None),
+            ("PUT", "/api/map/obstacle", b'{"x": 0.4, "y": 1.2}'),
+            ("PUT", "/api/map/obstacle", b'{"x": 0.4, "y": 1.2, "present": false}'),
+            ("GET", "/api/map", None),
+        ]:
+            conn.request(method, path, body=body, headers=json_type if method != "GET" else {})
+            answer = conn.getresponse()
+            answer.read()
+            assert answer.status == 200 and answer.getheader("connection") != "close", (method, path)
+            assert sock is None or conn.sock is sock
+            sock = conn.sock
+    finally:
+        conn.close()
+
+
 REBOUND_HOSTS = ["evil.example", "127.0.0.1.evil.example", "localhost.evil.example", "cart2d", "10.0.0.1"]
 
 

@@ -188,14 +188,14 @@ class Refusal:
 
 
 def cross_origin_refusal(headers: Headers, scheme: str) -> Refusal | None:
-    """403 unless the request comes from the gateway's own origin (or from no browser at all)."""
+    """403 unless a change or a WebSocket comes from the gateway's own origin (or from no browser)."""
     site = headers.get("sec-fetch-site")
     if site is not None and site not in ("same-origin", "none"):
-        return Refusal(403, f"a change from another site ({site}) is refused: use the gateway's own page")
+        return Refusal(403, f"a request from another site ({site}) is refused: use the gateway's own page")
     origin = headers.get("origin")
     if origin is not None and not same_origin(origin, scheme, headers.get("host", "")):
         return Refusal(
-            403, f"a change from another origin ({origin[:100]}) is refused: use the gateway's own page"
+            403, f"a request from another origin ({origin[:100]}) is refused: use the gateway's own page"
         )
     return None
 
@@ -299,7 +299,9 @@ class BodyLimit:
         self.limit = limit
         self.deadline = time.monotonic() + timeout_s
         self.received = 0
-        self.body_done = False
+        headers = Headers(scope=scope)
+        # No body announced (GET, a bodiless POST): nothing to read, the connection stays open.
+        self.body_done = "transfer-encoding" not in headers and headers.get("content-length", "0") == "0"
         self.started = False
         self.answered = False  # the guard's own 413/408 went out: the app's answer is dropped
 
