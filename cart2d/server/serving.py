@@ -5,7 +5,9 @@
   its previous answer ends (uvicorn's own keep-alive timer stops at the first byte, and nothing
   times a fresh connection), then BODY_TIMEOUT_S for its body;
 - at most MAX_CONNECTIONS HTTP connections (fewer if the descriptor limit is low) are open: one
-  more evicts the one that has waited longest for a request or a body, never one being answered;
+  more evicts the one that has waited longest for a request or a body (one that sent part of a
+  request or nothing for FRESH_S first), never one being answered; at most BACKLOG wait to be
+  accepted;
 - a WebSocket message is at most WS_MAX_BYTES;
 - repeated log lines are rate-limited (RepeatFilter).
 
@@ -35,7 +37,11 @@ MAX_CONNECTIONS = 200  # HTTP connections; a browser opens at most 6 per origin
 BODY_TIMEOUT_S = guards.BODY_TIMEOUT_S + 1.0  # a backstop: the guard answers 408 at its own limit
 MAX_HEADER_BYTES = 16 * 1024  # request line and headers (h11's default, stated)
 WS_MAX_BYTES = 64 * 1024  # the panel sends nothing on /ws; uvicorn's default is 16 MiB per message
-BACKLOG = 2048  # uvicorn's default listen backlog
+# The listen backlog, which is also how many connections asyncio accepts in one go before it reads
+# any of them (uvicorn's default: 2048). Below MAX_CONNECTIONS, so that one batch of newcomers
+# cannot evict a connection whose whole request is waiting to be read.
+BACKLOG = 128
+FRESH_S = 1.0  # a connection this young that sent nothing yet is evicted last
 FD_RESERVE = 128  # descriptors kept for the serial link, the simulator, logs and WebSocket viewers
 
 
@@ -52,6 +58,7 @@ class BoundedH11Protocol(H11Protocol):
 
     _deadline: asyncio.TimerHandle | None = None
     _body_timed: object = None  # the request cycle whose body is being timed
+    _heard = False  # some bytes came on this connection
 
     def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]
         super().connection_made(transport)
@@ -66,6 +73,10 @@ class BoundedH11Protocol(H11Protocol):
         self._stop_waiting()
         type(self).open_connections.discard(self)
         super().connection_lost(exc)
+
+    def data_received(self, data: bytes) -> None:
+        self._heard = True
+        super().data_received(data)
 
     def handle_events(self) -> None:
         super().handle_events()
@@ -124,15 +135,21 @@ class BoundedH11Protocol(H11Protocol):
         )
 
     def _evict_one(self) -> bool:
-        """Closes the connection that has waited longest for a request, or for a body."""
-        for victim in list(type(self).waiting):
-            if victim is not self and not victim.transport.is_closing():
-                victim._close(b"")
-                return True
+        """Closes the connection that has waited longest for a request or a body, preferring those
+        proven slow (part of a request came, or nothing for FRESH_S): one just made may hold a
+        whole request not read yet (a stop sent along with its connection)."""
+        now = time.monotonic()
+        waiting = type(self).waiting
+        candidates = [c for c in waiting if c is not self and not c.transport.is_closing()]
+        slow = [c for c in candidates if c._heard or now - waiting[c] >= FRESH_S]
+        for victim in slow or candidates[:1]:
+            victim._close(b"")
+            return True
         return False
 
     def _close(self, answer: bytes) -> None:
         self._stop_waiting()
+        type(self).open_connections.discard(self)  # counted out now, not at connection_lost
         if answer and not self.transport.is_closing():
             self.transport.write(answer)
         self.transport.close()
