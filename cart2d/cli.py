@@ -12,13 +12,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from types import FrameType
 
-import uvicorn
-
 from cart2d.calibrate import add_arguments as add_calibrate_arguments
 from cart2d.calibrate import main_calibrate
 from cart2d.gateway import Gateway
 from cart2d.link import Link, LinkError
-from cart2d.server import create_app, is_loopback
+from cart2d.server import create_app, is_loopback, serving
 from cart2d.simulator import SimOptions, Simulator, SimulatorError
 from cart2d.store import GatewaySettings, NetworkSettings, Store
 
@@ -28,6 +26,13 @@ log = logging.getLogger("cart2d")
 def _network_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", help="bind address (default: the saved one, 127.0.0.1 at first)")
     parser.add_argument("--port", type=int, help="HTTP port (default: the saved one, 8080 at first)")
+    parser.add_argument(
+        "--allow-host",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="also answer to this Host name (a reverse proxy's, a DNS name of this machine); repeatable",
+    )
 
 
 def _settings(store: Store, args: argparse.Namespace) -> GatewaySettings:
@@ -51,14 +56,14 @@ def _connect(gateway: Gateway, wait_s: float) -> None:
     log.info("firmware %s on %s", version.firmware, gateway.link.port)
 
 
-def _serve(gateway: Gateway, settings: GatewaySettings) -> None:
+def _serve(gateway: Gateway, settings: GatewaySettings, allowed_hosts: list[str]) -> None:
     host, port = settings.network.host, settings.network.port
-    app = create_app(gateway, host, settings.token)
+    app = create_app(gateway, host, settings.token, allowed_hosts)
     shown = "127.0.0.1" if host in ("0.0.0.0", "::") else host
     print(f"cart2d panel: http://{shown}:{port}/   (Ctrl-C stops)", flush=True)
     if settings.token and not is_loopback(host):
         print(f"access token (needed off this machine): {settings.token}", flush=True)
-    uvicorn.run(app, host=host, port=port, log_level="warning")
+    serving.serve(app, host, port)
 
 
 def cmd_sim(args: argparse.Namespace) -> int:
@@ -86,7 +91,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
             f"side channel {sim.control_address}",
             flush=True,
         )
-        _serve(gateway, settings)
+        _serve(gateway, settings, args.allow_host)
     finally:
         gateway.close()
         link.close()
@@ -106,7 +111,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     try:
         _connect(gateway, 5.0)
         gateway.start()
-        _serve(gateway, settings)
+        _serve(gateway, settings, args.allow_host)
     finally:
         gateway.close()
         link.close()
@@ -162,6 +167,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     logging.basicConfig(
         level=logging.INFO if args.verbose else logging.WARNING, format="%(name)s: %(message)s"
     )
+    serving.install_log_filter()  # a flood of one message (a refused connection each) stays a few lines
     try:
         code: int = args.run(args)
     except KeyboardInterrupt:

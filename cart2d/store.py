@@ -5,22 +5,25 @@ the new one, never a broken one. This is the seed's settings.bin (which held the
 from __future__ import annotations
 
 import contextlib
+import ipaddress
 import json
 import logging
 import os
+import re
 import secrets
 import time
 from pathlib import Path
 from typing import Annotated, Literal
 
 import platformdirs
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, Strict, ValidationError
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, Strict, ValidationError
 
 from cart2d.params import robot
 
 log = logging.getLogger(__name__)
 
 SETTINGS_FILE = "settings.json"
+STALE_TMP_S = 60.0  # a save takes milliseconds: a temporary this old was left by a dead writer
 
 
 def _json_integer(value: object) -> object:
@@ -37,9 +40,37 @@ def _grid_default(key: str) -> float:
     return float(robot()["sim"][key])
 
 
+HOST_LABEL = re.compile(r"[a-z0-9]([a-z0-9-]{0,61}[a-z0-9])?", re.IGNORECASE)  # RFC 1123, section 2.1
+
+
+def address_or_host_name(value: str) -> str:
+    """`value` if it is an IP address (no zone: `%eth0`) or a host name (RFC 1123 labels of letters,
+    digits and inner hyphens, dot-separated, the last not all digits); else ValueError. Nothing
+    else can be bound to, and a newline or a space must not reach the settings file or a log."""
+    try:
+        if "%" not in value:
+            ipaddress.ip_address(value)
+            return value
+    except ValueError:
+        pass
+    labels = value.removesuffix(".").split(".")
+    if not all(HOST_LABEL.fullmatch(label) for label in labels) or labels[-1].isdigit():
+        raise ValueError(
+            "the host must be an IP address (such as 127.0.0.1, 0.0.0.0 or ::) or a host name "
+            "(letters, digits, hyphens and dots)"
+        )
+    return value
+
+
 class NetworkSettings(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True)
-    host: str = Field("127.0.0.1", min_length=1, max_length=253, description="bind address")
+    host: Annotated[str, AfterValidator(address_or_host_name)] = Field(
+        "127.0.0.1",
+        min_length=1,
+        max_length=253,
+        pattern=r"^[A-Za-z0-9.:-]+$",  # what the schema can say; address_or_host_name says the rest
+        description="bind address: an IP address or a host name",
+    )
     port: Integer = Field(8080, ge=1, le=65535)
 
 
@@ -83,6 +114,38 @@ def atomic_write(path: Path, data: bytes) -> None:
         os.close(dir_fd)
 
 
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True  # another user's process
+    return True
+
+
+def remove_stale_temporaries(path: Path, max_age_s: float = STALE_TMP_S) -> list[Path]:
+    """Removes what atomic_write left for `path` when its writer died mid-save (kill -9, power
+    loss): `.NAME.<pid>.tmp` whose process is gone, or older than `max_age_s` (its pid may have been
+    reused). A live writer's file is left alone. Returns the files removed."""
+    removed = []
+    prefix, suffix = f".{path.name}.", ".tmp"
+    for tmp in path.parent.glob(f".{path.name}.*.tmp"):
+        pid = tmp.name[len(prefix) : -len(suffix)]
+        if not pid.isdigit() or int(pid) == os.getpid():
+            continue  # not atomic_write's, or this process's own save in progress
+        try:
+            if _alive(int(pid)) and time.time() - tmp.stat().st_mtime <= max_age_s:
+                continue  # another process is saving right now
+            tmp.unlink()
+            removed.append(tmp)
+        except OSError:
+            continue  # gone already, or not ours to remove
+    if removed:
+        log.info("removed %d temporary file(s) left by an interrupted save of %s", len(removed), path)
+    return removed
+
+
 class Store:
     def __init__(self, directory: Path | None = None) -> None:
         self.directory = directory or default_directory()
@@ -90,7 +153,9 @@ class Store:
 
     def load(self) -> GatewaySettings:
         """The saved settings; defaults if there are none. An unreadable file is kept aside
-        (settings.json.corrupt-<time>) and defaults are used, with a warning."""
+        (settings.json.corrupt-<time>) and defaults are used, with a warning. Temporaries of a save
+        that was killed are removed (remove_stale_temporaries)."""
+        remove_stale_temporaries(self.path)
         try:
             text = self.path.read_text(encoding="utf-8")
         except FileNotFoundError:

@@ -10,7 +10,7 @@ import pytest
 from cart2d.link.flashing import APPLICATION_BYTES, check_hex
 from cart2d.simulator import default_firmware
 from tests.conftest import wait_for
-from tests.test_server import Rig
+from tests.test_server import OCTETS, Rig
 
 HEX = default_firmware().with_suffix(".hex")
 
@@ -65,7 +65,7 @@ def rig(tmp_path: Path) -> Iterator[Rig]:
 
 
 def test_a_bad_file_is_refused_and_nothing_starts(rig: Rig) -> None:
-    response = rig.client.post("/api/firmware/update", content=b"not a hex file")
+    response = rig.client.post("/api/firmware/update", content=b"not a hex file", headers=OCTETS)
     assert response.status_code == 422 and "Intel HEX" in response.json()["detail"]
     assert rig.client.get("/api/firmware/update").json()["state"] == "idle"
 
@@ -75,7 +75,7 @@ def test_uploading_a_hex_restarts_the_simulator_on_it_and_keeps_the_eeprom(rig: 
     rig.client.put("/api/firmware/settings", json={"id": 4, "value": 0.02})  # tol_final_m
     rig.client.post("/api/firmware/save")
     wait_for(lambda: rig.client.get("/api/status").json()["status"]["eeprom_busy"] is False)
-    response = rig.client.post("/api/firmware/update", content=HEX.read_bytes())
+    response = rig.client.post("/api/firmware/update", content=HEX.read_bytes(), headers=OCTETS)
     assert response.status_code == 202 and response.json()["state"] == "running"
     wait_for(lambda: rig.client.get("/api/firmware/update").json()["state"] != "running", 30)
     job = rig.client.get("/api/firmware/update").json()
@@ -88,7 +88,7 @@ def test_uploading_a_hex_restarts_the_simulator_on_it_and_keeps_the_eeprom(rig: 
 
 
 def test_a_firmware_that_does_not_answer_is_rolled_back_in_simulation(rig: Rig) -> None:
-    response = rig.client.post("/api/firmware/update", content=VECTOR_TABLE.encode())
+    response = rig.client.post("/api/firmware/update", content=VECTOR_TABLE.encode(), headers=OCTETS)
     assert response.status_code == 202  # it looks like an AVR program...
     wait_for(lambda: rig.client.get("/api/firmware/update").json()["state"] != "running", 60)
     job = rig.client.get("/api/firmware/update").json()

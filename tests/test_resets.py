@@ -24,7 +24,7 @@ from cart2d.mission import MissionSpec, run_mission
 from cart2d.spec import load_spec
 from cart2d.store import Store
 from tests.conftest import run_for, start_sim, wait_for
-from tests.test_server import Rig
+from tests.test_server import OCTETS, Rig
 
 WAYS_OUT = "set the pose, run the reset routine, or accept the pose the firmware has"
 EXTERNAL_WORDS = "the reset button, or the serial port was reopened (a Nano resets when its port opens)"
@@ -296,7 +296,10 @@ def test_no_false_alarm_over_a_long_quiet_run(rig: Rig) -> None:
 
 def test_a_restart_during_a_firmware_update_is_the_updates_doing(rig: Rig) -> None:
     hex_file = rig.sim.options.firmware.with_suffix(".hex")
-    assert rig.client.post("/api/firmware/update", content=hex_file.read_bytes()).status_code == 202
+    assert (
+        rig.client.post("/api/firmware/update", content=hex_file.read_bytes(), headers=OCTETS).status_code
+        == 202
+    )
     wait_for(lambda: rig.client.get("/api/firmware/update").json()["state"] != "running", 30)
     last = status(rig)["reset"]["last"]
     assert last is not None and last["expected"] and last["caused_by"] == "a firmware update"

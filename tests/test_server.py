@@ -17,6 +17,7 @@ from typing import Any
 
 import pytest
 from fastapi.testclient import TestClient
+from starlette.testclient import WebSocketDenialResponse
 from starlette.websockets import WebSocketDisconnect
 
 from cart2d.gateway import Gateway
@@ -27,6 +28,9 @@ from cart2d.store import Store
 from tests.conftest import run_for, start_sim, wait_for
 
 JSON = {"content-type": "application/json"}
+OCTETS = {"content-type": "application/octet-stream"}  # a firmware upload
+BASE_URL = "http://127.0.0.1:8080"  # the Host a browser on this machine sends
+WS_BASE = "ws://127.0.0.1:8080"
 
 
 class Rig:
@@ -37,7 +41,8 @@ class Rig:
         self.gateway = Gateway(self.link, self.store, self.store.load(), self.sim)
         self.gateway.check_firmware()
         self.gateway.start()
-        self.client = TestClient(create_app(self.gateway, bind_host, token))
+        # What the panel sends: its own Host, and every change as JSON (the guards refuse others).
+        self.client = TestClient(create_app(self.gateway, bind_host, token), base_url=BASE_URL, headers=JSON)
 
     def close(self) -> None:
         self.gateway.close()
@@ -201,7 +206,7 @@ def test_settings_file_export_and_import(rig: Rig) -> None:
 
 
 def test_websocket_streams_telemetry_and_truth(rig: Rig) -> None:
-    with rig.client.websocket_connect("/ws") as ws:
+    with rig.client.websocket_connect(f"{WS_BASE}/ws") as ws:
         assert json.loads(ws.receive_text())["type"] == "hello"
         kinds: set[str] = set()
         # truth comes at 50 Hz of simulated time from the start, telemetry at 25 Hz once the link
@@ -226,24 +231,28 @@ def test_token_is_required_off_loopback(tmp_path: Path) -> None:
         )
         bearer = {"Authorization": "Bearer s3cret-token-for-tests"}
         assert rig.client.post("/api/stop", headers=bearer).status_code == 200
-        with pytest.raises(WebSocketDisconnect) as refused_ws, rig.client.websocket_connect("/ws") as ws:
+        with (
+            pytest.raises(WebSocketDisconnect) as refused_ws,
+            rig.client.websocket_connect(f"{WS_BASE}/ws") as ws,
+        ):
             ws.receive_text()
         assert refused_ws.value.code == 1008
-        with rig.client.websocket_connect("/ws?token=s3cret-token-for-tests") as ws:
+        with rig.client.websocket_connect(f"{WS_BASE}/ws?token=s3cret-token-for-tests") as ws:
             assert json.loads(ws.receive_text())["type"] == "hello"
     finally:
         rig.close()
 
 
 def test_cross_origin_websocket_is_refused(rig: Rig) -> None:
-    evil = {"origin": "http://evil.example"}
-    with (
-        pytest.raises(WebSocketDisconnect) as refused,
-        rig.client.websocket_connect("/ws", headers=evil) as ws,
-    ):
-        ws.receive_text()
-    assert refused.value.code == 1008
-    with rig.client.websocket_connect("/ws", headers={"origin": "http://testserver"}) as ws:
+    for evil in ({"origin": "http://evil.example"}, {"origin": "http://127.0.0.1:9999"}, {"origin": "null"}):
+        # refused at the handshake, with a status and a sentence (the guard's, cart2d/server/guards.py)
+        with (
+            pytest.raises(WebSocketDenialResponse) as refused,
+            rig.client.websocket_connect(f"{WS_BASE}/ws", headers=evil),
+        ):
+            pass
+        assert refused.value.status_code == 403 and "origin" in refused.value.json()["detail"]
+    with rig.client.websocket_connect(f"{WS_BASE}/ws", headers={"origin": BASE_URL}) as ws:
         assert json.loads(ws.receive_text())["type"] == "hello"
 
 

@@ -95,3 +95,30 @@ def test_kill_9_during_saves_never_leaves_a_broken_file(tmp_path: Path) -> None:
         assert not list(tmp_path.glob("settings.json.corrupt-*")), "a save was torn"
         assert len(loaded.map.obstacles) == 3000  # a complete version, not defaults
         assert len({i for i, _ in loaded.map.obstacles}) == 1
+        assert not list(tmp_path.glob(".settings.json.*.tmp"))  # the killed save's temporary is gone
+
+
+def test_temporaries_of_killed_saves_are_removed_and_a_live_save_is_left_alone(tmp_path: Path) -> None:
+    store = Store(tmp_path)
+    store.save(GatewaySettings())
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True)
+    dead_pid = int(dead.stdout)  # that process has exited: its temporary is stale
+    live = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        stale = tmp_path / f".settings.json.{dead_pid}.tmp"
+        stale.write_bytes(b"x" * 800_000)  # what a kill -9 mid-save leaves: up to 0.8 MB each
+        old = tmp_path / f".settings.json.{live.pid}.old.tmp"  # not atomic_write's name: not touched
+        old.write_bytes(b"x")
+        saving = tmp_path / f".settings.json.{live.pid}.tmp"  # another process saving right now
+        saving.write_bytes(b"x")
+        reused = tmp_path / f".settings.json.{os.getppid()}.tmp"  # a live pid, but an hour old
+        reused.write_bytes(b"x")
+        os.utime(reused, (time.time() - 3600, time.time() - 3600))
+        assert store.load() == GatewaySettings()
+        assert not stale.exists() and not reused.exists()
+        assert saving.exists() and old.exists()
+    finally:
+        live.kill()
+        live.wait()
+    store.load()
+    assert not saving.exists()  # its writer is gone now

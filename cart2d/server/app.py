@@ -13,7 +13,7 @@ import hmac
 import ipaddress
 import json
 import logging
-from collections.abc import Awaitable, Callable
+from collections.abc import Sequence
 from dataclasses import asdict
 from typing import Any
 
@@ -27,6 +27,7 @@ from starlette.routing import Match
 from cart2d.gateway import Gateway, PoseUntrusted
 from cart2d.link import CommandRefused, LinkError, firmware
 from cart2d.planner import PlanError
+from cart2d.server import guards
 from cart2d.server.models import (
     MAX_BODY_BYTES,
     CommandIn,
@@ -62,16 +63,26 @@ def is_loopback(host: str) -> bool:
         return False
 
 
-def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None = None) -> FastAPI:
-    """The API for `gateway`. Off loopback, `token` is required for changes and the WebSocket."""
+def create_app(
+    gateway: Gateway,
+    bind_host: str = "127.0.0.1",
+    token: str | None = None,
+    allowed_hosts: Sequence[str] = (),
+) -> FastAPI:
+    """The API for `gateway`. Off loopback, `token` is required for changes and the WebSocket.
+    Every request passes the guards first (guards.py: Host, origin, content type, body size);
+    `allowed_hosts` are Host names to accept besides the gateway's own (a reverse proxy's)."""
     needs_token = not is_loopback(bind_host)
     if needs_token and not token:
         raise ValueError("a token is required when the gateway is not bound to loopback")
     app = FastAPI(title="cart2d gateway", version="0.1.0", description=__doc__, responses=errors(413))
 
     def token_ok(supplied: str | None) -> bool:
+        # compared as bytes: compare_digest refuses str with non-ASCII characters (a TypeError, a 500)
         return not needs_token or (
-            supplied is not None and token is not None and hmac.compare_digest(supplied, token)
+            supplied is not None
+            and token is not None
+            and hmac.compare_digest(supplied.encode("utf-8", "surrogatepass"), token.encode())
         )
 
     async def require_token(request: Request) -> None:
@@ -85,13 +96,6 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
             )
 
     Guarded = Depends(require_token)
-
-    @app.middleware("http")
-    async def limit_body(request: Request, call_next: Callable[[Request], Awaitable[Response]]) -> Response:
-        length = request.headers.get("content-length")
-        if length is not None and (not length.isdigit() or int(length) > MAX_BODY_BYTES):
-            return JSONResponse({"detail": f"request body over {MAX_BODY_BYTES} bytes"}, status_code=413)
-        return await call_next(request)
 
     @app.exception_handler(RequestValidationError)
     async def invalid(_: Request, exc: RequestValidationError) -> JSONResponse:
@@ -416,4 +420,5 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
         def index() -> str:
             return MINIMAL_PAGE
 
+    guards.install(app, bind_host, allowed_hosts)
     return app

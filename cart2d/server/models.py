@@ -28,9 +28,14 @@ class Problem(BaseModel):
 ERRORS = {
     400: "the body is not readable (not UTF-8 JSON)",
     401: "the access token is missing or wrong (a gateway bound off loopback)",
+    403: "a change from another origin or site (a web page elsewhere): refused, see SECURITY.md",
+    408: "the request body did not arrive in time",
     409: "the firmware refused the command (a value out of its range, busy, wrong mode), or the gateway "
     "does not trust the pose since the controller restarted",
     413: f"the request body is over {MAX_BODY_BYTES} bytes",
+    415: "a change not sent with the content type its operation takes (application/json unless "
+    "documented otherwise), even without a body",
+    421: "the Host header does not name this gateway (DNS rebinding): refused, see SECURITY.md",
     422: "the request is invalid, or (goals, obstacles) off the map, blocked or unreachable, or (a pose) "
     "beyond the arena's walls",
     503: "the robot is not reachable (link down, no reply)",

@@ -219,8 +219,10 @@ export interface GatewaySettings {
 
 export async function api<T>(method: string, path: string, body?: unknown, timeoutMs = 8000): Promise<T> {
   const headers: Record<string, string> = {};
+  // A change always says what it carries, with or without a body: the gateway refuses changes in
+  // the types a form or a beacon from another site could send (SECURITY.md).
   if (body instanceof Raw) headers["Content-Type"] = body.type;
-  else if (body !== undefined) headers["Content-Type"] = "application/json";
+  else if (body !== undefined || (method !== "GET" && method !== "HEAD")) headers["Content-Type"] = "application/json";
   const t = token();
   if (t) headers["X-Cart2d-Token"] = t;
   let response: Response;

@@ -1,0 +1,248 @@
+"""Serving the API with uvicorn, bounded so that half-sent requests cannot use the gateway up
+(SECURITY.md):
+
+- a client has HEADER_TIMEOUT_S to send a request's headers from when the connection opens or
+  its previous answer ends (uvicorn's own keep-alive timer stops at the first byte, and nothing
+  times a fresh connection), then BODY_TIMEOUT_S for its body;
+- at most MAX_CONNECTIONS HTTP connections (fewer if the descriptor limit is low) are open: one
+  more evicts the one that has waited longest for a request or a body (one that sent part of a
+  request or nothing for FRESH_S first), never one being answered; at most BACKLOG wait to be
+  accepted;
+- a WebSocket message is at most WS_MAX_BYTES;
+- repeated log lines are rate-limited (RepeatFilter).
+
+uvicorn (pinned with h11 in pyproject.toml) has no header timeout: the protocol below is its h11
+protocol, subclassed with the few methods it needs."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import resource
+import threading
+import time
+from typing import Any, ClassVar
+
+import h11
+import uvicorn
+from uvicorn.protocols.http.h11_impl import H11Protocol
+
+from cart2d.server import guards
+
+log = logging.getLogger(__name__)
+
+HEADER_TIMEOUT_S = 10.0  # a browser sends its headers in one packet; 10 s is ample on any link
+KEEP_ALIVE_S = 5  # an idle connection after an answer (uvicorn's default, stated)
+MAX_CONNECTIONS = 200  # HTTP connections; a browser opens at most 6 per origin
+BODY_TIMEOUT_S = guards.BODY_TIMEOUT_S + 1.0  # a backstop: the guard answers 408 at its own limit
+MAX_HEADER_BYTES = 16 * 1024  # request line and headers (h11's default, stated)
+WS_MAX_BYTES = 64 * 1024  # the panel sends nothing on /ws; uvicorn's default is 16 MiB per message
+# The listen backlog, which is also how many connections asyncio accepts in one go before it reads
+# any of them (uvicorn's default: 2048). Below MAX_CONNECTIONS, so that one batch of newcomers
+# cannot evict a connection whose whole request is waiting to be read.
+BACKLOG = 128
+FRESH_S = 1.0  # a connection this young that sent nothing yet is evicted last
+FD_RESERVE = 128  # descriptors kept for the serial link, the simulator, logs and WebSocket viewers
+
+
+class BoundedH11Protocol(H11Protocol):
+    """uvicorn's h11 protocol with a header timeout and a cap on connections (this module's
+    docstring). `waiting` holds, oldest first, the connections not inside a request: still to
+    send a request's headers, or its body."""
+
+    header_timeout_s: ClassVar[float] = HEADER_TIMEOUT_S
+    body_timeout_s: ClassVar[float] = BODY_TIMEOUT_S
+    max_connections: ClassVar[int] = MAX_CONNECTIONS
+    open_connections: ClassVar[set[BoundedH11Protocol]] = set()
+    waiting: ClassVar[dict[BoundedH11Protocol, float]] = {}  # insertion order: oldest first
+
+    _deadline: asyncio.TimerHandle | None = None
+    _body_timed: object = None  # the request cycle whose body is being timed
+    _heard = False  # some bytes came on this connection
+
+    def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]
+        super().connection_made(transport)
+        cls = type(self)
+        cls.open_connections.add(self)
+        if len(cls.open_connections) > cls.max_connections and not self._evict_one():
+            self._close(b"HTTP/1.1 503 Service Unavailable\r\nConnection: close\r\nContent-Length: 0\r\n\r\n")
+            return
+        self._start_waiting()
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        self._stop_waiting()
+        type(self).open_connections.discard(self)
+        super().connection_lost(exc)
+
+    def data_received(self, data: bytes) -> None:
+        self._heard = True
+        super().data_received(data)
+
+    def handle_events(self) -> None:
+        super().handle_events()
+        if not self._in_request():
+            return
+        if not self._body_pending():
+            self._stop_waiting()  # headers and body are in: the rest is the app's time
+        elif self._body_timed is not self.cycle:
+            # Headers in, body to come: it has its own time (the guard answers 408 just before).
+            self._body_timed = self.cycle
+            self._arm(self.body_timeout_s)
+
+    def handle_websocket_upgrade(self, event: h11.Request) -> None:
+        self._stop_waiting()
+        type(self).open_connections.discard(self)  # a viewer now, counted by the WebSocket side
+        super().handle_websocket_upgrade(event)
+
+    def on_response_complete(self) -> None:
+        super().on_response_complete()
+        if not self.transport.is_closing() and not self._in_request():
+            self._start_waiting()
+
+    # -- waiting for a request --------------------------------------------------------------
+    def _in_request(self) -> bool:
+        return self.cycle is not None and not self.cycle.response_complete
+
+    def _body_pending(self) -> bool:
+        return self.conn.their_state is h11.SEND_BODY
+
+    def _start_waiting(self) -> None:
+        type(self).waiting.pop(self, None)
+        type(self).waiting[self] = time.monotonic()
+        self._arm(self.header_timeout_s)
+
+    def _arm(self, seconds: float) -> None:
+        if self._deadline is not None:
+            self._deadline.cancel()
+        self._deadline = self.loop.call_later(seconds, self._timed_out)
+
+    def _stop_waiting(self) -> None:
+        type(self).waiting.pop(self, None)
+        if self._deadline is not None:
+            self._deadline.cancel()
+            self._deadline = None
+
+    def _timed_out(self) -> None:
+        self._deadline = None
+        if self.transport.is_closing() or (self._in_request() and not self._body_pending()):
+            return
+        # Part of a request came and then nothing: RFC 9110's 408. Nothing at all: just close.
+        partial = bool(self.conn.trailing_data[0]) and not self._in_request()
+        self._close(
+            b"HTTP/1.1 408 Request Timeout\r\nConnection: close\r\nContent-Length: 0\r\n\r\n"
+            if partial
+            else b""
+        )
+
+    def _evict_one(self) -> bool:
+        """Closes the connection that has waited longest for a request or a body, preferring those
+        proven slow (part of a request came, or nothing for FRESH_S): one just made may hold a
+        whole request not read yet (a stop sent along with its connection)."""
+        now = time.monotonic()
+        waiting = type(self).waiting
+        candidates = [c for c in waiting if c is not self and not c.transport.is_closing()]
+        slow = [c for c in candidates if c._heard or now - waiting[c] >= FRESH_S]
+        for victim in slow or candidates[:1]:
+            victim._close(b"")
+            return True
+        return False
+
+    def _close(self, answer: bytes) -> None:
+        self._stop_waiting()
+        type(self).open_connections.discard(self)  # counted out now, not at connection_lost
+        if answer and not self.transport.is_closing():
+            self.transport.write(answer)
+        self.transport.close()
+        if self.cycle is not None and not self.cycle.response_complete:
+            self.cycle.disconnected = True
+            self.cycle.message_event.set()
+
+
+def bounded_protocol(header_timeout_s: float, max_connections: int) -> type[BoundedH11Protocol]:
+    """A BoundedH11Protocol class with these limits and its own registry (one per server)."""
+    return type(
+        "BoundedH11Protocol",
+        (BoundedH11Protocol,),
+        {
+            "header_timeout_s": header_timeout_s,
+            "body_timeout_s": BODY_TIMEOUT_S,
+            "max_connections": max_connections,
+            "open_connections": set(),
+            "waiting": {},
+        },
+    )
+
+
+def descriptor_budget() -> tuple[int, int]:
+    """(connections, backlog) this process can hold: from its file-descriptor limit (raised to the
+    hard limit where allowed) less FD_RESERVE. The backlog is also how many connections asyncio
+    accepts in one go, before any of them can be evicted: both must fit, or accept() fails with
+    EMFILE and the listener pauses for a second (asyncio's ACCEPT_RETRY_DELAY)."""
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if soft != resource.RLIM_INFINITY and (hard == resource.RLIM_INFINITY or soft < hard):
+        try:
+            resource.setrlimit(resource.RLIMIT_NOFILE, (hard, hard))
+            soft = hard
+        except (ValueError, OSError):
+            pass
+    spare = 1 << 20 if soft == resource.RLIM_INFINITY else max(32, soft - FD_RESERVE)
+    return min(MAX_CONNECTIONS, spare // 4), min(BACKLOG, spare // 2)
+
+
+def serve(app: Any, host: str, port: int) -> None:
+    """Runs `app` until Ctrl-C or SIGTERM, with the bounds of this module's docstring."""
+    connections, backlog = descriptor_budget()
+    config = uvicorn.Config(
+        app,
+        host=host,
+        port=port,
+        http=bounded_protocol(HEADER_TIMEOUT_S, connections),
+        backlog=backlog,
+        timeout_keep_alive=KEEP_ALIVE_S,
+        h11_max_incomplete_event_size=MAX_HEADER_BYTES,
+        ws_max_size=WS_MAX_BYTES,
+        log_config=None,  # uvicorn's loggers go to the root handlers, and their RepeatFilter
+        log_level="warning",
+    )
+    uvicorn.Server(config).run()
+
+
+class RepeatFilter(logging.Filter):
+    """Lets at most `burst` records of one kind (logger, level, message template, exception type)
+    through per `window_s`; the first of a kind after a quiet spell says how many were dropped.
+    A flood (an accept() error per connection, a warning per bad request) stays a few lines."""
+
+    def __init__(self, burst: int = 5, window_s: float = 10.0) -> None:
+        super().__init__()
+        self.burst = burst
+        self.window_s = window_s
+        self._lock = threading.Lock()
+        self._kinds: dict[tuple[object, ...], list[float]] = {}  # kind -> [window start, passed, dropped]
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        kind = (record.name, record.levelno, str(record.msg), record.exc_info[0] if record.exc_info else None)
+        now = time.monotonic()
+        with self._lock:
+            if len(self._kinds) > 1000:
+                self._kinds.clear()  # many kinds: forget old windows rather than grow
+            state = self._kinds.setdefault(kind, [now, 0.0, 0.0])
+            if now - state[0] >= self.window_s:
+                dropped = int(state[2])
+                state[:] = [now, 0.0, 0.0]
+                if dropped:
+                    record.msg = (
+                        f"{record.msg} [{dropped} more like this in the last {self.window_s:g} s not shown]"
+                    )
+            if state[1] >= self.burst:
+                state[2] += 1
+                return False
+            state[1] += 1
+            return True
+
+
+def install_log_filter(burst: int = 5, window_s: float = 10.0) -> None:
+    """A RepeatFilter on every handler of the root logger (filters on a handler see records
+    from every logger, a logger's own only those logged on it)."""
+    repeat = RepeatFilter(burst, window_s)
+    for handler in logging.getLogger().handlers:
+        handler.addFilter(repeat)
