@@ -19,6 +19,7 @@ from cart2d.calibrate import main_calibrate
 from cart2d.gateway import Gateway
 from cart2d.link import Link, LinkError
 from cart2d.server import create_app, is_loopback
+from cart2d.server.live import listening_socket
 from cart2d.simulator import SimOptions, Simulator, SimulatorError
 from cart2d.store import GatewaySettings, NetworkSettings, Store
 
@@ -58,7 +59,8 @@ def _serve(gateway: Gateway, settings: GatewaySettings) -> None:
     print(f"cart2d panel: http://{shown}:{port}/   (Ctrl-C stops)", flush=True)
     if settings.token and not is_loopback(host):
         print(f"access token (needed off this machine): {settings.token}", flush=True)
-    uvicorn.run(app, host=host, port=port, log_level="warning")
+    sock = listening_socket(host, port)  # send buffers capped for viewers that stop reading
+    uvicorn.Server(uvicorn.Config(app, log_level="warning")).run(sockets=[sock])
 
 
 def cmd_sim(args: argparse.Namespace) -> int:

@@ -4,11 +4,12 @@ on a Link."""
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from cart2d.link.transport import Link, LinkError
+from cart2d.link.transport import Link, LinkError, Priority
 from cart2d.params import settings_table
 from cart2d.spec import load_spec
 
@@ -196,28 +197,56 @@ def read_status(link: Link) -> Status:
     )
 
 
-def read_settings(link: Link) -> list[dict[str, object]]:
+def read_settings(link: Link, priority: Priority = Priority.COMMAND) -> list[dict[str, object]]:
     """Every firmware setting with its current value, range and unit (from robot.toml)."""
     out: list[dict[str, object]] = []
     for entry in settings_table():
-        out.append({**entry, "value": read_setting(link, entry["id"])})
+        out.append({**entry, "value": read_setting(link, entry["id"], priority)})
     return out
 
 
-def read_setting(link: Link, setting_id: int) -> float:
-    _, value, _low, _high = link.call("PARAM_GET", setting_id)
+def read_setting(link: Link, setting_id: int, priority: Priority = Priority.COMMAND) -> float:
+    _, value, _low, _high = link.call("PARAM_GET", setting_id, priority=priority)
     return value
+
+
+class SettingsCache:
+    """The firmware's settings as last read, read again only once they may have changed: after
+    any command that may change them (the link's settings_epoch moves), a reopened port or a
+    restart of the MCU. One reader fills it at a time, behind every other request; readers that
+    come meanwhile wait for it and share what it read."""
+
+    def __init__(self, link: Link) -> None:
+        self.link = link
+        self._lock = threading.Lock()
+        self._values: list[dict[str, object]] | None = None
+        self._epoch = -1
+        self.fills = 0  # times it read the settings from the firmware
+
+    def read(self) -> list[dict[str, object]]:
+        with self._lock:
+            epoch = self.link.settings_epoch
+            if self._values is not None and self._epoch == epoch:
+                return [dict(entry) for entry in self._values]
+            values = read_settings(self.link, Priority.BACKGROUND)
+            self.fills += 1
+            if self.link.settings_epoch == epoch:  # nothing changed them while they were read
+                self._values, self._epoch = values, epoch
+            return [dict(entry) for entry in values]
 
 
 def write_setting(link: Link, setting_id: int, value: float) -> float:
     return link.call("PARAM_SET", setting_id, value)[1]
 
 
-def upload_path(link: Link, points: Sequence[tuple[float, float]]) -> None:
-    """Sends a path: WAIT_XY_ARRAY with the first frame's points, XY_APPEND for the rest."""
+def upload_path(link: Link, points: Sequence[tuple[float, float]], token: int | None = None) -> None:
+    """Sends a path: WAIT_XY_ARRAY with the first frame's points, XY_APPEND for the rest. Every
+    frame belongs to the stop generation `token` (Link.motion_token(); default: now): a STOP
+    during the upload leaves the rest unsent (MotionCancelled), and the path never starts."""
+    token = link.motion_token() if token is None else token
     flat = [c for p in points for c in p]
     first = flat[: 2 * POINTS_PER_FRAME]
-    link.call("WAIT_XY_ARRAY", len(points), *first)
+    link.call("WAIT_XY_ARRAY", len(points), *first, token=token)
     for start in range(POINTS_PER_FRAME, len(points), POINTS_PER_FRAME):
         chunk = flat[2 * start : 2 * (start + POINTS_PER_FRAME)]
-        link.call("XY_APPEND", start, *chunk)
+        link.call("XY_APPEND", start, *chunk, token=token)

@@ -8,16 +8,14 @@ every state-changing request and the WebSocket need the access token."""
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import hmac
 import ipaddress
-import json
 import logging
 from collections.abc import Awaitable, Callable
 from dataclasses import asdict
 from typing import Any
 
-from fastapi import Depends, FastAPI, HTTPException, Request, Response, WebSocket, WebSocketDisconnect
+from fastapi import Depends, FastAPI, HTTPException, Request, Response, WebSocket
 from fastapi.exception_handlers import http_exception_handler
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import HTMLResponse, JSONResponse
@@ -25,8 +23,9 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
 from cart2d.gateway import Gateway, PoseUntrusted
-from cart2d.link import CommandRefused, LinkError, firmware
+from cart2d.link import CommandRefused, LinkError, MotionCancelled
 from cart2d.planner import PlanError
+from cart2d.server.live import Viewers
 from cart2d.server.models import (
     MAX_BODY_BYTES,
     CommandIn,
@@ -38,6 +37,7 @@ from cart2d.server.models import (
     errors,
     inline_refs,
 )
+from cart2d.server.motion import MotionTokens, motion_token
 from cart2d.server.panel import MINIMAL_PAGE, PANEL_DIR, PanelFiles
 from cart2d.spec import load_spec
 from cart2d.store import GatewaySettings, NetworkSettings, parse_settings
@@ -85,6 +85,8 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
             )
 
     Guarded = Depends(require_token)
+    Motion = Depends(motion_token)  # the stop generation at the request's arrival (server/motion.py)
+    viewers = Viewers(gateway)
 
     @app.middleware("http")
     async def limit_body(request: Request, call_next: Callable[[Request], Awaitable[Response]]) -> Response:
@@ -92,6 +94,8 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
         if length is not None and (not length.isdigit() or int(length) > MAX_BODY_BYTES):
             return JSONResponse({"detail": f"request body over {MAX_BODY_BYTES} bytes"}, status_code=413)
         return await call_next(request)
+
+    app.add_middleware(MotionTokens, link=gateway.link)  # added last: the outermost layer
 
     @app.exception_handler(RequestValidationError)
     async def invalid(_: Request, exc: RequestValidationError) -> JSONResponse:
@@ -122,6 +126,10 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
 
     @app.exception_handler(CommandRefused)
     async def refused(_: Request, exc: CommandRefused) -> JSONResponse:
+        return JSONResponse({"detail": str(exc)}, status_code=409)
+
+    @app.exception_handler(MotionCancelled)
+    async def cancelled(_: Request, exc: MotionCancelled) -> JSONResponse:
         return JSONResponse({"detail": str(exc)}, status_code=409)
 
     @app.exception_handler(PoseUntrusted)
@@ -166,7 +174,7 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
         responses=errors(409, 503),
     )
     def firmware_settings() -> list[dict[str, object]]:
-        return firmware.read_settings(gateway.link)
+        return gateway.firmware_settings()
 
     # -- changing ----------------------------------------------------------------------------
     @app.post(
@@ -175,9 +183,9 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
         summary="any protocol command and its reply",
         responses=errors(400, 401, 422, 503),
     )
-    def command(body: CommandIn) -> dict[str, Any]:
+    def command(body: CommandIn, token: int | None = Motion) -> dict[str, Any]:
         entry = load_spec().commands[f"COMMAND_{body.name}"]
-        reply = gateway.command(entry.code, body.args)
+        reply = gateway.command(entry.code, body.args, token)
         return {
             "command": entry.name,
             "status": ["CONTROL_OK", "CONTROL_ERROR", "CONTROL_INVALID_COM"][reply.status],
@@ -203,8 +211,8 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
         "the firmware's pose is accepted (POST /api/pose, /api/pose/reset-routine, /api/pose/accept).",
         responses=errors(400, 401, 409, 422, 503),
     )
-    def goto(body: PointIn) -> dict[str, Any]:
-        return gateway.plan_view(gateway.go_to(body.x, body.y))
+    def goto(body: PointIn, token: int | None = Motion) -> dict[str, Any]:
+        return gateway.plan_view(gateway.go_to(body.x, body.y, token))
 
     @app.post(
         "/api/stop",
@@ -222,8 +230,8 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
         summary="manual driving; repeat within 0.5 s or it stops",
         responses=errors(400, 401, 409, 422, 503),
     )
-    def drive(body: DriveIn) -> dict[str, str]:
-        gateway.drive(body.v, body.omega)
+    def drive(body: DriveIn, token: int | None = Motion) -> dict[str, str]:
+        gateway.drive(body.v, body.omega, token)
         return {"result": "driving"}
 
     @app.put(
@@ -233,7 +241,7 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
         responses=errors(400, 401, 409, 422, 503),
     )
     def set_setting(body: SettingIn) -> dict[str, float]:
-        return {"value": firmware.write_setting(gateway.link, body.id, body.value)}
+        return {"value": gateway.write_setting(body.id, body.value)}
 
     @app.post(
         "/api/firmware/save",
@@ -298,8 +306,8 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
         "(messages of type routine and pose_trust). Any mission in progress ends.",
         responses=errors(401, 409, 503),
     )
-    def reset_routine() -> dict[str, Any]:
-        gateway.start_reset_routine()
+    def reset_routine(token: int | None = Motion) -> dict[str, Any]:
+        gateway.start_reset_routine(token)
         return {"result": "running", "routine": gateway.routine_view()}
 
     @app.post(
@@ -384,28 +392,7 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
             await ws.close(code=1008, reason="this gateway needs its access token")
             return
         await ws.accept()
-        loop = asyncio.get_running_loop()
-        queue: asyncio.Queue[dict[str, Any]] = asyncio.Queue(maxsize=256)
-
-        def deliver(message: dict[str, Any]) -> None:
-            def put() -> None:
-                if queue.full():  # a slow viewer loses old frames, never slows the others
-                    queue.get_nowait()
-                queue.put_nowait(message)
-
-            loop.call_soon_threadsafe(put)
-
-        unsubscribe = gateway.subscribe(deliver)
-        try:
-            await ws.send_text(json.dumps({"type": "hello", **gateway.mission_view()}))
-            while True:
-                await ws.send_text(json.dumps(await queue.get()))
-        except (WebSocketDisconnect, RuntimeError):
-            pass
-        finally:
-            unsubscribe()
-            with contextlib.suppress(RuntimeError):
-                await ws.close()
+        await viewers.serve(ws)
 
     if (PANEL_DIR / "index.html").is_file():
         # mounted last: /api/..., /ws and /docs match first; everything else is the panel's files
