@@ -87,6 +87,7 @@ def create_app(gateway: Gateway, bind_host: str = "127.0.0.1", token: str | None
     Guarded = Depends(require_token)
     Motion = Depends(motion_token)  # the stop generation at the request's arrival (server/motion.py)
     viewers = Viewers(gateway)
+    app.state.viewers = viewers  # for tests and benchmarks: the viewers and their queues
 
     @app.middleware("http")
     async def limit_body(request: Request, call_next: Callable[[Request], Awaitable[Response]]) -> Response:
