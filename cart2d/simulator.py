@@ -1,7 +1,9 @@
 """Starting cart2d-sim and talking to its side channel (ground truth and control).
 
 The simulator prints one JSON line when ready: the pseudo-terminal to open as the robot's
-serial port and the TCP address of the side channel (JSON lines, see sim/README.md).
+serial port and the TCP address of the side channel (JSON lines, see sim/README.md). A
+Simulator watches its process: an exit it did not ask for (a crash, a kill -9) is reported to
+`on_exit`, so that its owner can tell the user and start it again.
 
 The simulated world (sim/README.md, "The world") is physical: walls (a boundary, a map's
 occupied cells) and boxes the cart cannot pass. It is not the planner's map: the map holds what
@@ -187,7 +189,10 @@ class SideChannel:
         ident = next(self._ids)
         data = (json.dumps({**message, "id": ident}) + "\n").encode()
         with self._cond:
-            self._sock.sendall(data)
+            try:
+                self._sock.sendall(data)
+            except OSError as exc:  # the simulator is gone
+                raise SimulatorError(f"the side channel is closed: {exc}") from exc
             if not self._cond.wait_for(lambda: ident in self._acks or self._closed, timeout_s):
                 raise SimulatorError(f"no ack to {message.get('type')}")
             if self._closed and ident not in self._acks:
@@ -250,6 +255,9 @@ class SideChannel:
             self.events.append(message)
 
 
+ExitListener = Callable[["subprocess.Popen[str]", int], None]
+
+
 class Simulator:
     """A running cart2d-sim process."""
 
@@ -259,6 +267,13 @@ class Simulator:
         self.pty = ""
         self.control_address = ""
         self.side: SideChannel | None = None
+        # Held while the process is stopped or started: one (re)start at a time.
+        self.lifecycle = threading.RLock()
+        self._truth_listeners: list[Callable[[dict[str, Any]], None]] = []
+        self._stopped_on_purpose: set[int] = set()  # pids of processes we stopped or killed
+        # Called (from a thread of its own) with the process and its exit status when the
+        # process exits without being asked to: a crash, or killed from outside.
+        self.on_exit: ExitListener | None = None
 
     def start(self) -> Simulator:
         o = self.options
@@ -291,29 +306,52 @@ class Simulator:
         # Its own session: a Ctrl-C in the terminal reaches us, and we stop it in order. Its stdin
         # is a pipe we hold open: when this process ends, however, the simulator sees the end
         # of file and stops (--exit-with-parent).
-        self.process = subprocess.Popen(
-            cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, start_new_session=True
-        )
-        assert self.process.stdout is not None
-        line = self.process.stdout.readline()
-        if not line:
-            raise SimulatorError(f"cart2d-sim exited ({self.process.wait()}) before it was ready")
-        ready = json.loads(line)
-        self.pty = ready["pty"]
-        self.control_address = ready["control"]
-        self.side = SideChannel(self.control_address)
-        if o.world is not None:
-            try:
-                self.set_world(o.world)
-                if o.start is not None:
-                    x, y, theta = o.start
-                    self.control("place", x=x, y=y, theta=theta)
-            except SimulatorError:
-                self.stop()
-                raise
-            if not o.paused:
-                self.control("resume")
+        with self.lifecycle:
+            process = subprocess.Popen(
+                cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, start_new_session=True
+            )
+            assert process.stdout is not None
+            line = process.stdout.readline()
+            if not line:
+                raise SimulatorError(f"cart2d-sim exited ({process.wait()}) before it was ready")
+            self.process = process
+            ready = json.loads(line)
+            self.pty = ready["pty"]
+            self.control_address = ready["control"]
+            self.side = SideChannel(self.control_address)
+            for listener in self._truth_listeners:
+                self.side.subscribe(listener)
+            threading.Thread(target=self._watch_exit, args=(process,), name="sim exit", daemon=True).start()
+            if o.world is not None:
+                try:
+                    self.set_world(o.world)
+                    if o.start is not None:
+                        x, y, theta = o.start
+                        self.control("place", x=x, y=y, theta=theta)
+                except SimulatorError:
+                    self.stop()
+                    raise
+                if not o.paused:
+                    self.control("resume")
         return self
+
+    def running(self) -> bool:
+        return self.process is not None and self.process.poll() is None
+
+    def subscribe_truth(self, listener: Callable[[dict[str, Any]], None]) -> None:
+        """Calls listener(message) for every truth message, from the side channel's reader
+        thread, across restarts of the simulator."""
+        self._truth_listeners.append(listener)
+        if self.side is not None:
+            self.side.subscribe(listener)
+
+    def _watch_exit(self, process: subprocess.Popen[str]) -> None:
+        code = process.wait()
+        if process.pid in self._stopped_on_purpose:
+            return
+        listener = self.on_exit
+        if listener is not None:
+            listener(process, code)
 
     def control(self, kind: str, **members: Any) -> dict[str, Any]:
         if self.side is None:
@@ -389,18 +427,22 @@ class Simulator:
         """Stops the simulator and starts it again (the EEPROM file is kept), with a new
         firmware file if given; truth listeners carry over. With a pty_link the serial port
         keeps its name, so an open Link reconnects by itself."""
-        listeners = list(self.side.listeners) if self.side is not None else []
-        self.stop()
-        if firmware is not None:
-            self.options.firmware = firmware
-        self.start()
-        assert self.side is not None
-        for listener in listeners:
-            self.side.subscribe(listener)
+        with self.lifecycle:
+            listeners = list(self.side.listeners) if self.side is not None else []
+            extra = [listener for listener in listeners if listener not in self._truth_listeners]
+            self.stop()
+            if firmware is not None:
+                self.options.firmware = firmware
+            self.start()
+            assert self.side is not None
+            for listener in extra:
+                self.side.subscribe(listener)
 
     def kill(self) -> None:
-        """Ends the process abruptly (SIGKILL), as a crash would."""
+        """Ends the process abruptly (SIGKILL), as a crash would, but on purpose: on_exit is
+        not called (a kill from outside, `kill -9 PID`, calls it)."""
         if self.process is not None:
+            self._stopped_on_purpose.add(self.process.pid)
             self.process.kill()
             self.process.wait()
             self.process = None
@@ -409,6 +451,8 @@ class Simulator:
             self.side = None
 
     def stop(self) -> None:
+        if self.process is not None:
+            self._stopped_on_purpose.add(self.process.pid)
         if self.side is not None:
             with contextlib.suppress(SimulatorError):  # it may be gone already
                 self.control("quit")

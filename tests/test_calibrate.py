@@ -26,7 +26,7 @@ from cart2d.calibrate import (
     umbmark_corrections,
 )
 from cart2d.cli import main
-from cart2d.link import Link
+from cart2d.link import Link, Priority
 from cart2d.spec import load_spec
 from tests.conftest import start_sim
 
@@ -218,7 +218,14 @@ class FakeCart(Link):
         self.settings = dict(zip(setting_ids(), (0.021, 0.021, 0.305), strict=True))
         self.commands: list[str] = []
 
-    def call(self, command: str | int, *args: float, timeout_s: float | None = None) -> tuple[float, ...]:
+    def call(
+        self,
+        command: str | int,
+        *args: float,
+        timeout_s: float | None = None,
+        priority: Priority = Priority.COMMAND,
+        token: int | None = None,
+    ) -> tuple[float, ...]:
         name = str(command)
         self.commands.append(name)
         if name == "SET_POSE":

@@ -1,18 +1,28 @@
-"""Firmware updates: HEX checks, refusal of bad files, and a reload in the simulator."""
+"""Firmware updates: HEX checks, refusal of bad files, a reload in the simulator, and the
+rollback to the last firmware that answered (issue 11, finding 3)."""
 
 from __future__ import annotations
 
+import json
+import math
+import shutil
+import subprocess
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
+from fastapi.testclient import TestClient
+from websockets.sync.client import connect
 
-from cart2d.link.flashing import APPLICATION_BYTES, check_hex
-from cart2d.simulator import default_firmware
-from tests.conftest import wait_for
-from tests.test_server import OCTETS, Rig
+from cart2d.link.firmware_files import check_hex
+from cart2d.simulator import SimulatorError, default_binary, default_firmware
+from tests.conftest import run_for, wait_for
+from tests.live import LiveGateway
+from tests.test_server import BASE_URL, OCTETS, Rig
 
 HEX = default_firmware().with_suffix(".hex")
+APPLICATION_BYTES = 32768 - 512  # below the Nano's bootloader
 
 
 def record(address: int, data: bytes, kind: int = 0) -> str:
@@ -38,7 +48,7 @@ def test_the_built_firmware_passes_the_check() -> None:
 @pytest.mark.parametrize(
     ("text", "fragment"),
     [
-        ("", "no program"),
+        ("", "empty file"),
         (VECTOR_TABLE, ""),  # valid: must not raise
         (record(0, b"\x0c\x94" * 2) + "\n" + record(0, b"", 1), "vector table"),  # too short
         (record(0, b"\x00" * 16) + "\n" + record(0, b"", 1), "vector table"),  # no jumps: not a program
@@ -96,3 +106,152 @@ def test_a_firmware_that_does_not_answer_is_rolled_back_in_simulation(rig: Rig) 
     status = rig.client.get("/api/status").json()  # ...but the robot answers again
     assert status["link"]["state"] == "connected" and status["firmware"]["firmware"] == "0.1.0"
     assert rig.client.post("/api/command", json={"name": "POSE", "args": []}).json()["status"] == "CONTROL_OK"
+
+
+# -- the same reader as the simulator's, and the rollback (issue 11, finding 3) ---------------------
+EOF_RECORD = record(0, b"", 1)
+TABLE = VECTOR_TABLE.removesuffix(EOF_RECORD)  # the vector table's records, each with its newline
+
+# Files the gateway used to take and the simulator refuses, with the words of the refusal.
+REFUSED = {
+    "junk after the end": (VECTOR_TABLE + "\njunk\n", "line 9: more text after the end-of-file record"),
+    "no end record": (TABLE, "no end-of-file record"),
+    "an end record mid-file": (
+        TABLE + EOF_RECORD + "\n" + record(0x200, b"\x01\x02") + "\n" + EOF_RECORD + "\n",
+        "line 9: more text after the end-of-file record",
+    ),
+    "a 160-byte record": (
+        TABLE + record(0x200, bytes(160)) + "\n" + EOF_RECORD + "\n",
+        "longer than the 126 characters",
+    ),
+    "leading blank lines": ("\n\n" + VECTOR_TABLE + "\n", "line 1: empty line before the end-of-file record"),
+    "a type-02 segment simavr misreads": (
+        TABLE + record(0, b"\x00\x01", 2) + "\n" + record(0x70, b"\x01\x02") + "\n" + EOF_RECORD + "\n",
+        "ORs extended segment addresses",
+    ),
+}
+
+
+def upload(client: Any, data: bytes) -> Any:
+    return client.post("/api/firmware/update", content=data, headers=OCTETS)
+
+
+def update_state(rig: Rig) -> dict[str, Any]:
+    state: dict[str, Any] = rig.client.get("/api/firmware/update").json()
+    return state
+
+
+def wait_update(rig: Rig, wall_timeout_s: float = 60.0) -> dict[str, Any]:
+    wait_for(lambda: update_state(rig)["state"] != "running", wall_timeout_s)
+    return update_state(rig)
+
+
+@pytest.fixture(scope="module")
+def half_duty_hex(tmp_path_factory: pytest.TempPathFactory) -> bytes:
+    """tests/avr/half_duty.c as Intel HEX: both motors forward at 50 %, not a word of protocol."""
+    gcc, objcopy = shutil.which("avr-gcc"), shutil.which("avr-objcopy")
+    if gcc is None or objcopy is None:
+        pytest.fail("avr-gcc and avr-objcopy are needed (Debian gcc-avr, binutils-avr: make deps)")
+    out = tmp_path_factory.mktemp("half-duty")
+    source = Path(__file__).parent / "avr" / "half_duty.c"
+    flags = ["-mmcu=atmega328p", "-Os", "-Wall", "-Wextra", "-Werror"]
+    subprocess.run([gcc, *flags, "-o", str(out / "half.elf"), str(source)], check=True)
+    elf, hex_file = out / "half.elf", out / "half.hex"
+    subprocess.run([objcopy, "-O", "ihex", "-R", ".eeprom", str(elf), str(hex_file)], check=True)
+    return hex_file.read_bytes()
+
+
+def motors(rig: Rig) -> tuple[float, float]:
+    """The duties the H-bridges see (NaN while the simulator is between two processes)."""
+    try:
+        truth = rig.sim.truth()
+    except SimulatorError:
+        return math.nan, math.nan
+    return float(truth["duty_l"]), float(truth["duty_r"])
+
+
+@pytest.mark.parametrize("name", list(REFUSED))
+def test_a_file_the_simulator_refuses_is_refused_with_its_words_and_nothing_changes(
+    rig: Rig, tmp_path: Path, name: str
+) -> None:
+    text, words = REFUSED[name]
+    assert rig.sim.process is not None
+    pid, running = rig.sim.process.pid, rig.sim.options.firmware
+    response = upload(rig.client, text.encode())
+    assert response.status_code == 422, response.text
+    assert words in response.json()["detail"]
+    assert update_state(rig)["state"] == "idle"
+    assert rig.sim.process.pid == pid and rig.sim.options.firmware == running  # nothing restarted
+    assert rig.client.post("/api/command", json={"name": "POSE", "args": []}).json()["status"] == "CONTROL_OK"
+    # One reader: the simulator, given the file, refuses it with the same words.
+    path = tmp_path / "refused.hex"
+    path.write_text(text)
+    sim = [str(default_binary()), "--firmware", str(path), "--eeprom", str(tmp_path / "e.bin")]
+    done = subprocess.run(sim, capture_output=True, text=True, timeout=30, check=False)
+    assert done.returncode == 1 and words in done.stderr, done.stderr
+
+
+def test_a_bad_firmware_after_a_good_one_is_rolled_back_to_the_good_one(
+    rig: Rig, half_duty_hex: bytes
+) -> None:
+    assert upload(rig.client, HEX.read_bytes()).status_code == 202
+    assert wait_update(rig)["state"] == "done"
+    assert upload(rig.client, half_duty_hex).status_code == 202
+    wait_for(lambda: min(motors(rig)) > 0.45, 30)  # the bad program runs: both motors at 50 %
+    job = wait_update(rig)
+    assert job["state"] == "failed" and "the previous firmware runs again" in job["log"][-1], job["log"]
+    # The file that answered before, byte for byte: not the path the bad upload went to.
+    assert rig.sim.options.firmware.read_bytes() == HEX.read_bytes()
+    status = rig.client.get("/api/status").json()
+    assert status["link"]["state"] == "connected" and status["firmware"]["firmware"] == "0.1.0"
+    run_for(rig.sim, 0.1)
+    assert motors(rig) == (0.0, 0.0)
+    assert rig.client.post("/api/stop").status_code == 200
+
+
+def test_the_cart_is_stoppable_throughout_an_update_and_a_rollback(rig: Rig, half_duty_hex: bytes) -> None:
+    """A stop during a good update waits for it and stops the new firmware; a stop while a
+    firmware that does not answer drives the cart rolls it back at once: after its answer the
+    motors are off and the previous firmware runs."""
+    assert upload(rig.client, HEX.read_bytes()).status_code == 202
+    assert rig.client.post("/api/stop").status_code == 200
+    assert update_state(rig)["state"] == "done"  # a good firmware answers in its time, and stays
+    assert upload(rig.client, half_duty_hex).status_code == 202
+    wait_for(lambda: min(motors(rig)) > 0.45, 30)
+    stop = rig.client.post("/api/stop")
+    assert stop.status_code == 200, stop.text
+    run_for(rig.sim, 0.008)  # the firmware sets the motors at its next control tick
+    assert motors(rig) == (0.0, 0.0)
+    job = update_state(rig)
+    assert job["state"] == "failed" and "the previous firmware runs again" in job["log"][-1], job["log"]
+    assert rig.sim.options.firmware.read_bytes() == HEX.read_bytes()
+    for _ in range(3):  # and again, on the firmware that answers
+        assert rig.client.post("/api/stop").status_code == 200
+        run_for(rig.sim, 0.05)
+        assert motors(rig) == (0.0, 0.0)
+
+
+def test_after_the_simulator_refuses_a_firmware_it_comes_back_with_its_ground_truth(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The simulator refusing a file at start (as it did when the gateway's check and its
+    reader disagreed; here the gateway's check is bypassed) leaves the previous firmware
+    running: the link reconnects, the soft reset works, ground truth returns to /ws."""
+    monkeypatch.setattr("cart2d.link.flashing.check_hex", lambda data: len(data))
+    live = LiveGateway(tmp_path)
+    try:
+        http = live.http()
+        text, _ = REFUSED["junk after the end"]
+        assert upload(TestClient(live.app, base_url=BASE_URL), text.encode()).status_code == 202
+        wait_for(lambda: http.call("GET", "/api/firmware/update")[1]["state"] != "running", 60)
+        job = http.call("GET", "/api/firmware/update")[1]
+        assert job["state"] == "failed" and "the previous firmware runs again" in job["log"][-1], job["log"]
+        assert http.call("GET", "/api/status")[1]["link"]["state"] == "connected"
+        status, body = http.call("POST", "/api/reset")
+        assert status == 200 and body["result"] == "restarted", body
+        with connect(f"ws://127.0.0.1:{live.port}/ws", proxy=None, open_timeout=10) as ws:
+            kinds = set()
+            while "truth" not in kinds:
+                kinds.add(json.loads(ws.recv(timeout=10))["type"])
+    finally:
+        live.close()

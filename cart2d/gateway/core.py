@@ -10,7 +10,14 @@ the log in words, and, unless the gateway asked for it and the firmware kept its
 the pose untrusted: no goal is planned from it until the user sets the pose, runs the reset
 routine or accepts the pose the firmware has.
 
-One class of ~570 lines on purpose: one lock guards the settings, the planner, the mission, the
+A stop is the last word the motors hear: it cancels every motion request asked for before it
+(the link's stop generations, cart2d/link/transport.py), also between the POSE a goal is
+planned from and the path's last frame; while a firmware update or a restart of the simulator
+replaces the robot's program, it waits for the program that answers and stops that. When the
+simulator it started exits on its own (a crash, a kill -9), the gateway ends the mission with
+the reason, says so (/ws message `simulator`, /api/status `simulator`) and starts it again.
+
+One class of ~700 lines on purpose: one lock guards the settings, the planner, the mission, the
 reset routine and the pose trust, and every method here keeps an invariant across them (a path
 is sent and its mission recorded together; a restart ends the mission and untrusts the pose
 together). What it keeps is in state.py."""
@@ -21,6 +28,7 @@ import contextlib
 import dataclasses
 import logging
 import math
+import subprocess
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -41,10 +49,12 @@ from cart2d.gateway.state import (
     PoseUntrusted,
     ResetReport,
     Routine,
+    SimulatorState,
+    exit_words,
     pose_text,
 )
-from cart2d.link import CommandRefused, Link, LinkError, firmware
-from cart2d.link.flashing import Flasher
+from cart2d.link import CommandRefused, Link, LinkError, MotionCancelled, firmware
+from cart2d.link.flashing import HURRIED_CHECK_S, Flasher
 from cart2d.link.protocol import Reply, Telemetry
 from cart2d.params import footprint_radius_m, planning_radius_m, robot, setting_id
 from cart2d.planner import Grid, Plan, Planner, polyline_length
@@ -54,6 +64,10 @@ from cart2d.spec import load_spec
 from cart2d.store import GatewaySettings, MapSettings, Store
 
 log = logging.getLogger(__name__)
+
+UPDATE_WAIT_S = 150.0  # a stop during a firmware update waits this long at most for the firmware back
+SIM_RESTART_WAIT_S = 20.0  # and during a restart of the simulator
+SIM_START_TRIES = 3
 
 Listener = Callable[[dict[str, Any]], None]
 
@@ -70,10 +84,10 @@ class Gateway:
         self.mission = Mission()
         self._stream: firmware.PathStream | None = None  # the mission's path, streamed to the firmware
         self._lock = threading.RLock()  # guards settings, planner and mission
-        # The listeners have their own lock: the link's reader thread publishes telemetry while
-        # another thread may hold _lock waiting for a reply that only that reader can deliver.
+        # The listeners are replaced, never changed in place, under their own lock: publishing
+        # reads them without any lock (telemetry and a stop share none).
         self._listeners_lock = threading.Lock()
-        self._listeners: list[Listener] = []
+        self._listeners: tuple[Listener, ...] = ()
         self._stop = threading.Event()
         self._wake = threading.Event()  # look at STATUS now (telemetry's TICK went backwards)
         self._monitor = threading.Thread(target=self._watch, name="gateway monitor", daemon=True)
@@ -89,16 +103,21 @@ class Gateway:
         self.resets_noticed = 0
         self.pose_trust = PoseTrust()
         self.routine = Routine()
+        self.settings_cache = firmware.SettingsCache(link)
         self.flasher = Flasher(
             link,
             store.directory,
             sim,
-            after=self._check_after_update,
+            check=self._check_after_update,
             resetting=lambda: self._resetting("a firmware update", certain=True, keeps_pose=False),
         )
+        self.simulator = SimulatorState()
+        self._simulator_back = threading.Event()  # set while the simulator runs (or cannot be started)
+        self._simulator_back.set()
         link.subscribe(self._on_telemetry)
-        if sim is not None and sim.side is not None:
-            sim.side.subscribe(self._on_truth)
+        if sim is not None:
+            sim.subscribe_truth(self._on_truth)
+            sim.on_exit = self._simulator_exited
 
     # -- lifecycle -------------------------------------------------------------------------
     def start(self) -> None:
@@ -113,46 +132,52 @@ class Gateway:
         self._stop.set()
         self._monitor.join(timeout=2.0)
 
-    def _check_after_update(self) -> None:
-        self.wait_for_firmware(10.0, 0.2)
+    def _check_after_update(self, wait_s: float, hurried: Callable[[], bool]) -> None:
+        self.wait_for_firmware(wait_s, 0.1, hurried)
 
-    def wait_for_firmware(self, wait_s: float, poll_s: float) -> firmware.Version:
+    def wait_for_firmware(
+        self, wait_s: float, poll_s: float, hurried: Callable[[], bool] = lambda: False
+    ) -> firmware.Version:
         """check_firmware(), retried every poll_s while the MCU may still be starting
         (bootloader, simulator start-up, a Nano's reset on opening its port); raises its
-        LinkError once wait_s have passed."""
+        LinkError once wait_s have passed, or HURRIED_CHECK_S after hurried() turned true."""
         deadline = time.monotonic() + wait_s
         while True:
             try:
                 return self.check_firmware()
             except LinkError:
-                if time.monotonic() > deadline:
+                now = time.monotonic()
+                if hurried():
+                    deadline = min(deadline, now + HURRIED_CHECK_S)
+                if now > deadline:
                     raise
                 time.sleep(poll_s)
 
     def check_firmware(self) -> firmware.Version:
-        """Reads the firmware's version and refuses an incompatible one."""
+        """Reads the firmware's version and refuses an incompatible one; a compatible one is
+        the firmware a failed update returns to."""
         version = firmware.read_version(self.link)
         firmware.check_compatible(version)
         self.version = version
+        self.flasher.answered()
         return version
 
     # -- live data ---------------------------------------------------------------------------
     def subscribe(self, listener: Listener) -> Callable[[], None]:
         """Calls listener(message) for telemetry, truth and mission events; returns unsubscribe."""
         with self._listeners_lock:
-            self._listeners.append(listener)
+            self._listeners = (*self._listeners, listener)
 
         def unsubscribe() -> None:
             with self._listeners_lock:
-                if listener in self._listeners:
-                    self._listeners.remove(listener)
+                self._listeners = tuple(known for known in self._listeners if known is not listener)
 
         return unsubscribe
 
     def _publish(self, message: dict[str, Any]) -> None:
-        with self._listeners_lock:
-            listeners = list(self._listeners)
-        for listener in listeners:
+        """Hands `message` to every listener; they must not block (the server's hop into its
+        event loop, a list's append)."""
+        for listener in self._listeners:
             listener(message)
 
     def _on_telemetry(self, t: Telemetry) -> None:
@@ -215,9 +240,13 @@ class Gateway:
             self.planner = planner
 
     # -- motion ------------------------------------------------------------------------------
-    def go_to(self, x: float, y: float) -> Plan:
+    def go_to(self, x: float, y: float, token: int | None = None) -> Plan:
         """Plans from the measured pose to (x, y) and sends the path; PlanError, or
-        PoseUntrusted after an MCU restart, sends nothing."""
+        PoseUntrusted after an MCU restart, sends nothing. `token`: the stop generation the
+        request belongs to (Link.motion_token() when it arrived; default now): a stop after it,
+        before the last frame of the path, leaves the path unsent (MotionCancelled); one that
+        comes as the last frame goes stops it, and the mission is recorded as stopped."""
+        token = self.link.motion_token() if token is None else token
         self.read_status()  # a restart since the last look is noticed before planning
         with self._lock:
             if not self.pose_trust.trusted:
@@ -236,12 +265,15 @@ class Gateway:
             # The old path's stream stops before the new path replaces it: an append of the old
             # path must never reach the new one (docs/protocol.md, Paths and the waypoint window).
             self._cancel_stream()
-            self._stream = firmware.upload_path(self.link, plan.waypoints)
+            self._stream = firmware.upload_path(self.link, plan.waypoints, token)
             if self.routine.state == "running":
                 self._end_routine("failed", "a path replaced it before it squared up")
             self.mission = Mission(
                 state="driving", goal=(x, y), started_s=time.monotonic(), plan=self.plan_view(plan)
             )
+            if self.link.stopped_since(token):  # the stop went right after the last frame
+                self._end_mission("failed", "stopped by the user")
+                raise MotionCancelled("the path was sent as a stop came: the stop ended it")
         self._publish({"type": "mission", **self.mission_view()})
         return plan
 
@@ -278,20 +310,37 @@ class Gateway:
             "grid_length_m": plan.grid_length_m,
         }
 
-    def stop(self) -> None:
-        """Emergency stop: motors off now; a mission in progress fails."""
-        self._cancel_stream()
-        self.link.call("STOP")
+    def stop(self) -> Reply:
+        """Emergency stop: motors off now; a mission in progress fails. Every motion request
+        asked for before it is refused, however long it waited. While the robot's program is
+        being replaced (a firmware update, a restart of the simulator) the stop waits for the
+        program that answers (an update not yet answered is rolled back at once) and stops it."""
+        try:
+            with self.link.stopping():
+                self._wait_for_the_program()
+                reply = self.link.stop()
+        finally:
+            self._cancel_stream()  # after the STOP: its appends are refused from then on anyway
+        if not reply.ok:
+            raise CommandRefused(reply)
         with self._lock:
             if self.mission.state == "driving":
                 self._end_mission("failed", "stopped by the user")
             if self.routine.state == "running":
                 self._end_routine("failed", "stopped by the user before it squared up")
+        return reply
 
-    def drive(self, v_mps: float, omega_radps: float) -> None:
-        """Manual driving; the firmware stops by itself without a refresh within its timeout."""
+    def _wait_for_the_program(self) -> None:
+        if self.flasher.running():
+            self.flasher.hurry()
+            self.flasher.wait(UPDATE_WAIT_S)
+        self._simulator_back.wait(SIM_RESTART_WAIT_S)
+
+    def drive(self, v_mps: float, omega_radps: float, token: int | None = None) -> None:
+        """Manual driving; the firmware stops by itself without a refresh within its timeout.
+        MotionCancelled if a stop came after `token` (the request's arrival)."""
         self._cancel_stream()
-        self.link.call("VELOCITY", v_mps, omega_radps)
+        self.link.call("VELOCITY", v_mps, omega_radps, token=token)
         with self._lock:
             if self.mission.state == "driving":
                 self._end_mission("failed", "taken over by manual driving")
@@ -315,6 +364,15 @@ class Gateway:
         self.mission.reason = reason
         self.mission.ended_s = time.monotonic()
         self._publish({"type": "mission", **self.mission_view()})
+
+    # -- firmware settings -----------------------------------------------------------------------
+    def firmware_settings(self) -> list[dict[str, object]]:
+        """Every firmware setting with its value, read once and again only when it may have
+        changed (firmware.SettingsCache)."""
+        return self.settings_cache.read()
+
+    def write_setting(self, ident: int, value: float) -> float:
+        return firmware.write_setting(self.link, ident, value)
 
     # -- the pose after a restart --------------------------------------------------------------
     def set_pose(self, x: float, y: float, theta: float) -> dict[str, float]:
@@ -352,18 +410,21 @@ class Gateway:
         self._trust(words)
         return dict(zip(("x", "y", "theta"), pose, strict=True)), words
 
-    def start_reset_routine(self) -> None:
+    def start_reset_routine(self, token: int | None = None) -> None:
         """RESET_ROUTINE: the cart squares up against the wall in front; the pose is trusted
         again once the routine ends squared up (not with ROUTINE_FAILED, not interrupted)."""
-        reply = self.command(load_spec().code("RESET_ROUTINE"), ())
+        reply = self.command(load_spec().code("RESET_ROUTINE"), (), token)
         if not reply.ok:
             raise CommandRefused(reply)
 
-    def command(self, code: int, args: Sequence[float]) -> Reply:
+    def command(self, code: int, args: Sequence[float], token: int | None = None) -> Reply:
         """Any protocol request (the generic command form), with what the gateway must know of
-        it: a REBOOT restarts the MCU on purpose, SET_POSE and RESET give the pose, and the
-        reset routine is followed to its end."""
+        it: STOP is the emergency stop, a REBOOT restarts the MCU on purpose, SET_POSE and RESET
+        give the pose, and the reset routine is followed to its end. A motion command belongs
+        to `token` (see go_to)."""
         name = load_spec().name_of(code).removeprefix("COMMAND_")
+        if name == "STOP" and not args:
+            return self.stop()
         if name == "REBOOT":
             self.read_status()  # the baseline the restart is noticed against
             noticed = self.resets_noticed
@@ -376,7 +437,7 @@ class Gateway:
             x, y, theta = (firmware.read_setting(self.link, setting_id(n)) for n in RESET_POSE_SETTINGS)
         if name in ("WAIT_XY_ARRAY", "XY_APPEND", "GOTO"):
             self._cancel_stream()  # a path of the user's: the mission's stream must not add to it
-        reply = self.link.request(code, args)
+        reply = self.link.request(code, args, token=token)
         if not reply.ok:
             return reply
         if name in ("SET_POSE", "RESET"):
@@ -470,6 +531,7 @@ class Gateway:
                 self._expected_reset = ""
 
     def _on_restart(self, status: firmware.Status, reopened: bool) -> None:
+        self.link.settings_may_change()  # the firmware loaded its settings from EEPROM again
         try:
             pose: tuple[float, float, float] | None = self._pose()
         except (LinkError, CommandRefused):
@@ -526,7 +588,7 @@ class Gateway:
             trust = asdict(self.pose_trust)
         if ended:  # the firmware is idle after a restart, unless a path reached it since: stop that
             with contextlib.suppress(LinkError, CommandRefused):
-                self.link.call("STOP")
+                self.link.stop()
         (log.info if caused_by else log.warning)("%s", report.message)
         self._publish({"type": "reset", **asdict(report), "pose_trust": trust})
 
@@ -588,6 +650,8 @@ class Gateway:
             "firmware": asdict(self.version) if self.version else None,
             "mission": self.mission_view(),
         }
+        if self.sim is not None:
+            view["simulator"] = asdict(self.simulator)
         if link_state == "connected":
             try:
                 view["status"] = asdict(self.read_status())
@@ -602,3 +666,73 @@ class Gateway:
             view["pose_trust"] = asdict(self.pose_trust)
         view["routine"] = self.routine_view()
         return view
+
+    # -- the simulator, when it exits on its own ----------------------------------------------
+    def _simulator_exited(self, process: subprocess.Popen[str], returncode: int) -> None:
+        """The simulator's process ended without being asked to (its exit watcher's thread):
+        the mission ends with the reason, the user is told, and the simulator starts again."""
+        how = exit_words(returncode)
+        when = time.strftime("%H:%M:%S")
+        self._simulator_back.clear()
+        with self._lock:
+            sentences = [f"The simulator {how} at {when}."]
+            if self.mission.state == "driving":
+                goal = self.mission.goal or (0.0, 0.0)
+                self._end_mission("failed", f"the simulator {how}: the simulated cart stopped with it")
+                sentences.append(f"The mission to ({goal[0]:.2f}, {goal[1]:.2f}) failed.")
+            if self.routine.state == "running":
+                self._end_routine("failed", f"the simulator {how} before it squared up")
+            sentences.append("The gateway is starting it again.")
+            self.simulator = SimulatorState("restarting", self.simulator.restarts, " ".join(sentences))
+        log.warning("%s", self.simulator.message)
+        self._publish({"type": "simulator", **asdict(self.simulator)})
+        try:
+            self._restart_simulator(process, how)
+        finally:
+            self._simulator_back.set()
+
+    def _restart_simulator(self, exited: subprocess.Popen[str], how: str) -> None:
+        sim = self.sim
+        assert sim is not None
+        self.flasher.wait(UPDATE_WAIT_S)  # an update under way restarts the simulator itself
+        error, answered = "", False
+        with sim.lifecycle:
+            if sim.process is exited or not sim.running():  # else restarted meanwhile (an update)
+                error, answered = self._start_simulator_again(sim, how)
+        with self._lock:
+            restarts = self.simulator.restarts + (0 if error else 1)
+            if error:
+                state, words = "failed", f"It could not be started again: {error}."
+            elif answered:
+                state, words = "running", f"It runs again (restart {restarts}) and the firmware answers."
+            else:
+                state, words = (
+                    "running",
+                    f"It runs again (restart {restarts}), but the firmware does not answer yet.",
+                )
+            self.simulator = SimulatorState(state, restarts, f"{self.simulator.message} {words}")
+        (log.error if error else log.warning)("%s", self.simulator.message)
+        self._publish({"type": "simulator", **asdict(self.simulator)})
+
+    def _start_simulator_again(self, sim: Simulator, how: str) -> tuple[str, bool]:
+        """Starts the simulator on the firmware it ran (then on the last one that answered);
+        returns why it could not ("" if it runs) and whether its firmware answered."""
+        error = ""
+        with self._resetting(f"restarting the simulator, which {how}", certain=True, keeps_pose=False):
+            for attempt in range(SIM_START_TRIES):
+                firmware_file = sim.options.firmware if attempt == 0 else self.flasher.good_firmware()
+                try:
+                    sim.restart(firmware_file)
+                    error = ""
+                    break
+                except (SimulatorError, OSError) as exc:
+                    error = str(exc)
+                    time.sleep(0.5)
+            if error:
+                return error, False
+            try:
+                self.link.connected.wait(10.0)
+                self.wait_for_firmware(5.0, 0.1)
+                return "", True
+            except (LinkError, CommandRefused):
+                return "", False

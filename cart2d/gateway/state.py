@@ -1,9 +1,11 @@
 """What the gateway knows besides the map: the mission, the reset routine as started through
-it, how far it trusts the pose, the restarts it noticed, and the errors that refuse a goal."""
+it, how far it trusts the pose, the restarts it noticed, its simulator, and the errors that
+refuse a goal."""
 
 from __future__ import annotations
 
 import math
+import signal
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -81,3 +83,24 @@ class Mission:
     started_s: float = 0.0
     ended_s: float = 0.0
     plan: dict[str, Any] | None = field(default=None, repr=False)
+
+
+@dataclass(frozen=True)
+class SimulatorState:
+    """The simulator the gateway started (cart2d sim): whether it runs, and its restarts after
+    it exited on its own (a crash, a kill from outside)."""
+
+    state: str = "running"  # running | restarting | failed
+    restarts: int = 0  # times the gateway started it again after it exited
+    message: str = ""  # the last exit and restart, in sentences
+
+
+def exit_words(returncode: int) -> str:
+    """How a process ended, in words: 'was killed by signal 9 (SIGKILL)', 'exited with status 1'."""
+    if returncode < 0:
+        try:
+            name = signal.Signals(-returncode).name
+        except ValueError:
+            name = "an unknown signal"
+        return f"was killed by signal {-returncode} ({name})"
+    return f"exited with status {returncode}"

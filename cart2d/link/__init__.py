@@ -3,6 +3,14 @@ reader thread (transport), what the gateway asks of the firmware in words (firmw
 firmware updates (flashing). The transport's names are the package's: `from cart2d.link import
 Link`."""
 
-from cart2d.link.transport import CommandRefused, Link, LinkDown, LinkError, LinkTimeout
+from cart2d.link.transport import (
+    CommandRefused,
+    Link,
+    LinkDown,
+    LinkError,
+    LinkTimeout,
+    MotionCancelled,
+    Priority,
+)
 
-__all__ = ["CommandRefused", "Link", "LinkDown", "LinkError", "LinkTimeout"]
+__all__ = ["CommandRefused", "Link", "LinkDown", "LinkError", "LinkTimeout", "MotionCancelled", "Priority"]

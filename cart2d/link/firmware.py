@@ -9,7 +9,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from cart2d.link.transport import CommandRefused, Link, LinkError, LinkTimeout
+from cart2d.link.transport import CommandRefused, Link, LinkError, LinkTimeout, MotionCancelled, Priority
 from cart2d.params import settings_table
 from cart2d.spec import load_spec
 
@@ -199,17 +199,42 @@ def read_status(link: Link) -> Status:
     )
 
 
-def read_settings(link: Link) -> list[dict[str, object]]:
+def read_settings(link: Link, priority: Priority = Priority.COMMAND) -> list[dict[str, object]]:
     """Every firmware setting with its current value, range and unit (from robot.toml)."""
     out: list[dict[str, object]] = []
     for entry in settings_table():
-        out.append({**entry, "value": read_setting(link, entry["id"])})
+        out.append({**entry, "value": read_setting(link, entry["id"], priority)})
     return out
 
 
-def read_setting(link: Link, setting_id: int) -> float:
-    _, value, _low, _high = link.call("PARAM_GET", setting_id)
+def read_setting(link: Link, setting_id: int, priority: Priority = Priority.COMMAND) -> float:
+    _, value, _low, _high = link.call("PARAM_GET", setting_id, priority=priority)
     return value
+
+
+class SettingsCache:
+    """The firmware's settings as last read, read again only once they may have changed: after
+    any command that may change them (the link's settings_epoch moves), a reopened port or a
+    restart of the MCU. One reader fills it at a time, behind every other request; readers that
+    come meanwhile wait for it and share what it read."""
+
+    def __init__(self, link: Link) -> None:
+        self.link = link
+        self._lock = threading.Lock()
+        self._values: list[dict[str, object]] | None = None
+        self._epoch = -1
+        self.fills = 0  # times it read the settings from the firmware
+
+    def read(self) -> list[dict[str, object]]:
+        with self._lock:
+            epoch = self.link.settings_epoch
+            if self._values is not None and self._epoch == epoch:
+                return [dict(entry) for entry in self._values]
+            values = read_settings(self.link, Priority.BACKGROUND)
+            self.fills += 1
+            if self.link.settings_epoch == epoch:  # nothing changed them while they were read
+                self._values, self._epoch = values, epoch
+            return [dict(entry) for entry in values]
 
 
 def write_setting(link: Link, setting_id: int, value: float) -> float:
@@ -234,12 +259,15 @@ class PathStream:
     full as the cart passes waypoints, until every point is sent, the firmware leaves PATH mode,
     the path is replaced, or cancel(). It follows the cart by telemetry's waypoint index and
     mode, and by STATUS when no frame has come for TELEMETRY_STALE_S (telemetry off). Its
-    requests go through the link, one outstanding at a time like any other."""
+    requests go through the link, one outstanding at a time like any other, and belong to the
+    stop generation `token` (Link.motion_token(); default: now): a STOP ends the stream, and
+    none of its frames follows that STOP."""
 
-    def __init__(self, link: Link, points: Sequence[Point]) -> None:
+    def __init__(self, link: Link, points: Sequence[Point], token: int | None = None) -> None:
         if not 1 <= len(points) <= MAX_PATH_POINTS:
             raise ValueError(f"a path has 1 to {MAX_PATH_POINTS} points, not {len(points)}")
         self.link = link
+        self.token = link.motion_token() if token is None else token
         self.points = [(float(x), float(y)) for x, y in points]
         self.sent = 0  # points the firmware has received
         self.index = 0  # the current waypoint, as last seen
@@ -263,10 +291,11 @@ class PathStream:
         return not self.done.is_set()
 
     def start(self) -> PathStream:
-        """Sends the path's beginning; raises CommandRefused or LinkError (then nothing of it, or
-        only its first frame, reached the firmware: a refused WAIT_XY_ARRAY changes nothing)."""
+        """Sends the path's beginning; raises CommandRefused, LinkError or MotionCancelled (then
+        nothing of it, or only its first frame, reached the firmware: a refused WAIT_XY_ARRAY
+        changes nothing)."""
         first = self.points[:POINTS_PER_FRAME]
-        reply = self.link.call("WAIT_XY_ARRAY", self.count, *[c for p in first for c in p])
+        reply = self.link.call("WAIT_XY_ARRAY", self.count, *[c for p in first for c in p], token=self.token)
         received, index, room = (int(v) for v in reply)
         self.sent, self.index = received, index
         if received + room < self.count:
@@ -320,7 +349,12 @@ class PathStream:
                 if self._cancelled.is_set():
                     return
                 try:
-                    reply = self.link.call("XY_APPEND", self.sent, *[c for p in chunk for c in p])
+                    reply = self.link.call(
+                        "XY_APPEND", self.sent, *[c for p in chunk for c in p], token=self.token
+                    )
+                except MotionCancelled:
+                    self._end("stopped")
+                    return
                 except CommandRefused as exc:
                     self._end(
                         f"the firmware refused the path's points {self.sent} on ({exc}): "
@@ -388,7 +422,9 @@ class PathStream:
                     self.done.set()
 
 
-def upload_path(link: Link, points: Sequence[Point]) -> PathStream:
+def upload_path(link: Link, points: Sequence[Point], token: int | None = None) -> PathStream:
     """Sends a path of any length (PathStream): returns once its first frame and as many points
-    as the window holds have arrived; the rest follows from the stream's thread."""
-    return PathStream(link, points).start()
+    as the window holds have arrived; the rest follows from the stream's thread. Its frames
+    belong to the stop generation `token` (default: now): a STOP before the first raises
+    MotionCancelled, and the path never starts; a STOP later ends the stream."""
+    return PathStream(link, points, token).start()

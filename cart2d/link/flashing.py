@@ -1,11 +1,16 @@
-"""Firmware updates: an uploaded Intel HEX file, checked, then flashed with avrdude on a real
-port (the link lends it the port) or loaded by restarting the simulator. Runs as a background
-job whose state and log the panel polls."""
+"""Firmware updates: an uploaded Intel HEX file, checked (cart2d/link/firmware_files.py), then
+flashed with avrdude on a real port (the link lends it the port) or loaded by restarting the
+simulator. Runs as a background job whose state and log the panel polls.
+
+The robot is never left on a program that does not speak the protocol: after flashing, the new
+firmware must answer VERSION (and be compatible) within CHECK_S; if it does not, or a stop comes
+first (hurry(): a cart moving under a program that does not answer is the reason to press it),
+the last firmware that answered is flashed back (kept by content, so it is that program and no
+later upload), and checked in turn."""
 
 from __future__ import annotations
 
 import contextlib
-import io
 import shutil
 import subprocess
 import threading
@@ -15,43 +20,17 @@ from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from intelhex import IntelHex, IntelHexError
-
+from cart2d.link.firmware_files import FirmwareArchive, check_hex, copy_into
 from cart2d.link.transport import Link
-from cart2d.simulator import Simulator
+from cart2d.simulator import Simulator, default_firmware
 
-# ATmega328P: 32 KiB of flash, the top 512 bytes hold the Optiboot bootloader.
-APPLICATION_BYTES = 32768 - 512
-# Its interrupt vector table: 26 vectors of 4 bytes at address 0, each a jump: JMP (0x940C), or
-# RJMP (0xCxxx) where the linker relaxed it. A file without it is not an ATmega328P program and
-# would leave the MCU lost (in simulation, a fuzzer's random HEX did exactly that).
-VECTORS = 26
+# How long a new firmware has to answer: a simulator answers within half a second of its start;
+# a Nano after avrdude resets again when the link reopens its port and waits in its bootloader.
+CHECK_S = {"simulator": 3.0, "avrdude": 8.0}
+HURRIED_CHECK_S = 1.0  # after a stop: the last chance to answer before the rollback
 
-
-def _is_jump(low: int, high: int) -> bool:
-    return (low, high) == (0x0C, 0x94) or (high & 0xF0) == 0xC0
-
-
-def check_hex(data: bytes) -> int:
-    """The size of the program in an Intel HEX file; ValueError with the reason otherwise."""
-    try:
-        image = IntelHex(io.StringIO(data.decode("ascii")))
-    except (UnicodeDecodeError, IntelHexError, ValueError) as exc:
-        raise ValueError(f"not a valid Intel HEX file: {exc}") from exc
-    segments = image.segments()
-    if not segments:
-        raise ValueError("the HEX file holds no program")
-    end = max(stop for _, stop in segments)
-    if end > APPLICATION_BYTES:
-        raise ValueError(
-            f"the program ends at byte {end}, beyond the {APPLICATION_BYTES} bytes below the bootloader"
-        )
-    if not all(_is_jump(image[4 * v], image[4 * v + 1]) for v in range(VECTORS)):
-        raise ValueError(
-            "not an ATmega328P program: it does not start with the interrupt vector table's 26 jumps "
-            "(build it with make firmware)"
-        )
-    return sum(stop - start for start, stop in segments)
+# Checks that the robot runs a compatible firmware: (wait_s, hurried) -> None or an exception.
+FirmwareCheck = Callable[[float, Callable[[], bool]], object]
 
 
 @dataclass
@@ -80,45 +59,78 @@ class Flasher:
         directory: Path,
         sim: Simulator | None = None,
         baud: int = 115200,
-        after: Callable[[], object] | None = None,
+        check: FirmwareCheck | None = None,
         resetting: Callable[[], AbstractContextManager[object]] | None = None,
     ) -> None:
         self.link = link
-        self.after = after  # e.g. the gateway's firmware check; an exception fails the job
+        self.check = check  # e.g. the gateway's firmware check; an exception fails the job
         # Held around the update: the MCU restarts on purpose in it (the gateway's restart watch).
         self.resetting = resetting or contextlib.nullcontext
         self.directory = directory
+        self.archive = FirmwareArchive(directory / "firmware")
         self.sim = sim
         self.baud = baud
         self.job = UpdateJob()
         self._lock = threading.Lock()
+        self._thread: threading.Thread | None = None
+        self._hurry = threading.Event()
+        # The file the robot runs, by content, when the gateway knows it: the simulator's, or
+        # the last one flashed. It becomes the one to roll back to once it has answered.
+        self.current = copy_into(self.archive, sim.options.firmware) if sim is not None else None
 
+    # -- what the gateway tells and asks ----------------------------------------------------------
+    def answered(self) -> None:
+        """The robot's firmware answered the protocol: the file it runs becomes the good one."""
+        if self.current is not None:
+            self.archive.mark_good(self.current)
+
+    def good_firmware(self) -> Path | None:
+        """What a rollback flashes: the last file that answered, else the built firmware."""
+        good = self.archive.good()
+        if good is not None:
+            return good
+        built = default_firmware() if self.sim is not None else default_firmware().with_suffix(".hex")
+        return built if built.exists() else None
+
+    def running(self) -> bool:
+        return self.job.state == "running"
+
+    def hurry(self) -> None:
+        """A stop: a new firmware that has not answered yet gets HURRIED_CHECK_S more, then it
+        is rolled back."""
+        if self.running():
+            self._hurry.set()
+
+    def wait(self, timeout_s: float) -> bool:
+        """Waits until no update runs; False if one still runs after timeout_s."""
+        thread = self._thread
+        if thread is not None:
+            thread.join(timeout_s)
+        return not self.running()
+
+    # -- the job ---------------------------------------------------------------------------------
     def start(self, data: bytes) -> UpdateJob:
         """Checks the file now (ValueError if bad, nothing started) and flashes it in the background."""
         size = check_hex(data)
         with self._lock:
-            if self.job.state == "running":
+            if self.running():
                 raise RuntimeError("a firmware update is already running")
-            self.directory.mkdir(parents=True, exist_ok=True)
-            path = self.directory / "uploaded-firmware.hex"
-            path.write_bytes(data)
+            path = self.archive.keep(data, ".hex")
+            self._hurry.clear()
             self.job = UpdateJob(
                 state="running", log=[f"checked: {size} bytes of program"], started_s=time.monotonic()
             )
-            threading.Thread(target=self._run, args=(path,), name="firmware update", daemon=True).start()
+            self._thread = threading.Thread(
+                target=self._run, args=(path,), name="firmware update", daemon=True
+            )
+            self._thread.start()
             return self.job
 
     def _run(self, path: Path) -> None:
         job = self.job
         try:
             with self.resetting():
-                if self.sim is not None:
-                    self._reload_simulator(path, job)
-                else:
-                    self._avrdude(path, job)
-                    if self.after is not None:
-                        job.log.append("checking the new firmware")
-                        self.after()
+                self._install(path, job)
             job.log.append("done")
             job.state = "done"
         except Exception as exc:  # the job reports any failure instead of dying silently
@@ -127,25 +139,41 @@ class Flasher:
         finally:
             job.ended_s = time.monotonic()
 
-    def _reload_simulator(self, path: Path, job: UpdateJob) -> None:
-        """Restarts the simulator on the new file; if that firmware does not pass the check,
-        restarts it on the previous one again (a real chip would need reflashing)."""
-        assert self.sim is not None
-        previous = self.sim.options.firmware
-        job.log.append("restarting the simulator with the new firmware")
-        self.sim.restart(path)
+    def _install(self, path: Path, job: UpdateJob) -> None:
+        """Flashes `path` and checks it; else flashes the good firmware back and checks that."""
+        good = self.good_firmware()
         try:
-            if not self.link.connected.wait(10.0):
-                raise RuntimeError("the simulator did not come back")
-            if self.after is not None:
-                job.log.append("checking the new firmware")
-                self.after()
+            self._flash(path, job)
+            self._check(job, CHECK_S[self._way()])
         except Exception as exc:
+            if good is None:
+                raise RuntimeError(
+                    f"the new firmware does not answer ({exc}) and no firmware that answered is known to "
+                    "restore: flash one (make flash)"
+                ) from exc
             job.log.append(f"the new firmware does not answer ({exc}): restoring the previous one")
-            self.sim.restart(previous)
-            if self.after is not None:
-                self.after()
+            self._hurry.clear()  # the previous firmware answered before: give it its full time
+            self._flash(good, job)
+            self._check(job, CHECK_S[self._way()])
             raise RuntimeError("the new firmware was rejected; the previous firmware runs again") from exc
+
+    def _way(self) -> str:
+        return "simulator" if self.sim is not None else "avrdude"
+
+    def _flash(self, path: Path, job: UpdateJob) -> None:
+        if self.sim is not None:
+            job.log.append(f"restarting the simulator with {path.name}")
+            self.current = path
+            self.sim.restart(path)
+        else:
+            self.current = None  # unknown until avrdude has written it
+            self._avrdude(path, job)
+            self.current = path
+
+    def _check(self, job: UpdateJob, wait_s: float) -> None:
+        if self.check is not None:
+            job.log.append("checking that it answers")
+            self.check(wait_s, self._hurry.is_set)
 
     def _avrdude(self, path: Path, job: UpdateJob) -> None:
         avrdude = shutil.which("avrdude")

@@ -8,19 +8,33 @@ transmission. A reader thread decodes everything the firmware sends, and drops a
 packet that waited too long (protocol.py, Decoder). If the port disappears (USB
 unplugged, simulator restarted) the link reopens it in the background; requests in the
 meantime fail with LinkDown.
+
+A STOP is the last word the motors hear (cart2d/link/commands.py says which commands are
+motion). Requests wait for the link in order of priority, then arrival, and STOP comes first: it
+waits at most for the exchange on the wire, never behind queued commands or reads. Each STOP
+starts a new stop generation; a motion command belongs to the generation it was asked for in
+(a token, taken when the request arrived) and is refused with MotionCancelled, unsent, once a
+STOP came after it, however long it waited; one asked for while a STOP is on its way belongs to
+none. So no motion asked for before a STOP's answer follows that STOP. Telemetry listeners run
+in a thread of their own (they never hold up the replies the reader decodes).
 """
 
 from __future__ import annotations
 
 import contextlib
+import heapq
+import itertools
 import logging
 import random
 import threading
 import time
+from collections import deque
 from collections.abc import Callable, Iterator, Sequence
+from enum import IntEnum
 
 import serial
 
+from cart2d.link import commands
 from cart2d.link.protocol import (
     Decoder,
     Packet,
@@ -54,6 +68,10 @@ class LinkTimeout(LinkError):
     """No reply after every retry."""
 
 
+class MotionCancelled(RuntimeError):
+    """A motion command refused unsent: a STOP came after it was asked for."""
+
+
 class CommandRefused(RuntimeError):
     """The firmware answered CONTROL_ERROR or CONTROL_INVALID_COM."""
 
@@ -63,6 +81,47 @@ class CommandRefused(RuntimeError):
 
 
 TelemetryListener = Callable[[Telemetry], None]
+TELEMETRY_BACKLOG = 64  # frames kept for slow telemetry listeners (2.5 s at 25 Hz); older ones are dropped
+NO_TOKEN = -1  # the motion token asked for while a STOP is on its way: valid in no generation
+
+
+class Priority(IntEnum):
+    """Who gets the link first when several requests wait (lower first; equal: first come)."""
+
+    STOP = 0
+    COMMAND = 1
+    BACKGROUND = 2  # reads that can wait for everything else (filling the settings cache)
+
+
+class Turnstile:
+    """One holder at a time; waiters are let in by priority, then in order of arrival."""
+
+    def __init__(self) -> None:
+        self._cond = threading.Condition()
+        self._held = False
+        self._waiting: list[tuple[int, int]] = []  # a heap of (priority, arrival)
+        self._arrivals = itertools.count()
+
+    @contextlib.contextmanager
+    def hold(self, priority: Priority) -> Iterator[None]:
+        ticket = (int(priority), next(self._arrivals))
+        with self._cond:
+            heapq.heappush(self._waiting, ticket)
+            while self._held or self._waiting[0] != ticket:
+                self._cond.wait()
+            heapq.heappop(self._waiting)
+            self._held = True
+        try:
+            yield
+        finally:
+            with self._cond:
+                self._held = False
+                self._cond.notify_all()
+
+    def waiting(self, priority: Priority) -> bool:
+        """Whether a request of this priority or a more urgent one waits."""
+        with self._cond:
+            return bool(self._waiting) and self._waiting[0][0] <= priority
 
 
 class Link:
@@ -73,11 +132,19 @@ class Link:
         self.retries = retries
         self._serial: serial.Serial | None = None
         self._seq = random.randrange(256)  # a restarted host must not repeat the last SEQ
-        self._request_lock = threading.Lock()
+        self._turnstile = Turnstile()
+        self._stop_lock = threading.Lock()
+        self._stop_generation = 0  # STOPs asked for so far
+        self._stops_under_way = 0
+        self._epochs = itertools.count(1)  # next() on a count is atomic: several threads bump it
+        self.settings_epoch = 0  # changes whenever the firmware's settings may have changed
         self._reply_lock = threading.Condition()
         self._pending_seq: int | None = None
         self._reply: Reply | None = None
         self._listeners: list[TelemetryListener] = []
+        self._telemetry_queue: deque[Telemetry] = deque(maxlen=TELEMETRY_BACKLOG)
+        self._telemetry_ready = threading.Condition()
+        self._dispatcher: threading.Thread | None = None
         self._closing = threading.Event()
         self._released = threading.Event()  # the port is lent out (e.g. to avrdude)
         self._reader: threading.Thread | None = None
@@ -96,6 +163,10 @@ class Link:
         self._closing.clear()
         self._reader = threading.Thread(target=self._run, name=f"link {self.port}", daemon=True)
         self._reader.start()
+        self._dispatcher = threading.Thread(
+            target=self._dispatch_telemetry, name=f"telemetry {self.port}", daemon=True
+        )
+        self._dispatcher.start()
         if not self.connected.wait(wait_s):
             raise LinkDown(f"cannot open {self.port}")
         return self
@@ -103,9 +174,12 @@ class Link:
     def close(self) -> None:
         """Stops the reader thread, which owns the port and closes it (within its read timeout)."""
         self._closing.set()
-        if self._reader is not None:
-            self._reader.join(timeout=2.0)
-            self._reader = None
+        with self._telemetry_ready:
+            self._telemetry_ready.notify_all()
+        for thread in (self._reader, self._dispatcher):
+            if thread is not None:
+                thread.join(timeout=2.0)
+        self._reader = self._dispatcher = None
 
     def __enter__(self) -> Link:
         return self.open()
@@ -130,36 +204,111 @@ class Link:
         self._listeners.append(listener)
 
     # -- requests ------------------------------------------------------------------------
+    def motion_token(self) -> int:
+        """The stop generation a motion command asked for now belongs to (NO_TOKEN while a STOP
+        is on its way). Take it when the command arrives and pass it with every request the
+        command makes: once a STOP follows, they are refused."""
+        with self._stop_lock:
+            return NO_TOKEN if self._stops_under_way else self._stop_generation
+
+    def stopped_since(self, token: int) -> bool:
+        """Whether a STOP was asked for since `token` was taken (or was on its way then)."""
+        with self._stop_lock:
+            return token == NO_TOKEN or token != self._stop_generation
+
+    @contextlib.contextmanager
+    def stopping(self) -> Iterator[None]:
+        """A stop under way: the stop generation moves on (every motion token taken before is
+        stale from now on), and a token taken inside the block is valid in no generation."""
+        with self._stop_lock:
+            self._stop_generation += 1
+            self._stops_under_way += 1
+        try:
+            yield
+        finally:
+            with self._stop_lock:
+                self._stops_under_way -= 1
+
+    def stop(self, timeout_s: float | None = None) -> Reply:
+        """STOP, ahead of every waiting request; every motion command asked for before it
+        (queued, or between retransmissions) is refused from now on."""
+        with self.stopping():
+            return self.request("STOP", (), timeout_s, priority=Priority.STOP)
+
+    def settings_may_change(self) -> None:
+        """Something outside the link's sight may have changed the firmware's settings (an MCU
+        restart): what was read of them is stale."""
+        self.settings_epoch = next(self._epochs)
+
     def request(
-        self, command: str | int, args: Sequence[float] = (), timeout_s: float | None = None
+        self,
+        command: str | int,
+        args: Sequence[float] = (),
+        timeout_s: float | None = None,
+        *,
+        priority: Priority = Priority.COMMAND,
+        token: int | None = None,
     ) -> Reply:
         """Send one request and return its reply (any status). Without a reply within the
         timeout the request is retransmitted, at most `retries` times and only within
-        RETRANSMIT_WINDOW_S of its first transmission; then LinkTimeout."""
+        RETRANSMIT_WINDOW_S of its first transmission; then LinkTimeout. A motion command
+        belongs to `token` (default: the generation now) and raises MotionCancelled, unsent or
+        not retransmitted, once a STOP came after it; a read gives way to a waiting STOP
+        between its retransmissions (LinkTimeout)."""
         code = command if isinstance(command, int) else load_spec().code(command)
+        motion = commands.is_motion(code)
+        if motion and token is None:
+            token = self.motion_token()
         timeout = self.timeout_s if timeout_s is None else timeout_s
-        with self._request_lock:
-            self._seq = (self._seq + 1) & 0xFF
-            data = encode_request(self._seq, code, list(args))
-            first_sent = time.monotonic()
-            tries = 0
-            while True:
-                reply = self._exchange(data, self._seq, timeout)
-                tries += 1
-                if reply is not None:
-                    return reply
-                late = time.monotonic() - first_sent > RETRANSMIT_WINDOW_S
-                if tries > self.retries or late:
-                    break
-                self.retransmissions += 1
-            waited_s = time.monotonic() - first_sent
-            raise LinkTimeout(
-                f"no reply to {load_spec().name_of(code)} after {tries} tries in {waited_s:.1f} s"
+        changes_settings = not commands.keeps_settings(code)
+        with self._turnstile.hold(priority):
+            if motion and token is not None:
+                self._refuse_if_stopped(code, token)
+            if changes_settings:
+                self.settings_may_change()
+            try:
+                return self._send(code, args, timeout, token if motion else None)
+            finally:
+                if changes_settings:
+                    self.settings_may_change()
+
+    def _send(self, code: int, args: Sequence[float], timeout: float, token: int | None) -> Reply:
+        self._seq = (self._seq + 1) & 0xFF
+        data = encode_request(self._seq, code, list(args))
+        first_sent = time.monotonic()
+        tries = 0
+        while True:
+            reply = self._exchange(data, self._seq, timeout)
+            tries += 1
+            if reply is not None:
+                return reply
+            late = time.monotonic() - first_sent > RETRANSMIT_WINDOW_S
+            if tries > self.retries or late:
+                break
+            if token is not None:
+                self._refuse_if_stopped(code, token)  # never retransmitted after a STOP
+            if commands.is_read(code) and self._turnstile.waiting(Priority.STOP):
+                raise LinkTimeout(f"no reply to {load_spec().name_of(code)}; it gave way to a STOP")
+            self.retransmissions += 1
+        waited_s = time.monotonic() - first_sent
+        raise LinkTimeout(f"no reply to {load_spec().name_of(code)} after {tries} tries in {waited_s:.1f} s")
+
+    def _refuse_if_stopped(self, code: int, token: int) -> None:
+        if self.stopped_since(token):
+            raise MotionCancelled(
+                f"{load_spec().name_of(code).removeprefix('COMMAND_')} was not sent: a stop came after it"
             )
 
-    def call(self, command: str | int, *args: float, timeout_s: float | None = None) -> tuple[float, ...]:
+    def call(
+        self,
+        command: str | int,
+        *args: float,
+        timeout_s: float | None = None,
+        priority: Priority = Priority.COMMAND,
+        token: int | None = None,
+    ) -> tuple[float, ...]:
         """Send a request; return its results, or raise CommandRefused."""
-        reply = self.request(command, args, timeout_s)
+        reply = self.request(command, args, timeout_s, priority=priority, token=token)
         if not reply.ok:
             raise CommandRefused(reply)
         return reply.results
@@ -199,6 +348,7 @@ class Link:
                 continue
             log.info("link open on %s", self.port)
             self.opens += 1
+            self.settings_may_change()  # opening a Nano's port resets it
             self.connected.set()
             self._read_until_gone(self._serial)
             self.connected.clear()
@@ -228,8 +378,9 @@ class Link:
         if isinstance(item, Telemetry):
             self.telemetry = item
             self.telemetry_count += 1
-            for listener in self._listeners:
-                listener(item)
+            with self._telemetry_ready:
+                self._telemetry_queue.append(item)
+                self._telemetry_ready.notify()
             return
         try:
             reply = decode_reply(item)
@@ -239,3 +390,16 @@ class Link:
             if reply.seq == self._pending_seq:
                 self._reply = reply
                 self._reply_lock.notify_all()
+
+    def _dispatch_telemetry(self) -> None:
+        """Hands telemetry to the listeners, away from the reader: however slow they are, the
+        reader keeps decoding replies (a slow listener loses old frames, TELEMETRY_BACKLOG)."""
+        while not self._closing.is_set():
+            with self._telemetry_ready:
+                while not self._telemetry_queue and not self._closing.is_set():
+                    self._telemetry_ready.wait()
+                frames = list(self._telemetry_queue)
+                self._telemetry_queue.clear()
+            for frame in frames:
+                for listener in list(self._listeners):
+                    listener(frame)

@@ -8,16 +8,14 @@ every state-changing request and the WebSocket need the access token."""
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import hmac
 import ipaddress
-import json
 import logging
 from collections.abc import Sequence
 from dataclasses import asdict
 from typing import Any
 
-from fastapi import Depends, FastAPI, HTTPException, Request, Response, WebSocket, WebSocketDisconnect
+from fastapi import Depends, FastAPI, HTTPException, Request, Response, WebSocket
 from fastapi.exception_handlers import http_exception_handler
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import HTMLResponse, JSONResponse
@@ -25,9 +23,10 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
 from cart2d.gateway import Gateway, PoseUntrusted
-from cart2d.link import CommandRefused, LinkError, firmware
+from cart2d.link import CommandRefused, LinkError, MotionCancelled
 from cart2d.planner import PlanError
 from cart2d.server import guards
+from cart2d.server.live import Viewers
 from cart2d.server.models import (
     MAX_BODY_BYTES,
     CommandIn,
@@ -39,6 +38,7 @@ from cart2d.server.models import (
     errors,
     inline_refs,
 )
+from cart2d.server.motion import MotionTokens, motion_token
 from cart2d.server.panel import MINIMAL_PAGE, PANEL_DIR, PanelFiles
 from cart2d.spec import load_spec
 from cart2d.store import GatewaySettings, NetworkSettings, parse_settings
@@ -96,6 +96,9 @@ def create_app(
             )
 
     Guarded = Depends(require_token)
+    Motion = Depends(motion_token)  # the stop generation at the request's arrival (server/motion.py)
+    viewers = Viewers(gateway)
+    app.state.viewers = viewers  # for tests and benchmarks: the viewers and their queues
 
     @app.exception_handler(RequestValidationError)
     async def invalid(_: Request, exc: RequestValidationError) -> JSONResponse:
@@ -126,6 +129,10 @@ def create_app(
 
     @app.exception_handler(CommandRefused)
     async def refused(_: Request, exc: CommandRefused) -> JSONResponse:
+        return JSONResponse({"detail": str(exc)}, status_code=409)
+
+    @app.exception_handler(MotionCancelled)
+    async def cancelled(_: Request, exc: MotionCancelled) -> JSONResponse:
         return JSONResponse({"detail": str(exc)}, status_code=409)
 
     @app.exception_handler(PoseUntrusted)
@@ -170,7 +177,7 @@ def create_app(
         responses=errors(409, 503),
     )
     def firmware_settings() -> list[dict[str, object]]:
-        return firmware.read_settings(gateway.link)
+        return gateway.firmware_settings()
 
     # -- changing ----------------------------------------------------------------------------
     @app.post(
@@ -179,9 +186,9 @@ def create_app(
         summary="any protocol command and its reply",
         responses=errors(400, 401, 422, 503),
     )
-    def command(body: CommandIn) -> dict[str, Any]:
+    def command(body: CommandIn, token: int | None = Motion) -> dict[str, Any]:
         entry = load_spec().commands[f"COMMAND_{body.name}"]
-        reply = gateway.command(entry.code, body.args)
+        reply = gateway.command(entry.code, body.args, token)
         return {
             "command": entry.name,
             "status": ["CONTROL_OK", "CONTROL_ERROR", "CONTROL_INVALID_COM"][reply.status],
@@ -207,8 +214,8 @@ def create_app(
         "the firmware's pose is accepted (POST /api/pose, /api/pose/reset-routine, /api/pose/accept).",
         responses=errors(400, 401, 409, 422, 503),
     )
-    def goto(body: PointIn) -> dict[str, Any]:
-        return gateway.plan_view(gateway.go_to(body.x, body.y))
+    def goto(body: PointIn, token: int | None = Motion) -> dict[str, Any]:
+        return gateway.plan_view(gateway.go_to(body.x, body.y, token))
 
     @app.post(
         "/api/stop",
@@ -226,8 +233,8 @@ def create_app(
         summary="manual driving; repeat within 0.5 s or it stops",
         responses=errors(400, 401, 409, 422, 503),
     )
-    def drive(body: DriveIn) -> dict[str, str]:
-        gateway.drive(body.v, body.omega)
+    def drive(body: DriveIn, token: int | None = Motion) -> dict[str, str]:
+        gateway.drive(body.v, body.omega, token)
         return {"result": "driving"}
 
     @app.put(
@@ -237,7 +244,7 @@ def create_app(
         responses=errors(400, 401, 409, 422, 503),
     )
     def set_setting(body: SettingIn) -> dict[str, float]:
-        return {"value": firmware.write_setting(gateway.link, body.id, body.value)}
+        return {"value": gateway.write_setting(body.id, body.value)}
 
     @app.post(
         "/api/firmware/save",
@@ -302,8 +309,8 @@ def create_app(
         "(messages of type routine and pose_trust). Any mission in progress ends.",
         responses=errors(401, 409, 503),
     )
-    def reset_routine() -> dict[str, Any]:
-        gateway.start_reset_routine()
+    def reset_routine(token: int | None = Motion) -> dict[str, Any]:
+        gateway.start_reset_routine(token)
         return {"result": "running", "routine": gateway.routine_view()}
 
     @app.post(
@@ -388,28 +395,7 @@ def create_app(
             await ws.close(code=1008, reason="this gateway needs its access token")
             return
         await ws.accept()
-        loop = asyncio.get_running_loop()
-        queue: asyncio.Queue[dict[str, Any]] = asyncio.Queue(maxsize=256)
-
-        def deliver(message: dict[str, Any]) -> None:
-            def put() -> None:
-                if queue.full():  # a slow viewer loses old frames, never slows the others
-                    queue.get_nowait()
-                queue.put_nowait(message)
-
-            loop.call_soon_threadsafe(put)
-
-        unsubscribe = gateway.subscribe(deliver)
-        try:
-            await ws.send_text(json.dumps({"type": "hello", **gateway.mission_view()}))
-            while True:
-                await ws.send_text(json.dumps(await queue.get()))
-        except (WebSocketDisconnect, RuntimeError):
-            pass
-        finally:
-            unsubscribe()
-            with contextlib.suppress(RuntimeError):
-                await ws.close()
+        await viewers.serve(ws)
 
     if (PANEL_DIR / "index.html").is_file():
         # mounted last: /api/..., /ws and /docs match first; everything else is the panel's files
@@ -421,4 +407,5 @@ def create_app(
             return MINIMAL_PAGE
 
     guards.install(app, bind_host, allowed_hosts)
+    app.add_middleware(MotionTokens, link=gateway.link)  # added last: the outermost layer
     return app

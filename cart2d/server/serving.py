@@ -19,6 +19,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import resource
+import socket
 import threading
 import time
 from typing import Any, ClassVar
@@ -42,6 +43,11 @@ WS_MAX_BYTES = 64 * 1024  # the panel sends nothing on /ws; uvicorn's default is
 # cannot evict a connection whose whole request is waiting to be read.
 BACKLOG = 128
 FRESH_S = 1.0  # a connection this young that sent nothing yet is evicted last
+# The send buffer of every connection (socket(7) SO_SNDBUF; the kernel doubles it for its own
+# bookkeeping): a few hundred /ws messages, plenty for a viewer that reads and for the panel's
+# files. Linux grows it up to 4 MiB for a peer that does not read, which is what a stalled
+# viewer held.
+SEND_BUFFER_BYTES = 128 * 1024
 FD_RESERVE = 128  # descriptors kept for the serial link, the simulator, logs and WebSocket viewers
 
 
@@ -189,22 +195,34 @@ def descriptor_budget() -> tuple[int, int]:
     return min(MAX_CONNECTIONS, spare // 4), min(BACKLOG, spare // 2)
 
 
-def serve(app: Any, host: str, port: int) -> None:
-    """Runs `app` until Ctrl-C or SIGTERM, with the bounds of this module's docstring."""
-    connections, backlog = descriptor_budget()
+def listening_socket(host: str, port: int, backlog: int = BACKLOG) -> socket.socket:
+    """The server's listening socket: connections accepted from it inherit its capped send
+    buffer (on Linux, accepted sockets take the listener's SO_SNDBUF)."""
+    family = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)[0][0]
+    sock = socket.create_server((host, port), family=family, backlog=backlog)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SEND_BUFFER_BYTES)
+    return sock
+
+
+def server(app: Any, connections: int = MAX_CONNECTIONS) -> uvicorn.Server:
+    """A uvicorn server for `app` with the bounds of this module's docstring; run it on
+    listening_socket()."""
     config = uvicorn.Config(
         app,
-        host=host,
-        port=port,
         http=bounded_protocol(HEADER_TIMEOUT_S, connections),
-        backlog=backlog,
         timeout_keep_alive=KEEP_ALIVE_S,
         h11_max_incomplete_event_size=MAX_HEADER_BYTES,
         ws_max_size=WS_MAX_BYTES,
         log_config=None,  # uvicorn's loggers go to the root handlers, and their RepeatFilter
         log_level="warning",
     )
-    uvicorn.Server(config).run()
+    return uvicorn.Server(config)
+
+
+def serve(app: Any, host: str, port: int) -> None:
+    """Runs `app` on host:port until Ctrl-C or SIGTERM."""
+    connections, backlog = descriptor_budget()
+    server(app, connections).run(sockets=[listening_socket(host, port, backlog)])
 
 
 class RepeatFilter(logging.Filter):

@@ -4,6 +4,7 @@
 #include <csignal>  // sigaction
 #include <cstdio>   // printf, fflush
 
+#include "firmware_file.hpp"  // check_firmware_command
 #include "log.hpp"
 #include "options.hpp"
 #include "simulator.hpp"
@@ -28,6 +29,7 @@ int main(int argc, char** argv) {
     std::fputs(cart2d::usage().c_str(), stdout);
     return 0;
   }
+  if (!opts.check_firmware.empty()) return cart2d::check_firmware_command(opts.check_firmware);
   if (opts.verbose) cart2d::set_log_level(cart2d::LogLevel::kDebug);
   if (opts.quiet) cart2d::set_log_level(cart2d::LogLevel::kWarn);
 

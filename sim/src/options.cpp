@@ -18,6 +18,9 @@ static std::string shortest(double v) {
 std::string usage() {
   const Options defaults;
   return "usage: cart2d-sim --firmware FILE [options]\n"
+         "       cart2d-sim --check-firmware FILE\n"
+         "  --check-firmware FILE check an Intel HEX as the firmware update does (strict records, what\n"
+         "                        simavr reads, below the bootloader, the vector table); one JSON line\n"
          "  --firmware FILE       ATmega328P firmware: ELF or Intel HEX (required)\n"
          "  --speed F|max         simulated seconds per wall second (default 1 = real time)\n"
          "  --seed N              seed of every random fault (default 0)\n"
@@ -117,6 +120,9 @@ bool parse_options(int argc, char** argv, Options* opts, bool* help, std::string
       opts->start_paused = true;
     } else if (!std::strcmp(arg, "--quiet") || !std::strcmp(arg, "-q")) {
       opts->quiet = true;
+    } else if (!std::strcmp(arg, "--check-firmware")) {
+      if (!value(&v)) return false;
+      opts->check_firmware = v;
     } else if (!std::strcmp(arg, "--firmware")) {
       if (!value(&v)) return false;
       opts->firmware = v;
@@ -176,7 +182,7 @@ bool parse_options(int argc, char** argv, Options* opts, bool* help, std::string
       return false;
     }
   }
-  if (opts->firmware.empty()) {
+  if (opts->firmware.empty() && opts->check_firmware.empty()) {
     *error = "--firmware is required";
     return false;
   }

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "firmware_file.hpp"
 #include "mcu.hpp"
 #include "rig.hpp"
 #include "robot_params.hpp"
@@ -267,6 +268,91 @@ TEST_F(FirmwareLoad, RefusesMalformedRecords) {
   // simavr ORs the segment into the offset: 0x10 | 0x7010 is not 0x10 + 0x7010.
   expect_refused(write("seg.hex", record(0x02, 0, {0x00, 0x01}) + "\n" + record(0x00, 0x7010, {1}) + "\n" + eof),
                  "simavr's ihex reader does not read it as written");
+}
+
+// `cart2d-sim --check-firmware FILE`: the firmware update's check, one JSON line and the status.
+struct CheckResult {
+  int status = -1;
+  std::string out;
+};
+
+CheckResult run_check(const std::string& path) {
+  const std::string cmd = std::string("'") + CART2D_SIM_EXE + "' --check-firmware '" + path + "' 2>&1";
+  CheckResult r;
+  FILE* p = ::popen(cmd.c_str(), "r");
+  if (!p) return r;
+  char buf[512];
+  while (std::fgets(buf, sizeof buf, p)) r.out += buf;
+  const int status = ::pclose(p);
+  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+// The 26 vectors as avr-gcc writes them: JMP (0C 94 ..) or, relaxed, RJMP (.. Cx).
+std::string vector_table() {
+  std::string text;
+  for (int k = 0; k < 26; k += 4) {
+    std::vector<uint8_t> data;
+    for (int v = k; v < std::min(k + 4, 26); ++v) {
+      const std::vector<uint8_t> jump = v % 2 ? std::vector<uint8_t>{0x09, 0xC1, 0x00, 0x00}
+                                              : std::vector<uint8_t>{0x0C, 0x94, 0x34, 0x00};
+      data.insert(data.end(), jump.begin(), jump.end());
+    }
+    text += record(0x00, static_cast<uint16_t>(4 * k), data) + "\n";
+  }
+  return text;
+}
+
+TEST_F(FirmwareLoad, TheCheckPassesTheBuiltHexWithItsSize) {
+  ASSERT_TRUE(firmware_built());
+  const CheckResult r = run_check(CART2D_FIRMWARE_HEX);
+  EXPECT_EQ(r.status, 0) << r.out;
+  EXPECT_EQ(r.out.rfind("{\"ok\":true,\"bytes\":", 0), 0u) << r.out;
+  const CheckResult table = run_check(write("table.hex", vector_table() + ":00000001FF\n"));
+  EXPECT_EQ(table.status, 0) << table.out;
+  EXPECT_EQ(table.out, "{\"ok\":true,\"bytes\":104,\"end\":104}\n");
+}
+
+TEST_F(FirmwareLoad, TheCheckRefusesWhatTheSimulatorRefuses) {
+  const std::string eof = ":00000001FF\n";
+  const std::string table = vector_table();
+  const std::vector<std::pair<std::string, std::string>> files = {
+      {"junk.hex", table + eof + "junk\n"},
+      {"noeof.hex", table},
+      {"early_eof.hex", table + eof + record(0x00, 0x200, {1, 2}) + "\n" + eof},
+      {"long.hex", table + record(0x00, 0x200, std::vector<uint8_t>(160, 0)) + "\n" + eof},
+      {"blank_first.hex", "\n\n" + table + eof},
+      {"segment.hex", table + record(0x02, 0, {0x00, 0x01}) + "\n" + record(0x00, 0x0070, {1, 2}) + "\n" + eof},
+  };
+  for (const auto& [name, text] : files) {
+    const std::string path = write(name, text);
+    const CheckResult r = run_check(path);
+    EXPECT_EQ(r.status, 1) << name << ": " << r.out;
+    EXPECT_EQ(r.out.rfind("{\"ok\":false,\"error\":\"not a valid Intel HEX file: ", 0), 0u) << r.out;
+    Mcu mcu;
+    std::string err;
+    EXPECT_FALSE(mcu.load(path, kFcpu, &err)) << name;  // one reader: the simulator refuses it too
+    const std::string why = err.substr(err.find(": ") + 2);
+    EXPECT_NE(r.out.find(why), std::string::npos) << name << ": " << r.out << " / " << err;
+  }
+}
+
+TEST_F(FirmwareLoad, TheCheckWantsAnApplicationBelowTheBootloader) {
+  const std::string eof = ":00000001FF\n";
+  const CheckResult boot = run_check(write("boot.hex", vector_table() + record(0x00, 0x7E00, {0, 0}) + "\n" + eof));
+  EXPECT_EQ(boot.status, 1);
+  EXPECT_NE(boot.out.find("the program ends at byte 32258, beyond the 32256 bytes below the bootloader"),
+            std::string::npos)
+      << boot.out;
+  const CheckResult data = run_check(write("data.hex", record(0x00, 0, std::vector<uint8_t>(16, 0)) + "\n" + eof));
+  EXPECT_EQ(data.status, 1);
+  EXPECT_NE(data.out.find("interrupt vector table's 26 jumps"), std::string::npos) << data.out;
+  const CheckResult later = run_check(write("later.hex", record(0x00, 0x100, {0x0C, 0x94, 0, 0}) + "\n" + eof));
+  EXPECT_NE(later.out.find("interrupt vector table"), std::string::npos) << later.out;
+  ASSERT_TRUE(firmware_built());
+  const CheckResult elf = run_check(CART2D_FIRMWARE_ELF);
+  EXPECT_EQ(elf.status, 1);
+  EXPECT_NE(elf.out.find("an ELF file: upload the Intel HEX"), std::string::npos) << elf.out;
 }
 
 TEST_F(FirmwareLoad, SimulatorExitsWithTheMessage) {
