@@ -27,6 +27,7 @@ SECTIONS = (
     "safety",
     "drivetrain",
     "serial",
+    "control",
     "system",
 )
 

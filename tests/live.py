@@ -1,21 +1,34 @@
-"""A gateway served as `cart2d sim` serves it: the real firmware in the simulator, the link, the
-gateway and uvicorn on a free loopback port, driven over real HTTP connections from threads."""
+"""Real gateways on a free loopback port, driven over real HTTP connections: LiveGateway serves
+one as `cart2d sim` does, in this process (the real firmware in the simulator, the link, the
+gateway, uvicorn), GatewayProcess runs `cart2d sim` itself in a process of its own."""
 
 from __future__ import annotations
 
 import http.client
 import json
+import os
+import re
+import resource
+import signal
+import socket
+import subprocess
+import sys
 import threading
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
+
+import psutil
 
 from cart2d.gateway import Gateway
 from cart2d.link import Link
 from cart2d.server import create_app, serving
-from cart2d.simulator import Simulator
+from cart2d.simulator import SideChannel, Simulator
 from cart2d.store import Store
 from tests.conftest import start_sim, wait_for
+
+Answer = tuple[int, dict[str, str], bytes]  # status, headers, body
 
 
 class LiveGateway:
@@ -56,7 +69,8 @@ class Http:
 
     def call(self, method: str, path: str, body: dict[str, Any] | None = None) -> tuple[int, Any]:
         data = json.dumps(body).encode() if body is not None else None
-        headers = {"Content-Type": "application/json"} if data is not None else {}
+        # A change carries its content type, bodiless or not (cart2d/server/guards.py).
+        headers = {"Content-Type": "application/json"} if method not in ("GET", "HEAD") else {}
         self.conn.request(method, path, body=data, headers=headers)
         self.sent.set()
         response = self.conn.getresponse()
@@ -76,3 +90,90 @@ def wait_sim_time(sim: Simulator, seconds: float, wall_timeout_s: float = 30.0) 
             raise AssertionError("simulated time does not advance")
         time.sleep(0.002)
     return t
+
+
+class GatewayProcess:
+    """`cart2d sim` in a process of its own, on a free port of 127.0.0.1 with its own CART2D_HOME
+    and `extra` options, its output in a file."""
+
+    def __init__(self, home: Path, max_open_files: int | None = None, extra: Sequence[str] = ()) -> None:
+        with socket.socket() as probe:
+            probe.bind(("127.0.0.1", 0))
+            self.port = probe.getsockname()[1]
+        self.home = home
+        self.log_path = home / "gateway.log"
+        home.mkdir(parents=True, exist_ok=True)
+
+        def limit_files() -> None:  # as on a desktop whose limit is 1024 (systemd's soft default)
+            if max_open_files is not None:
+                resource.setrlimit(resource.RLIMIT_NOFILE, (max_open_files, max_open_files))
+
+        with self.log_path.open("wb") as log:
+            self.process = subprocess.Popen(
+                [sys.executable, "-m", "cart2d.cli", "sim", "--port", str(self.port), *extra],
+                env={**os.environ, "CART2D_HOME": str(home)},
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                preexec_fn=limit_files,
+            )
+        wait_for(self._ready, 60, 0.2)
+        found = re.search(r"side channel (\S+)", self.output())
+        assert found, self.output()
+        self.side = SideChannel(found.group(1))
+
+    def _ready(self) -> bool:
+        assert self.process.poll() is None, self.output()
+        try:
+            status, _, body = self.request("GET", "/api/status")
+        except OSError:
+            return False
+        return status == 200 and json.loads(body).get("pose") is not None
+
+    def output(self) -> str:
+        return self.log_path.read_text(errors="replace")
+
+    def log_lines(self) -> int:
+        return self.output().count("\n")
+
+    @property
+    def host(self) -> str:
+        return f"127.0.0.1:{self.port}"
+
+    @property
+    def origin(self) -> str:
+        return f"http://{self.host}"
+
+    def request(
+        self, method: str, path: str, body: bytes = b"", headers: dict[str, str] | None = None
+    ) -> Answer:
+        """One request on a fresh connection; `headers` may replace Host."""
+        conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=30)
+        try:
+            conn.putrequest(method, path, skip_host=True, skip_accept_encoding=True)
+            sent = {"Host": self.host, **(headers or {})}
+            if body or method not in ("GET", "HEAD"):
+                sent.setdefault("Content-Length", str(len(body)))
+            for name, value in sent.items():
+                conn.putheader(name, value)
+            conn.endheaders(body or None)
+            answer = conn.getresponse()
+            return answer.status, dict(answer.getheaders()), answer.read()
+        finally:
+            conn.close()
+
+    def get_json(self, path: str) -> Any:
+        status, _, body = self.request("GET", path)
+        assert status == 200, body
+        return json.loads(body)
+
+    def rss_mib(self) -> float:
+        return float(psutil.Process(self.process.pid).memory_info().rss) / 2**20
+
+    def stop(self) -> None:
+        self.side.close()
+        self.process.send_signal(signal.SIGINT)
+        try:
+            self.process.wait(20)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()

@@ -9,13 +9,7 @@ from __future__ import annotations
 import http.client
 import json
 import logging
-import os
-import re
-import resource
-import signal
 import socket
-import subprocess
-import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -29,88 +23,13 @@ from starlette.websockets import WebSocketDisconnect
 
 from cart2d.server.guards import HostAllowlist, machine_addresses, same_origin, split_host
 from cart2d.server.serving import HEADER_TIMEOUT_S, RepeatFilter
-from cart2d.simulator import SideChannel, default_firmware
-from tests.conftest import wait_for
+from cart2d.simulator import default_firmware
+from tests.live import GatewayProcess
 from tests.test_server import WS_BASE, Rig
 
-Answer = tuple[int, dict[str, str], bytes]
 
-
-class LiveGateway:
-    """`cart2d sim` on a free port of 127.0.0.1 with its own CART2D_HOME, its output in a file."""
-
-    def __init__(self, home: Path, max_open_files: int | None = None) -> None:
-        with socket.socket() as probe:
-            probe.bind(("127.0.0.1", 0))
-            self.port = probe.getsockname()[1]
-        self.home = home
-        self.log_path = home / "gateway.log"
-        home.mkdir(parents=True, exist_ok=True)
-
-        def limit_files() -> None:  # as on a desktop whose limit is 1024 (systemd's soft default)
-            if max_open_files is not None:
-                resource.setrlimit(resource.RLIMIT_NOFILE, (max_open_files, max_open_files))
-
-        with self.log_path.open("wb") as log:
-            self.process = subprocess.Popen(
-                [sys.executable, "-m", "cart2d.cli", "sim", "--port", str(self.port)],
-                env={**os.environ, "CART2D_HOME": str(home)},
-                stdout=log,
-                stderr=subprocess.STDOUT,
-                preexec_fn=limit_files,
-            )
-        wait_for(self._ready, 60, 0.2)
-        found = re.search(r"side channel (\S+)", self.output())
-        assert found, self.output()
-        self.side = SideChannel(found.group(1))
-
-    def _ready(self) -> bool:
-        assert self.process.poll() is None, self.output()
-        try:
-            status, _, body = self.request("GET", "/api/status")
-        except OSError:
-            return False
-        return status == 200 and json.loads(body).get("pose") is not None
-
-    def output(self) -> str:
-        return self.log_path.read_text(errors="replace")
-
-    def log_lines(self) -> int:
-        return self.output().count("\n")
-
-    @property
-    def host(self) -> str:
-        return f"127.0.0.1:{self.port}"
-
-    @property
-    def origin(self) -> str:
-        return f"http://{self.host}"
-
-    def request(
-        self, method: str, path: str, body: bytes = b"", headers: dict[str, str] | None = None
-    ) -> Answer:
-        """One request on a fresh connection; `headers` may replace Host."""
-        conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=30)
-        try:
-            conn.putrequest(method, path, skip_host=True, skip_accept_encoding=True)
-            sent = {"Host": self.host, **(headers or {})}
-            if body or method not in ("GET", "HEAD"):
-                sent.setdefault("Content-Length", str(len(body)))
-            for name, value in sent.items():
-                conn.putheader(name, value)
-            conn.endheaders(body or None)
-            answer = conn.getresponse()
-            return answer.status, dict(answer.getheaders()), answer.read()
-        finally:
-            conn.close()
-
-    def get_json(self, path: str) -> Any:
-        status, _, body = self.request("GET", path)
-        assert status == 200, body
-        return json.loads(body)
-
-    def rss_mib(self) -> float:
-        return float(psutil.Process(self.process.pid).memory_info().rss) / 2**20
+class LiveGateway(GatewayProcess):
+    """The gateway attacked: what an attack must not change."""
 
     def snapshot(self) -> dict[str, Any]:
         """What an attack must not change. A firmware update restarts the simulator: another
@@ -132,15 +51,6 @@ class LiveGateway:
             "sim time": truth["t"],
             "simulator process": simulators,
         }
-
-    def stop(self) -> None:
-        self.side.close()
-        self.process.send_signal(signal.SIGINT)
-        try:
-            self.process.wait(20)
-        except subprocess.TimeoutExpired:
-            self.process.kill()
-            self.process.wait()
 
 
 @pytest.fixture(scope="module")
