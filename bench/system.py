@@ -54,12 +54,16 @@ from bench.firmware import TICK_HZ, drive_square
 from cart2d.gateway import Gateway
 from cart2d.link import Link
 from cart2d.simulator import SideChannel, SimOptions, Simulator
+from cart2d.spec import load_spec
 
 NAME = "system"
 RTF_TARGET = 10.0
 RATE_TOLERANCE = 0.10
 GOALS = [(1.6, 1.6), (0.2, 0.2)]  # the cart drives between these during the phases
-COMMANDS = {"POSE": 3, "STATUS": 15}  # what the round trip sends, and how many results each has
+# What the round trip sends, and how many results each has (docs/protocol.md's results column).
+COMMANDS = {
+    name: len(load_spec().commands[f"COMMAND_{name}"].results.split(",")) for name in ("POSE", "STATUS")
+}
 MP = multiprocessing.get_context("spawn")  # a clean interpreter: no threads forked half-way
 
 

@@ -17,6 +17,8 @@
 #include <avr/sleep.h>
 #include <stdint.h>
 
+#include "uart.h"
+
 #define BURN_CYCLES 12800UL /* 10 % of the 128000-cycle tick */
 
 static volatile int32_t left_count, right_count;
@@ -44,26 +46,6 @@ ISR(USART_RX_vect) {
   else if (c == 'w') eeprom_pending = 1;
 }
 
-static void put(char c) {
-  while (!(UCSR0A & _BV(UDRE0))) {
-  }
-  UDR0 = c;
-}
-
-static void put_int(int32_t v) {
-  char buf[12];
-  uint8_t n = 0;
-  if (v < 0) {
-    put('-');
-    v = -v;
-  }
-  do {
-    buf[n++] = (char)('0' + v % 10);
-    v /= 10;
-  } while (v);
-  while (n) put(buf[--n]);
-}
-
 int main(void) {
   /* H-bridges: PWM pins and direction pins as outputs; left backward (D4 high). */
   DDRB |= _BV(PB1) | _BV(PB2);
@@ -89,10 +71,7 @@ int main(void) {
   TCCR2B = _BV(CS22) | _BV(CS21) | _BV(CS20);
   TIMSK2 = _BV(OCIE2A);
 
-  UBRR0 = 16;
-  UCSR0A = _BV(U2X0);
-  UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
-  UCSR0C = _BV(UCSZ01) | _BV(UCSZ00);
+  uart_init();
 
   set_sleep_mode(SLEEP_MODE_IDLE);
   sei();

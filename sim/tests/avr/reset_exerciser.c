@@ -25,6 +25,8 @@
 #include <avr/wdt.h>
 #include <stdint.h>
 
+#include "uart.h"
+
 #define MAGIC 0xC0FFEE42UL
 
 static uint8_t boot_mcusr __attribute__((section(".noinit")));
@@ -51,28 +53,6 @@ ISR(USART_RX_vect) {
 
 ISR(EE_READY_vect) {
   if (++ee_ready_count == 3) EECR &= (uint8_t)~_BV(EERIE);
-}
-
-static void put(char c) {
-  while (!(UCSR0A & _BV(UDRE0))) {
-  }
-  UDR0 = c;
-}
-
-static void put_hex(uint8_t v) {
-  const char* digits = "0123456789ABCDEF";
-  put(digits[v >> 4]);
-  put(digits[v & 15]);
-}
-
-static void put_uint(uint16_t v) {
-  char buf[6];
-  uint8_t n = 0;
-  do {
-    buf[n++] = (char)('0' + v % 10);
-    v /= 10;
-  } while (v);
-  while (n) put(buf[--n]);
 }
 
 static void report(void) {
@@ -139,10 +119,7 @@ int main(void) {
   TCCR1A = _BV(COM1A1) | _BV(COM1B1);
   TCCR1B = _BV(WGM13) | _BV(CS10);
 
-  UBRR0 = 16;
-  UCSR0A = _BV(U2X0);
-  UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
-  UCSR0C = _BV(UCSZ01) | _BV(UCSZ00);
+  uart_init();
 
   set_sleep_mode(SLEEP_MODE_IDLE);
   sei();

@@ -17,6 +17,8 @@
 #include <avr/sleep.h>
 #include <stdint.h>
 
+#include "uart.h"
+
 #define FRAME_CYCLES 1360UL /* 10 bits of (16 + 1) · 8 cycles */
 
 static volatile uint8_t log_data[256], log_flags[256];
@@ -29,18 +31,6 @@ ISR(USART_RX_vect) {
   log_flags[log_head] = status & (_BV(FE0) | _BV(DOR0) | _BV(UPE0));
   log_data[log_head] = c;
   ++log_head;
-}
-
-static void put(char c) {
-  while (!(UCSR0A & _BV(UDRE0))) {
-  }
-  UDR0 = c;
-}
-
-static void put_hex(uint8_t v) {
-  static const char digits[] = "0123456789abcdef";
-  put(digits[v >> 4]);
-  put(digits[v & 15]);
 }
 
 static void report(uint8_t from, uint8_t to_inclusive) {
@@ -64,10 +54,7 @@ static void block_interrupts(uint8_t frames) {
 }
 
 int main(void) {
-  UBRR0 = 16;
-  UCSR0A = _BV(U2X0);
-  UCSR0C = _BV(UCSZ01) | _BV(UCSZ00);
-  UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
+  uart_init();
   set_sleep_mode(SLEEP_MODE_IDLE);
   sei();
   for (const char* s = "HELLO\n"; *s; ++s) put(*s);
