@@ -900,7 +900,8 @@ def run(out: Path, quick: bool) -> Section:
     md.append(table(["ticks", "n", "mean cycles (share)", "p99 cycles", "max cycles (share)"], rows))
     md.append(
         f"\nOverruns (a tick not asleep by the next compare match): {overruns} of "
-        f"{sum(int(s.rows['all driving ticks']['ticks']) for s in summaries)} ticks. Budgets: mean ≤ {100 * CPU_MEAN_BUDGET:.0f} % "
+        f"{sum(int(s.rows['all driving ticks']['ticks']) for s in summaries)} ticks. "
+        f"Budgets: mean ≤ {100 * CPU_MEAN_BUDGET:.0f} % "
         f"({int(CPU_MEAN_BUDGET * PERIOD)} cycles), max ≤ 30 % ({int(CPU_MAX_BUDGET * PERIOD)}): worst run "
         f"{pct(mean_high)} mean, {pct(max_high)} max.\n"
     )
