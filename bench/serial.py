@@ -110,9 +110,13 @@ def round_trip_ms(adapter: dict[str, Any], command: str = "STATUS", tries: int =
                 sim.run_for(0.0037 * (k + 1))  # a different phase of the ticks and timers each time
                 start = sim.control("stats")["stats"]["cycles"]
                 seq = port.send(command)
-                while seq not in port.replies:
+                for _ in range(10_000):  # a second of simulated time
+                    if seq in port.replies:
+                        break
                     sim.run_for(0.0001)
                     port.poll()
+                else:
+                    raise RuntimeError(f"no reply to {command} within 1 simulated second")
                 times.append((sim.control("stats")["stats"]["cycles"] - start) / F_CPU * 1000)
             port.close()
     return times
