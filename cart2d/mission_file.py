@@ -6,9 +6,11 @@ Each problem is one sentence; the report, written whenever a mission ran, is alw
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
+import tempfile
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -120,8 +122,13 @@ def report_problems(report: Path, mission: Path) -> list[str]:
         return [f"the report's folder {folder} does not exist: create it, or choose another --report"]
     if report.is_dir():
         return [f"the report {report} is a folder: give a file name with --report"]
-    if not os.access(folder, os.W_OK | os.X_OK) or (report.exists() and not os.access(report, os.W_OK)):
-        return [f"the report {report} cannot be written here (permission denied): choose another --report"]
+    try:  # a file made and removed again: permissions, a read-only file system, root's too
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".cart2d-report-"):
+            pass
+        if report.exists() and not os.access(report, os.W_OK):
+            raise PermissionError(errno.EACCES, "permission denied")
+    except OSError as exc:
+        return [f"the report {report} cannot be written ({exc.strerror or exc}): choose another --report"]
     return []
 
 
