@@ -111,11 +111,13 @@ def test_a_saved_address_this_machine_does_not_have_names_the_file(tmp_path: Pat
 
 
 def test_host_and_port_given_apply_to_that_run_only(tmp_path: Path) -> None:
-    """`cart2d sim --host 0.0.0.0 --port P` listens there, says the token is needed from this
-    machine too, and leaves the saved address as it was (only the token is kept)."""
+    """`cart2d sim --host 0.0.0.0 --port P --fault ...` listens there with that fault, says the
+    token is needed from this machine too, and leaves the saved address as it was (only the
+    token is kept)."""
     port = free_port()
+    run = ["sim", "--host", "0.0.0.0", "--port", str(port), "--fault", "enc_slip_l=0.05"]
     gateway = subprocess.Popen(
-        [sys.executable, "-m", "cart2d.cli", "sim", "--host", "0.0.0.0", "--port", str(port)],
+        [sys.executable, "-m", "cart2d.cli", *run],
         env={**os.environ, "CART2D_HOME": str(tmp_path)},
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
@@ -131,6 +133,8 @@ def test_host_and_port_given_apply_to_that_run_only(tmp_path: Path) -> None:
                 return False
 
         wait_for(ready, 60, 0.2)
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/sim/faults", timeout=5) as answer:
+            assert json.load(answer)["faults"]["enc_slip_l"] == 0.05  # --fault applies from the start
         gateway.send_signal(signal.SIGTERM)
         out, _ = gateway.communicate(timeout=30)
     finally:

@@ -7,6 +7,7 @@ resynchronising on the next start byte.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import struct
 import time
@@ -41,6 +42,26 @@ def frame(seq: int, body: bytes) -> bytes:
 
 def _floats(values: list[float] | tuple[float, ...]) -> bytes:
     return b"".join(struct.pack("<f", v) for v in values)
+
+
+def shortest_float32(value: float) -> float:
+    """The float32 `value` as the double with the fewest significant digits that is the same
+    float32: 0.005 for the float32 nearest 0.005, which widens to 0.004999999888241291. Every
+    number the firmware sends is a float32; this keeps the widening's noise out of replies, the
+    API and logs, and packing the result gives back the same four bytes."""
+    if not math.isfinite(value):
+        return value
+    packed = struct.pack("<f", value)
+    for digits in range(1, 10):  # 9 significant digits always round-trip a float32 (IEEE 754, 5.12.2)
+        candidate = float(f"{value:.{digits}g}")
+        with contextlib.suppress(OverflowError):  # rounded up past float32's largest
+            if struct.pack("<f", candidate) == packed:
+                return candidate
+    return value
+
+
+def _unpack_floats(data: bytes) -> tuple[float, ...]:
+    return tuple(shortest_float32(v) for v in struct.unpack(f"<{len(data) // 4}f", data))
 
 
 def encode_request(seq: int, cmd: int, args: list[float] | tuple[float, ...] = ()) -> bytes:
@@ -101,8 +122,7 @@ def decode_reply(packet: Packet) -> Reply:
     body = packet.body
     if len(body) < 3 or len(body) != 3 + 4 * body[2]:
         raise ProtocolError("reply length does not match its result count")
-    results = struct.unpack(f"<{body[2]}f", body[3:])
-    return Reply(packet.seq, body[0], body[1], results)
+    return Reply(packet.seq, body[0], body[1], _unpack_floats(body[3:]))
 
 
 def decode_request(packet: Packet) -> tuple[int, tuple[float, ...]]:
@@ -163,7 +183,7 @@ def decode_telemetry(data: bytes) -> Telemetry:
     (tick, crc) = struct.unpack("<HH", payload[-4:])
     if crc != crc16_mcrf4xx(payload[:-2]):
         raise ProtocolError("telemetry CRC")
-    values = struct.unpack(f"<{TELEMETRY_CHANNELS}f", payload[: 4 * TELEMETRY_CHANNELS])
+    values = _unpack_floats(payload[: 4 * TELEMETRY_CHANNELS])
     if not all(math.isfinite(v) for v in values):
         raise ProtocolError("telemetry value not finite")
     return Telemetry(**dict(zip(TELEMETRY_FIELDS, values, strict=True)), tick=tick)
