@@ -48,6 +48,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Literal, Protocol
 
+from cart2d import cli_args
+from cart2d import faults as fault_table
 from cart2d.link import CommandRefused, Link, LinkError, firmware
 from cart2d.link.firmware import ControllerRestarted, ResetWatch
 from cart2d.params import robot, setting_id
@@ -625,18 +627,41 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     sim.add_argument("--faults", default="{}", help="simulator faults, JSON: sim/README.md")
     for key in SYSTEMATIC_FAULTS:
         sim.add_argument(f"--{key.replace('_', '-')}", type=float, dest=key, help=f"fault {key}")
-    sim.add_argument("--speed", default="max", help="simulated seconds per second, or 'max' (default)")
-    sim.add_argument("--seed", type=int, default=1)
+    sim.add_argument(
+        "--speed", type=cli_args.speed, default="max", help="simulated seconds per second, or 'max' (default)"
+    )
+    sim.add_argument("--seed", type=cli_args.seed, default=1)
 
 
 def sim_faults(args: argparse.Namespace) -> dict[str, float]:
-    faults = json.loads(args.faults)
+    """The faults of --faults and the fault options, checked (ValueError: every problem)."""
+    try:
+        faults = json.loads(args.faults)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"--faults is not JSON: {exc}") from None
     if not isinstance(faults, dict):
-        raise ValueError("--faults takes a JSON object")
+        raise ValueError('--faults takes a JSON object, such as {"enc_slip_l": 0.02}')
     for key in SYSTEMATIC_FAULTS:
         if getattr(args, key, None) is not None:
             faults[key] = getattr(args, key)
+    problems = fault_table.problems(faults)
+    if problems:
+        raise ValueError("; ".join(problems))
     return faults
+
+
+def saved_words(args: argparse.Namespace, saved: bool) -> str:
+    """Where the new values went, in words."""
+    if not saved:
+        return "not saved: the values last set stay in RAM until a reset"
+    if not args.sim:
+        return "saved to EEPROM"
+    if args.eeprom is None:
+        return (
+            "saved to the simulated EEPROM, a temporary file deleted with the simulator: nothing is kept "
+            "(--eeprom FILE keeps it)"
+        )
+    return f"saved to the simulated EEPROM, kept in {args.eeprom}"
 
 
 def _print_summary(result: Calibration, say: Callable[[str], None]) -> None:
@@ -701,7 +726,7 @@ def main_calibrate(args: argparse.Namespace, say: Callable[[str], None] = print)
         print(f"cart2d calibrate: {exc}", file=sys.stderr)
         return 1
     _print_summary(result, say)
-    say("saved to EEPROM" if result.saved else "not saved: the values last set stay in RAM until a reset")
+    say(saved_words(args, result.saved))
     if args.report is not None:
         args.report.write_text(json.dumps(result.as_dict(), indent=2) + "\n")
     after = result.e_max_after_m()

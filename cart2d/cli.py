@@ -4,6 +4,7 @@ port), `mission` (a headless mission run with a report), `calibrate` (odometry, 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 import signal
 import sys
@@ -12,20 +13,30 @@ from collections.abc import Sequence
 from pathlib import Path
 from types import FrameType
 
+from cart2d import cli_args
+from cart2d import faults as fault_table
 from cart2d.calibrate import add_arguments as add_calibrate_arguments
 from cart2d.calibrate import main_calibrate
 from cart2d.gateway import Gateway
-from cart2d.link import Link, LinkError
-from cart2d.server import create_app, is_loopback, serving
+from cart2d.link import Link, LinkError, ports
+from cart2d.server import addresses, create_app, is_loopback, serving
 from cart2d.simulator import SimOptions, Simulator, SimulatorError
-from cart2d.store import GatewaySettings, NetworkSettings, Store
+from cart2d.store import Store
 
 log = logging.getLogger("cart2d")
 
 
 def _network_args(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--host", help="bind address (default: the saved one, 127.0.0.1 at first)")
-    parser.add_argument("--port", type=int, help="HTTP port (default: the saved one, 8080 at first)")
+    parser.add_argument(
+        "--host",
+        type=cli_args.host,
+        help="bind address for this run (default: the saved one, 127.0.0.1 at first; the panel changes it)",
+    )
+    parser.add_argument(
+        "--port",
+        type=cli_args.port_number,
+        help="HTTP port for this run (default: the saved one, 8080 at first)",
+    )
     parser.add_argument(
         "--allow-host",
         action="append",
@@ -35,15 +46,41 @@ def _network_args(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _settings(store: Store, args: argparse.Namespace) -> GatewaySettings:
-    settings = store.load()
-    network = settings.network
-    if args.host or args.port:
-        network = NetworkSettings(host=args.host or network.host, port=args.port or network.port)
-        settings = settings.model_copy(update={"network": network})
-    if not is_loopback(network.host):
-        settings = store.ensure_token(settings)
-    return settings
+class Listening:
+    """Where this run listens: --host and --port, else the saved ones. The command line's apply
+    to this run only: they are never saved (the panel's network form saves an address)."""
+
+    def __init__(self, store: Store, args: argparse.Namespace) -> None:
+        self.saved = store.load()
+        network = self.saved.network
+        self.host: str = args.host or network.host
+        self.port: int = args.port or network.port
+        self.connections, backlog = serving.descriptor_budget()
+        self.sock = addresses.open_listener(self.host, self.port, backlog)  # CannotListen
+        self.settings = self.saved if is_loopback(self.host) else store.ensure_token(self.saved)
+
+    def banner(self) -> list[str]:
+        host = "127.0.0.1" if self.host in ("0.0.0.0", "::") else self.host
+        shown = f"[{host}]" if ":" in host else host
+        lines = [f"cart2d panel: http://{shown}:{self.port}/   (Ctrl-C stops)"]
+        if self.settings.token and not is_loopback(self.host):
+            lines.append(
+                f"access token: {self.settings.token} (listening on {self.host}, the gateway takes changes "
+                "only with it, from this machine too; the panel asks for it once)"
+            )
+        return lines
+
+
+def _listen(store: Store, args: argparse.Namespace) -> Listening | None:
+    """The listening socket, opened before anything starts; None once the reason is printed."""
+    try:
+        return Listening(store, args)
+    except addresses.CannotListen as exc:
+        hint = ""
+        if args.host is None and args.port is None:
+            hint = f" (the address saved in {store.path}; --host and --port choose others for this run)"
+        print(f"cart2d {args.command}: {exc}{hint}", file=sys.stderr)
+        return None
 
 
 def _connect(gateway: Gateway, wait_s: float) -> None:
@@ -56,65 +93,102 @@ def _connect(gateway: Gateway, wait_s: float) -> None:
     log.info("firmware %s on %s", version.firmware, gateway.link.port)
 
 
-def _serve(gateway: Gateway, settings: GatewaySettings, allowed_hosts: list[str]) -> None:
-    host, port = settings.network.host, settings.network.port
-    app = create_app(gateway, host, settings.token, allowed_hosts)
-    shown = "127.0.0.1" if host in ("0.0.0.0", "::") else host
-    print(f"cart2d panel: http://{shown}:{port}/   (Ctrl-C stops)", flush=True)
-    if settings.token and not is_loopback(host):
-        print(f"access token (needed off this machine): {settings.token}", flush=True)
-    serving.serve(app, host, port)
+def _serve(gateway: Gateway, where: Listening, allowed_hosts: list[str]) -> None:
+    app = create_app(gateway, where.host, where.settings.token, allowed_hosts)
+    for line in where.banner():
+        print(line, flush=True)
+    serving.serve(app, where.sock, where.connections)
+
+
+def _fault_options(options: list[str]) -> tuple[dict[str, float], list[str]]:
+    """The faults of --fault KEY=VALUE options, and one sentence per bad one."""
+    chosen: dict[str, float] = {}
+    problems = []
+    for option in options:
+        try:
+            name, value = fault_table.parse_option(option)
+        except ValueError as exc:
+            problems.append(f"--fault {option}: {exc}")
+            continue
+        chosen[name] = value
+    return chosen, problems
 
 
 def cmd_sim(args: argparse.Namespace) -> int:
-    store = Store()
-    settings = _settings(store, args)
-    store.directory.mkdir(parents=True, exist_ok=True)
-    options = SimOptions(
-        speed=args.speed,
-        seed=args.seed,
-        eeprom=store.directory / "sim-eeprom.bin",
-        pty_link=store.directory / "sim-tty",
-    )
-    try:
-        sim = Simulator(options).start()
-    except SimulatorError as exc:
-        print(f"cart2d: {exc}", file=sys.stderr)
+    faults, problems = _fault_options(args.fault)
+    for problem in problems:
+        print(f"cart2d sim: {problem}", file=sys.stderr)
+    if problems:
         return 2
-    link = Link(sim.pty).open()
-    gateway = Gateway(link, store, settings, sim)
-    try:
-        _connect(gateway, 5.0)
-        gateway.start()
-        print(
-            f"simulator running ({args.speed}x real time), robot serial port {sim.pty}, "
-            f"side channel {sim.control_address}",
-            flush=True,
+    store = Store()
+    where = _listen(store, args)
+    if where is None:
+        return 1
+    with contextlib.closing(where.sock):
+        store.directory.mkdir(parents=True, exist_ok=True)
+        options = SimOptions(
+            speed=args.speed,
+            seed=args.seed,
+            eeprom=store.directory / "sim-eeprom.bin",
+            pty_link=store.directory / "sim-tty",
+            faults=faults,
         )
-        _serve(gateway, settings, args.allow_host)
-    finally:
-        gateway.close()
-        link.close()
-        sim.stop()
+        try:
+            sim = Simulator(options).start()
+        except SimulatorError as exc:
+            print(f"cart2d sim: {exc}", file=sys.stderr)
+            return 2
+        link = Link(sim.pty).open()
+        gateway = Gateway(link, store, where.settings, sim)
+        try:
+            _connect(gateway, 5.0)
+            gateway.start()
+            on = f"; faults: {', '.join(f'{k}={v:g}' for k, v in faults.items())}" if faults else ""
+            print(
+                f"simulator running ({args.speed}x real time{on}), robot serial port {sim.pty}, "
+                f"side channel {sim.control_address}",
+                flush=True,
+            )
+            _serve(gateway, where, args.allow_host)
+        finally:
+            gateway.close()
+            link.close()
+            sim.stop()
     return 0
+
+
+def _open_serial(args: argparse.Namespace) -> Link | None:
+    """The cart's serial port, open; None once the reason and the ports there are are printed.
+    Only the first opening is checked: a port that goes away later is reopened when it is back."""
+    problem = ports.port_problem(args.serial)
+    link = Link(args.serial, args.baud)
+    if problem is None:
+        try:
+            return link.open(wait_s=3.0)
+        except LinkError as exc:
+            link.close()
+            problem = str(exc)
+    print(f"cart2d serve: {problem}; {ports.ports_sentence()}", file=sys.stderr)
+    return None
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
     store = Store()
-    settings = _settings(store, args)
-    link = Link(args.serial, args.baud)
-    try:
-        link.open(wait_s=3.0)
-    except LinkError as exc:
-        log.warning("%s; retrying in the background", exc)
-    gateway = Gateway(link, store, settings)
-    try:
-        _connect(gateway, 5.0)
-        gateway.start()
-        _serve(gateway, settings, args.allow_host)
-    finally:
-        gateway.close()
-        link.close()
+    where = _listen(store, args)
+    if where is None:
+        return 1
+    with contextlib.closing(where.sock):
+        link = _open_serial(args)
+        if link is None:
+            return 1
+        gateway = Gateway(link, store, where.settings)
+        try:
+            _connect(gateway, 5.0)
+            gateway.start()
+            _serve(gateway, where, args.allow_host)
+        finally:
+            gateway.close()
+            link.close()
     return 0
 
 
@@ -125,14 +199,25 @@ def cmd_mission(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="cart2d", description=__doc__)
+    parser = cli_args.Parser(prog="cart2d", description=__doc__)
     parser.add_argument("-v", "--verbose", action="store_true")
+    parser.add_argument("--version", action="version", version=cli_args.version_text())
     sub = parser.add_subparsers(dest="command", required=True)
 
     sim = sub.add_parser("sim", help="the simulator running the built firmware, with the gateway and panel")
     _network_args(sim)
-    sim.add_argument("--speed", default="1", help="simulated seconds per second, or 'max' (default 1)")
-    sim.add_argument("--seed", type=int, default=1, help="seed of the simulator's random faults")
+    sim.add_argument(
+        "--speed", type=cli_args.speed, default="1", help="simulated seconds per second, or 'max' (default 1)"
+    )
+    sim.add_argument("--seed", type=cli_args.seed, default=1, help="seed of the simulator's random faults")
+    sim.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a simulator fault for this run (repeatable; PUT /api/sim/faults changes them later): "
+        + ", ".join(f"{f.name} ({f.range_text()})" for f in fault_table.FAULTS),
+    )
     sim.set_defaults(run=cmd_sim)
 
     serve = sub.add_parser("serve", help="the gateway and panel for a real cart on a serial port")
@@ -143,9 +228,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     mission = sub.add_parser("mission", help="run a mission in the simulator and write a report")
     mission.add_argument("mission", type=Path, help="MISSION.json: grid, obstacles, start, goals, ...")
-    mission.add_argument("--report", type=Path, required=True, help="where to write REPORT.json")
-    mission.add_argument("--speed", default="max", help="simulated seconds per second, or 'max' (default)")
-    mission.add_argument("--seed", type=int, default=1)
+    mission.add_argument(
+        "--report", type=Path, help="where to write the report (default: MISSION.report.json beside it)"
+    )
+    mission.add_argument(
+        "--speed", type=cli_args.speed, default="max", help="simulated seconds per second, or 'max' (default)"
+    )
+    mission.add_argument("--seed", type=cli_args.seed, default=1)
     mission.set_defaults(run=cmd_mission)
 
     calibrate = sub.add_parser("calibrate", help="odometry calibration (UMBmark): wheel radii and track")

@@ -1,17 +1,17 @@
-"""Headless missions in the simulator: `cart2d mission MISSION.json --report REPORT.json`.
+"""Headless missions in the simulator: `cart2d mission MISSION.json [--report REPORT.json]`.
 
 A mission is a map, a start pose and goals; the runner drives to each goal in turn through the
 same gateway code as the web API (plan from the measured pose, upload, follow STATUS) and
 reports, per goal, whether it was reached, the simulated time, the errors (ground truth against
-goal and against odometry) and the path length driven and planned. The report is written in
-every case; an invalid or unreachable goal is reported with its reason and nothing is sent.
+goal and against odometry) and the path length driven and planned. The mission file is checked
+whole before anything runs (mission_file.py); once it runs, the report is written however it
+ends, and a goal off the map or unreachable is reported with its reason and nothing is sent.
 `resets_at_s` presses the simulated reset button: the goal in progress fails with the reset's
 words, and the goals after it are not driven (the gateway no longer trusts the pose)."""
 
 from __future__ import annotations
 
 import contextlib
-import json
 import math
 import sys
 import tempfile
@@ -19,20 +19,22 @@ import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 from tqdm import tqdm
 
+from cart2d import mission_file
 from cart2d.baseline import SEED_SETTINGS, seed_path
 from cart2d.gateway import Gateway, PoseUntrusted
-from cart2d.link import Link, LinkError, firmware
+from cart2d.link import CommandRefused, Link, LinkError, firmware
 from cart2d.params import robot, setting_id
 from cart2d.planner import Grid, PlanError, Point, point_polyline_distance, polyline_length
 from cart2d.simulator import SimOptions, Simulator, SimulatorError, arena_world
 from cart2d.store import GatewaySettings, MapSettings, Store
 
-Coordinate = float
+Coordinate = Annotated[float, Field(allow_inf_nan=False)]
+Finite = Annotated[float, Field(allow_inf_nan=False)]
 
 
 class GridSpec(BaseModel):
@@ -48,8 +50,8 @@ class MissionSpec(BaseModel):
     obstacles: list[tuple[Coordinate, Coordinate]] = Field(default_factory=list)
     start: tuple[Coordinate, Coordinate, Coordinate] = (0.0, 0.0, 0.0)
     goals: list[tuple[Coordinate, Coordinate]] = Field(min_length=1, max_length=1000)
-    settings: dict[str, float] = Field(default_factory=dict, description="firmware settings by name")
-    faults: dict[str, float] = Field(default_factory=dict, description="simulator faults (sim/README.md)")
+    settings: dict[str, Finite] = Field(default_factory=dict, description="firmware settings by name")
+    faults: dict[str, Finite] = Field(default_factory=dict, description="simulator faults (sim/README.md)")
     timeout_s: float = Field(120.0, gt=0.0, le=1e5, allow_inf_nan=False, description="simulated seconds")
     behaviour: Literal["cart2d", "seed"] = Field(
         "cart2d",
@@ -245,9 +247,17 @@ def _drive_to(
 
 
 def run_mission(
-    spec: MissionSpec, speed: str = "max", seed: int = 1, progress: bool = False
+    spec: MissionSpec,
+    speed: str = "max",
+    seed: int = 1,
+    progress: bool = False,
+    report: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """Runs the mission in a fresh simulator (blank EEPROM); returns the report."""
+    """Runs the mission in a fresh simulator (blank EEPROM); returns the report. `report`, if
+    given, is filled as the mission goes (each goal as it ends): what it holds is the report so
+    far if the run stops on an error."""
+    report = {} if report is None else report
+    report.update(behaviour=spec.behaviour, goals=[], resets=[])
     g = spec.grid
     grid = Grid(cols=g.cols, rows=g.rows, step_m=g.step)
     with tempfile.TemporaryDirectory() as tmp:
@@ -258,6 +268,7 @@ def run_mission(
             start=spec.start,
             world=arena_world(g.cols, g.rows, g.step),  # the walls around this grid, square or not
             quiet=True,
+            faults=dict(spec.faults),
         )
         store = Store(Path(tmp) / "gateway")
         nodes = sorted({grid.nearest_node(x, y) for x, y in spec.obstacles})
@@ -265,8 +276,6 @@ def run_mission(
         wall_start = time.monotonic()
         with Simulator(options) as sim, Link(sim.pty) as link:
             sim.control("obstacles", step=g.step, size=max(g.cols, g.rows), cells=[list(n) for n in nodes])
-            if spec.faults:
-                sim.control("faults", **spec.faults)
             gateway = Gateway(link, store, settings, sim)
             recorder = Recorder()
             gateway.subscribe(recorder)
@@ -278,34 +287,37 @@ def run_mission(
             gateway.start()
             t0 = sim.truth()["t"]
             deadline = t0 + spec.timeout_s
-            goals: list[dict[str, Any]] = []
-            resets: list[dict[str, Any]] = []
-            gateway.subscribe(lambda m: resets.append(m) if m.get("type") == "reset" else None)
+            resets: list[dict[str, Any]] = report["resets"]
+            keys = ("time", "cause", "cause_words", "boot_count", "message")
+            gateway.subscribe(
+                lambda m: resets.append({key: m[key] for key in keys}) if m.get("type") == "reset" else None
+            )
             try:
                 with _resets_at(sim, [t0 + t for t in spec.resets_at_s]):
-                    goals = _drive_goals(gateway, sim, recorder, spec, deadline, progress)
+                    _drive_goals(gateway, sim, recorder, spec, deadline, progress, report["goals"])
             finally:
                 gateway.close()
-            truth = sim.truth()
-        sim_time = truth["t"] - t0
-        return {
-            "behaviour": spec.behaviour,
-            "goals": goals,
-            "resets": [
-                {key: reset[key] for key in ("time", "cause", "cause_words", "boot_count", "message")}
-                for reset in resets
-            ],
-            "collisions": truth["collisions"],
-            "wall_contacts": truth["wall_contacts"],
-            "sim_time_s": sim_time,
-            "real_time_factor": sim_time / max(time.monotonic() - wall_start, 1e-9),
-        }
+                with contextlib.suppress(SimulatorError):  # the simulator may be what failed
+                    truth = sim.truth()
+                    sim_time = truth["t"] - t0
+                    report.update(
+                        collisions=truth["collisions"],
+                        wall_contacts=truth["wall_contacts"],
+                        sim_time_s=sim_time,
+                        real_time_factor=sim_time / max(time.monotonic() - wall_start, 1e-9),
+                    )
+        return report
 
 
 def _drive_goals(
-    gateway: Gateway, sim: Simulator, recorder: Recorder, spec: MissionSpec, deadline: float, progress: bool
-) -> list[dict[str, Any]]:
-    goals: list[dict[str, Any]] = []
+    gateway: Gateway,
+    sim: Simulator,
+    recorder: Recorder,
+    spec: MissionSpec,
+    deadline: float,
+    progress: bool,
+    goals: list[dict[str, Any]],
+) -> None:
     for goal in tqdm(spec.goals, desc="goals", unit="goal", disable=not progress):
         result = _drive_to(gateway, sim, recorder, goal, deadline, spec.behaviour == "seed")
         truth = sim.truth()
@@ -315,23 +327,46 @@ def _drive_goals(
             odometry_error_m=math.dist((truth["x"], truth["y"]), (x, y)),
         )
         goals.append(result)
-    return goals
 
 
-def main_mission(mission_path: Path, report_path: Path, speed: str, seed: int) -> int:
-    """The `cart2d mission` command: always writes the report; 0 only if every goal was reached."""
-    report: dict[str, Any]
+def check_mission(mission_path: Path, report_path: Path) -> tuple[MissionSpec | None, list[str]]:
+    """The mission, or every problem found before it runs (mission_file.py), one sentence each."""
+    data, problems = mission_file.read_problems(mission_path)
+    spec = None
+    if data is not None:
+        spec, problems = mission_file.parse(data, MissionSpec, str(mission_path))
+    if spec is not None:
+        g = spec.grid
+        problems += mission_file.settings_problems(spec.settings)
+        problems += mission_file.faults_problems(spec.faults)
+        grid = Grid(cols=g.cols, rows=g.rows, step_m=g.step)
+        problems += mission_file.map_problems(grid, spec.start, spec.obstacles)
+    problems += mission_file.report_problems(report_path, mission_path)
+    return (spec if not problems else None), problems
+
+
+def main_mission(mission_path: Path, report_path: Path | None, speed: str, seed: int) -> int:
+    """The `cart2d mission` command. Everything is checked first: each problem is a line on
+    stderr and the exit status is 2, with nothing run and no report. Once the mission runs, the
+    report is written however it ends (an error stops it: exit status 1, the error in the
+    report); 0 only if every goal was reached."""
+    report_path = report_path or mission_file.default_report_path(mission_path)
+    spec, problems = check_mission(mission_path, report_path)
+    for problem in problems:
+        print(f"cart2d mission: {problem}", file=sys.stderr)
+    if spec is None:
+        return 2
+    report: dict[str, Any] = {}
     try:
-        spec = MissionSpec.model_validate_json(mission_path.read_bytes())
-        report = run_mission(spec, speed, seed, progress=sys.stderr.isatty())
-    except (OSError, ValidationError, ValueError, LinkError) as exc:
-        report = {"error": f"{type(exc).__name__}: {exc}", "goals": []}
-    report_path.write_text(json.dumps(report, indent=2) + "\n")
-    ok = "error" not in report and all(g["reached"] for g in report["goals"])
-    reached = sum(g["reached"] for g in report.get("goals", []))
-    print(
-        f"{reached} of {len(report.get('goals', []))} goals reached; report in {report_path}", file=sys.stderr
-    )
+        run_mission(spec, speed, seed, progress=sys.stderr.isatty(), report=report)
+    except (LinkError, CommandRefused, SimulatorError, PlanError, OSError) as exc:
+        report["error"] = str(exc)
+    except KeyboardInterrupt:
+        report["error"] = "interrupted (Ctrl-C)"
+    mission_file.write_report(report_path, report)
+    goals = report.get("goals", [])
+    reached = sum(g["reached"] for g in goals)
     if "error" in report:
-        print(f"cart2d mission: {report['error']}", file=sys.stderr)
-    return 0 if ok else 1
+        print(f"cart2d mission: stopped: {report['error']}", file=sys.stderr)
+    print(f"{reached} of {len(spec.goals)} goals reached; report in {report_path}", file=sys.stderr)
+    return 0 if "error" not in report and reached == len(spec.goals) else 1

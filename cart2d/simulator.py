@@ -166,6 +166,9 @@ class SimOptions:
     usb_latency_ms: tuple[float, float] = (0.0, 0.0)
     ftdi_latency_timer_ms: float = 0.0
     auto_reset: bool = True
+    # Faults (sim/README.md, "Fault keys"; cart2d/faults.py checks them), set before the firmware
+    # runs and again at every restart.
+    faults: dict[str, float] = field(default_factory=dict)
 
 
 class SideChannel:
@@ -285,8 +288,8 @@ class Simulator:
         cmd += ["--truth-hz", str(o.truth_hz)]
         if o.eeprom is not None:
             cmd += ["--eeprom", str(o.eeprom)]
-        if o.paused or o.world is not None:
-            cmd.append("--paused")
+        if o.paused or o.world is not None or o.faults:
+            cmd.append("--paused")  # resumed once the world and the faults are set
         if o.quiet:
             cmd.append("--quiet")
         if o.grid is not None:
@@ -322,12 +325,15 @@ class Simulator:
             for listener in self._truth_listeners:
                 self.side.subscribe(listener)
             threading.Thread(target=self._watch_exit, args=(process,), name="sim exit", daemon=True).start()
-            if o.world is not None:
+            if o.world is not None or o.faults:
                 try:
-                    self.set_world(o.world)
-                    if o.start is not None:
-                        x, y, theta = o.start
-                        self.control("place", x=x, y=y, theta=theta)
+                    if o.faults:
+                        self.control("faults", clear=True, **o.faults)
+                    if o.world is not None:
+                        self.set_world(o.world)
+                        if o.start is not None:
+                            x, y, theta = o.start
+                            self.control("place", x=x, y=y, theta=theta)
                 except SimulatorError:
                     self.stop()
                     raise
@@ -357,6 +363,19 @@ class Simulator:
         if self.side is None:
             raise SimulatorError("the simulator is not running")
         return self.side.request({"type": kind, **members})
+
+    def faults(self) -> dict[str, float]:
+        """Every fault key with its value now (sim/README.md, "Fault keys")."""
+        current: dict[str, float] = self.control("faults")["faults"]
+        return current
+
+    def set_faults(self, faults: dict[str, float]) -> dict[str, float]:
+        """Replaces the faults (keys not given: off), now and at every restart; returns them all.
+        Check them first (cart2d/faults.py): the simulator refuses the whole set at a bad one."""
+        with self.lifecycle:  # a restart meanwhile starts with the new set
+            current: dict[str, float] = self.control("faults", clear=True, **faults)["faults"]
+            self.options.faults = dict(faults)
+        return current
 
     def set_world(self, world: World, at_s: float | None = None) -> dict[str, Any]:
         """Replaces the physical world, now or at simulated time at_s; returns the ack."""

@@ -1,6 +1,7 @@
 """The gateway's own settings (network, access token, map and obstacles), kept in the user's
 data directory and written atomically: a crash or kill -9 mid-save leaves the previous file or
-the new one, never a broken one. This is the seed's settings.bin (which held the Wi-Fi data)."""
+the new one, never a broken one. It plays the part of the seed's settings.bin (which held the
+Wi-Fi data); the settings file a user downloads adds the firmware's settings (SettingsFile)."""
 
 from __future__ import annotations
 
@@ -89,6 +90,28 @@ class GatewaySettings(BaseModel):
     network: NetworkSettings = Field(default_factory=NetworkSettings)
     map: MapSettings = Field(default_factory=MapSettings)
     token: str | None = Field(None, min_length=16, max_length=128)
+
+
+class FirmwareSetting(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True)
+    id: Integer = Field(ge=0, le=255, description="stable setting id (config/robot.toml)")
+    name: str = Field("", max_length=64, description="its name, for people; checked against the id if given")
+    value: float = Field(allow_inf_nan=False)
+
+
+class FirmwareSettings(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True)
+    settings: list[FirmwareSetting] = Field(max_length=256)
+
+
+class SettingsFile(GatewaySettings):
+    """The settings file (GET/POST /api/settings/file): the gateway's settings without the token,
+    and the firmware's settings (its tuning) when the firmware could be read. A file without
+    them (an older one) leaves the firmware's settings as they are."""
+
+    firmware: FirmwareSettings | None = Field(
+        None, description="every firmware setting by stable id, written back with PARAM_SET on upload"
+    )
 
 
 def default_directory() -> Path:
@@ -183,13 +206,19 @@ class Store:
         return updated
 
 
-def parse_settings(data: bytes) -> GatewaySettings:
-    """Imported settings (an uploaded file): validated, or ValueError with the reason."""
+def parse_settings(data: bytes) -> SettingsFile:
+    """An uploaded settings file: validated, or ValueError with the reason. Its gateway part is
+    gateway_part(file)."""
     try:
-        return GatewaySettings.model_validate_json(data)
+        return SettingsFile.model_validate_json(data)
     except ValidationError as exc:
         first = exc.errors()[0]
         where = ".".join(str(p) for p in first["loc"]) or "file"
         raise ValueError(f"invalid settings file: {where}: {first['msg']}") from exc
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise ValueError(f"invalid settings file: {exc}") from exc
+
+
+def gateway_part(file: SettingsFile) -> GatewaySettings:
+    """The gateway's own settings of a settings file (without its firmware section)."""
+    return GatewaySettings.model_validate(file.model_dump(exclude={"firmware"}))

@@ -103,6 +103,11 @@ def test_a_firmware_that_does_not_answer_is_rolled_back_in_simulation(rig: Rig) 
     wait_for(lambda: rig.client.get("/api/firmware/update").json()["state"] != "running", 60)
     job = rig.client.get("/api/firmware/update").json()
     assert job["state"] == "failed" and "previous firmware runs again" in job["log"][-1]
+    # the reason alone, for "The update failed: ..." (not "The update failed: failed: ...")
+    assert (
+        job["error"].startswith("the new firmware was rejected")
+        and job["log"][-1] == f"failed: {job['error']}"
+    )
     status = rig.client.get("/api/status").json()  # ...but the robot answers again
     assert status["link"]["state"] == "connected" and status["firmware"]["firmware"] == "0.1.0"
     assert rig.client.post("/api/command", json={"name": "POSE", "args": []}).json()["status"] == "CONTROL_OK"

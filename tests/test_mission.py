@@ -3,13 +3,17 @@
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
 from typing import Any
 
+import pytest
+
 from bench.streaming import serpentine_mission, trace_speeds
 from cart2d.mission import MissionSpec, run_mission
+from cart2d.mission_file import write_report
 
 WALL = [[0.8, 0.0], [0.8, 0.2], [0.8, 0.4], [0.8, 0.6], [0.8, 0.8]]
 
@@ -53,15 +57,20 @@ def test_a_larger_arena_with_a_finer_grid() -> None:
     assert goal["planned_length_m"] > 6.0  # around the wall's end at y = 3.0 m, not through it
 
 
-def run_cli(tmp_path: Path, mission: object) -> tuple[int, dict[str, Any]]:
-    mission_path, report_path = tmp_path / "mission.json", tmp_path / "report.json"
-    mission_path.write_text(json.dumps(mission))
-    done = subprocess.run(
-        [sys.executable, "-m", "cart2d.cli", "mission", str(mission_path), "--report", str(report_path)],
+def run_cli_raw(mission_path: Path, report_path: Path | None) -> subprocess.CompletedProcess[str]:
+    report = ["--report", str(report_path)] if report_path is not None else []
+    return subprocess.run(
+        [sys.executable, "-m", "cart2d.cli", "mission", str(mission_path), *report],
         capture_output=True,
         text=True,
         timeout=120,
     )
+
+
+def run_cli(tmp_path: Path, mission: object) -> tuple[int, dict[str, Any]]:
+    mission_path, report_path = tmp_path / "mission.json", tmp_path / "report.json"
+    mission_path.write_text(json.dumps(mission))
+    done = run_cli_raw(mission_path, report_path)
     return done.returncode, json.loads(report_path.read_text())
 
 
@@ -76,11 +85,100 @@ def test_cli_reports_unreachable_and_invalid_goals_without_driving(tmp_path: Pat
     assert ok["reached"]
 
 
-def test_cli_writes_a_report_for_an_invalid_mission_file(tmp_path: Path) -> None:
-    code, report = run_cli(tmp_path, {"goals": []})
-    assert code == 1 and "goals" in str(report["error"])
-    code, report = run_cli(tmp_path, {"goals": [[0.4, 0.0]], "settings": {"warp_factor": 9}})
-    assert code == 1 and "warp_factor" in str(report["error"])
+GOAL = {"goals": [[0.4, 0.0]]}
+NOT_FINITE = [f"goals[{k}][{k}]: input should be a finite number" for k in (0, 1)]
+
+
+@pytest.mark.parametrize(
+    ("content", "lines"),
+    [
+        ({**GOAL, "settings": {"v_max_mps": 9}}, ["settings.v_max_mps: 9 is out of its range, from "]),
+        ({**GOAL, "settings": {"warp_factor": 9}}, ["settings: unknown firmware setting 'warp_factor'"]),
+        ({**GOAL, "faults": {"warp": 1}}, ["faults: unknown fault 'warp'"]),
+        ({**GOAL, "faults": {"enc_slip_l": 1.5}}, ["faults: fault enc_slip_l takes a number from 0 to 0.99"]),
+        ('{"goals": [[0.4, 0.0]],}', ["is not JSON: "]),
+        ({**GOAL, "goal": [1, 1]}, ["unknown key 'goal' (a mission has: grid, obstacles, "]),
+        ({**GOAL, "grid": {"cols": 10, "size": 3}}, ["unknown key 'size' in grid"]),
+        ({"goals": []}, ["no goals: a mission needs at least one goal [x, y]"]),
+        ({}, ["no goals: a mission needs at least one goal [x, y]"]),
+        (
+            '{"goals": [[NaN, 0.0], [0.4, Infinity]]}',
+            NOT_FINITE,
+        ),
+        ([1, 2], ["holds list, not a JSON object"]),
+        (
+            {**GOAL, "start": [-0.2, 0.0, 0.0], "settings": {"tol_final_m": 0}, "obstacles": [[9, 9]]},
+            [
+                "settings.tol_final_m: 0 is out of its range",
+                "start (-0.2, 0) puts the cart (0.17 m around its centre) into the arena's walls",
+                "obstacles[0]: the point (9.000, 9.000) is off the map",
+            ],
+        ),
+    ],
+)
+def test_cli_refuses_a_mission_with_problems_before_it_runs(
+    tmp_path: Path, content: object, lines: list[str]
+) -> None:
+    """One line per problem, exit status 2, no traceback, no report: nothing ran."""
+    mission_path = tmp_path / "mission.json"
+    mission_path.write_text(content if isinstance(content, str) else json.dumps(content))
+    done = run_cli_raw(mission_path, tmp_path / "report.json")
+    assert done.returncode == 2
+    said = done.stderr.splitlines()
+    assert len(said) == len(lines), done.stderr
+    for line, words in zip(said, lines, strict=True):
+        assert line.startswith("cart2d mission: ") and words in line, line
+    assert "Traceback" not in done.stderr and "pydantic" not in done.stderr and "0 of 0" not in done.stderr
+    assert not (tmp_path / "report.json").exists()
+
+
+@pytest.mark.parametrize(
+    ("report", "words"),
+    [
+        ("missing/report.json", "folder {tmp}/missing does not exist"),
+        ("", "is a folder"),
+        ("/proc/cart2d-report.json", "the report /proc/cart2d-report.json cannot be written"),
+        ("mission.json", "would overwrite the mission file"),
+    ],
+)
+def test_cli_checks_where_the_report_goes_before_the_mission_runs(
+    tmp_path: Path, report: str, words: str
+) -> None:
+    mission_path = tmp_path / "mission.json"
+    mission_path.write_text(json.dumps(GOAL))
+    done = run_cli_raw(mission_path, tmp_path / report if not report.startswith("/") else Path(report))
+    assert done.returncode == 2
+    (line,) = done.stderr.splitlines()
+    assert words.format(tmp=tmp_path) in line and "Traceback" not in done.stderr
+
+
+def test_cli_says_when_the_mission_file_is_not_there(tmp_path: Path) -> None:
+    done = run_cli_raw(tmp_path / "nowhere.json", tmp_path / "report.json")
+    assert done.returncode == 2
+    assert done.stderr.splitlines() == [
+        f"cart2d mission: there is no mission file {tmp_path / 'nowhere.json'}"
+    ]
+
+
+def test_cli_writes_the_report_beside_the_mission_by_default(tmp_path: Path) -> None:
+    mission_path = tmp_path / "short.json"
+    mission_path.write_text(json.dumps({"goals": [[0.4, 0.0]]}))
+    done = run_cli_raw(mission_path, None)
+    assert done.returncode == 0, done.stderr
+    report = json.loads((tmp_path / "short.report.json").read_text())
+    assert report["goals"][0]["reached"]
+    assert done.stderr.strip().endswith(f"1 of 1 goals reached; report in {tmp_path / 'short.report.json'}")
+
+
+def test_a_report_is_valid_json_whatever_numbers_it_holds(tmp_path: Path) -> None:
+    path = tmp_path / "report.json"
+    write_report(path, {"goals": [{"final_error_m": math.nan, "trace": [[0.0, math.inf, -math.inf]]}]})
+
+    def no_constants(name: str) -> None:
+        raise AssertionError(f"{name} is not JSON")
+
+    report = json.loads(path.read_text(), parse_constant=no_constants)
+    assert report == {"goals": [{"final_error_m": None, "trace": [[0.0, None, None]]}]}
 
 
 def test_cli_succeeds_when_every_goal_is_reached(tmp_path: Path) -> None:

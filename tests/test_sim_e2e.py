@@ -142,7 +142,7 @@ def test_save_survives_an_mcu_reset_and_load_restores_it(sim: Simulator, link: L
     uptime_before = link.call("HEARTBEAT")[0]
     sim.reset()  # returns once the reset time-out is over: requests sent before would be lost
     wait_for(lambda: link.call("HEARTBEAT")[0] < uptime_before)  # the MCU restarted
-    assert link.call("TOL_GET") == (0.019999999552965164,)
+    assert link.call("TOL_GET") == (0.02,)  # the float32 nearest 0.02, in its shortest digits
     assert link.call("PARAM_GET", 8)[1] == 0.75
     assert link.call("STATUS")[8] == 0.0  # settings from EEPROM, not defaults
     link.call("TOL_SET", 0.03)
@@ -160,7 +160,7 @@ def test_eeprom_persists_across_simulator_restarts(tmp_path: Path) -> None:
                     link.call("SAVE")
                     wait_for(lambda: link.call("STATUS")[9] == 0.0)
                 else:
-                    assert link.call("MAX_SPEED_GET") == (0.30000001192092896, 2.0)
+                    assert link.call("MAX_SPEED_GET") == (0.3, 2.0)
         finally:
             sim.stop()
 
@@ -175,8 +175,8 @@ def test_corrupt_and_dropped_uart_bytes_do_not_derail_the_link(sim: Simulator, l
     link.retries = 40
     for i in range(60):
         value = 0.01 + 0.001 * i
-        assert link.call("TOL_SET", value)[0] == struct_f32(value)
-        assert link.call("TOL_GET")[0] == struct_f32(value)
+        assert struct_f32(link.call("TOL_SET", value)[0]) == struct_f32(value)  # the same float32
+        assert struct_f32(link.call("TOL_GET")[0]) == struct_f32(value)
     assert link.retransmissions > 0  # faults really happened
     link.call("GOTO", 0.8, 0.4)
     wait_idle(link)

@@ -44,6 +44,7 @@ class LiveGateway(GatewayProcess):
             else None,
             "firmware update": self.get_json("/api/firmware/update")["state"],
             "firmware settings": self.get_json("/api/firmware/settings"),
+            "simulator faults": self.side.request({"type": "faults"})["faults"],
             "restarts noticed": status["reset"]["noticed"],
             "pose trusted": status["pose_trust"]["trusted"],
             "mission": status["mission"]["state"],
@@ -87,6 +88,7 @@ ATTACKS: dict[str, bytes] = {
     "PUT /api/settings/network": b'{"host": "0.0.0.0", "port": 8080}',
     "POST /api/settings/file": b'{"version": 1, "network": {"host": "0.0.0.0", "port": 8080}, '
     b'"map": {"cols": 10, "rows": 10, "step_m": 0.2, "obstacles": []}}',
+    "PUT /api/sim/faults": b'{"uart_rx_drop": 1}',  # would cut the robot off
 }
 
 # Simple requests (no CORS preflight) from another origin, as a browser sends them: a no-cors

@@ -326,6 +326,7 @@ class Gateway:
         with self._lock:
             if self.mission.state == "driving":
                 self._end_mission("failed", "stopped by the user")
+                self.mission.resumable = True  # the firmware keeps the path: START resumes it
             if self.routine.state == "running":
                 self._end_routine("failed", "stopped by the user before it squared up")
         return reply
@@ -342,6 +343,7 @@ class Gateway:
         self._cancel_stream()
         self.link.call("VELOCITY", v_mps, omega_radps, token=token)
         with self._lock:
+            self.mission.resumable = False
             if self.mission.state == "driving":
                 self._end_mission("failed", "taken over by manual driving")
             if self.routine.state == "running":
@@ -437,10 +439,15 @@ class Gateway:
             x, y, theta = (firmware.read_setting(self.link, setting_id(n)) for n in RESET_POSE_SETTINGS)
         if name in ("WAIT_XY_ARRAY", "XY_APPEND", "GOTO"):
             self._cancel_stream()  # a path of the user's: the mission's stream must not add to it
+        if name in ("WAIT_XY_ARRAY", "XY_APPEND", "GOTO", "VELOCITY", "RESET_ROUTINE"):
+            with self._lock:
+                self.mission.resumable = False  # the firmware's path is no longer the mission's
         reply = self.link.request(code, args, token=token)
         if not reply.ok:
             return reply
-        if name in ("SET_POSE", "RESET"):
+        if name == "START":
+            self._resume_mission(token)
+        elif name in ("SET_POSE", "RESET"):
             self._trust(f"the pose was set to {pose_text(*self._pose())} with {name}")
         elif name == "RESET_ROUTINE":
             with self._lock:
@@ -450,6 +457,33 @@ class Gateway:
                 self._publish({"type": "routine", **self.routine_view()})
             self._wake.set()
         return reply
+
+    def _resume_mission(self, token: int | None) -> None:
+        """After a START: the mission a stop ended drives again if its path is still the
+        firmware's (its points, nothing sent since but START); the rest of a long path streams
+        again from where the firmware stands."""
+        with self._lock:
+            mission, stream = self.mission, self._stream
+            if not (mission.state == "failed" and mission.resumable and mission.plan):
+                return
+        status = self.read_status()
+        if status.waypoint_count != len(mission.plan["waypoints"]):
+            return
+        outcome = status.path_outcome()
+        with self._lock:
+            if self.mission is not mission or not mission.resumable:
+                return  # replaced meanwhile
+            mission.resumable = False
+            if outcome is None and stream is not None and stream.sent < stream.count:
+                self._stream = stream.resumed(status.waypoint_index, status.waypoints_received, token)
+            if outcome is None or outcome == "":
+                mission.state, mission.reason = ("driving", "") if outcome is None else ("arrived", "")
+                mission.ended_s = 0.0 if outcome is None else time.monotonic()
+            else:
+                return
+        log.info("the mission to %s resumed after a stop", mission.goal)
+        self._publish({"type": "mission", **self.mission_view()})
+        self._wake.set()
 
     def routine_view(self) -> dict[str, Any]:
         with self._lock:
@@ -550,6 +584,7 @@ class Gateway:
             )
             sentences = [head]
             ended = self.mission.state == "driving"
+            self.mission.resumable = False  # a restart loses the path
             if self._stream is not None:
                 self._stream.cancel()
             if ended:

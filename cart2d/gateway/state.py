@@ -83,6 +83,8 @@ class Mission:
     started_s: float = 0.0
     ended_s: float = 0.0
     plan: dict[str, Any] | None = field(default=None, repr=False)
+    # Ended by a stop with its path still in the firmware: a START resumes it (Gateway.command).
+    resumable: bool = False
 
 
 @dataclass(frozen=True)

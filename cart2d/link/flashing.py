@@ -39,10 +39,12 @@ class UpdateJob:
     log: list[str] = field(default_factory=list)
     started_s: float = 0.0
     ended_s: float = 0.0
+    error: str = ""  # why it failed, a sentence without a label (the log's last line has one)
 
     def view(self) -> dict[str, object]:
         return {
             "state": self.state,
+            "error": self.error,
             "log": self.log[-50:],
             "elapsed_s": round((self.ended_s or time.monotonic()) - self.started_s, 1)
             if self.started_s
@@ -134,6 +136,7 @@ class Flasher:
             job.log.append("done")
             job.state = "done"
         except Exception as exc:  # the job reports any failure instead of dying silently
+            job.error = str(exc)
             job.log.append(f"failed: {exc}")
             job.state = "failed"
         finally:

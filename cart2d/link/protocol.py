@@ -12,6 +12,8 @@ import struct
 import time
 from dataclasses import dataclass
 
+import numpy as np
+
 from cart2d.spec import crc16_mcrf4xx, load_spec
 
 SYNC = 0x7E
@@ -41,6 +43,20 @@ def frame(seq: int, body: bytes) -> bytes:
 
 def _floats(values: list[float] | tuple[float, ...]) -> bytes:
     return b"".join(struct.pack("<f", v) for v in values)
+
+
+def shortest_float32(value: float) -> float:
+    """The float32 nearest `value` as the double with the fewest significant digits that is the
+    same float32: 0.005 for the float32 nearest 0.005, which widens to 0.004999999888241291.
+    Every number the firmware sends is a float32; this keeps the widening's noise out of replies,
+    the API and logs, and packing the result gives back the same four bytes. numpy prints a
+    float32 as the shortest decimal that reads back as it (Steele & White / Dragon4, "unique")."""
+    return float(str(np.float32(value))) if math.isfinite(value) else value
+
+
+def _unpack_floats(data: bytes) -> tuple[float, ...]:
+    """Little-endian float32s, each as shortest_float32 gives it (about 1 us a number)."""
+    return tuple(float(text) for text in np.frombuffer(data, "<f4").astype("U32"))
 
 
 def encode_request(seq: int, cmd: int, args: list[float] | tuple[float, ...] = ()) -> bytes:
@@ -101,8 +117,7 @@ def decode_reply(packet: Packet) -> Reply:
     body = packet.body
     if len(body) < 3 or len(body) != 3 + 4 * body[2]:
         raise ProtocolError("reply length does not match its result count")
-    results = struct.unpack(f"<{body[2]}f", body[3:])
-    return Reply(packet.seq, body[0], body[1], results)
+    return Reply(packet.seq, body[0], body[1], _unpack_floats(body[3:]))
 
 
 def decode_request(packet: Packet) -> tuple[int, tuple[float, ...]]:
@@ -163,7 +178,7 @@ def decode_telemetry(data: bytes) -> Telemetry:
     (tick, crc) = struct.unpack("<HH", payload[-4:])
     if crc != crc16_mcrf4xx(payload[:-2]):
         raise ProtocolError("telemetry CRC")
-    values = struct.unpack(f"<{TELEMETRY_CHANNELS}f", payload[: 4 * TELEMETRY_CHANNELS])
+    values = _unpack_floats(payload[: 4 * TELEMETRY_CHANNELS])
     if not all(math.isfinite(v) for v in values):
         raise ProtocolError("telemetry value not finite")
     return Telemetry(**dict(zip(TELEMETRY_FIELDS, values, strict=True)), tick=tick)

@@ -155,6 +155,7 @@ class Link:
         self.partials_dropped = 0  # partial packets that waited too long (since the port opened)
         self.connected = threading.Event()
         self.opens = 0  # times the port was opened (a Nano resets at each)
+        self.open_error = ""  # why the port could not be opened, the last time it could not
 
     # -- lifecycle -----------------------------------------------------------------------
     def open(self, wait_s: float = 5.0) -> Link:
@@ -168,7 +169,7 @@ class Link:
         )
         self._dispatcher.start()
         if not self.connected.wait(wait_s):
-            raise LinkDown(f"cannot open {self.port}")
+            raise LinkDown(f"cannot open {self.port}" + (f": {self.open_error}" if self.open_error else ""))
         return self
 
     def close(self) -> None:
@@ -343,7 +344,8 @@ class Link:
             try:
                 self._serial = serial.Serial(self.port, self.baud, timeout=READ_TIMEOUT_S)
                 self._serial.reset_input_buffer()  # bytes queued while nobody listened
-            except (serial.SerialException, OSError):
+            except (serial.SerialException, OSError) as exc:
+                self.open_error = str(exc)
                 time.sleep(0.2)
                 continue
             log.info("link open on %s", self.port)

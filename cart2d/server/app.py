@@ -7,7 +7,6 @@ every state-changing request and the WebSocket need the access token."""
 
 from __future__ import annotations
 
-import asyncio
 import hmac
 import ipaddress
 import logging
@@ -26,9 +25,9 @@ from cart2d.gateway import Gateway, PoseUntrusted
 from cart2d.link import CommandRefused, LinkError, MotionCancelled
 from cart2d.planner import PlanError
 from cart2d.server import guards
+from cart2d.server.admin import add_admin_routes
 from cart2d.server.live import Viewers
 from cart2d.server.models import (
-    MAX_BODY_BYTES,
     CommandIn,
     DriveIn,
     ObstacleIn,
@@ -36,22 +35,13 @@ from cart2d.server.models import (
     PoseIn,
     SettingIn,
     errors,
-    inline_refs,
+    read_body,
 )
 from cart2d.server.motion import MotionTokens, motion_token
 from cart2d.server.panel import MINIMAL_PAGE, PANEL_DIR, PanelFiles
 from cart2d.spec import load_spec
-from cart2d.store import GatewaySettings, NetworkSettings, parse_settings
 
 log = logging.getLogger(__name__)
-
-
-async def read_body(request: Request) -> bytes:
-    """The request's body, or 413 when over MAX_BODY_BYTES (a chunked body has no Content-Length)."""
-    body = await request.body()
-    if len(body) > MAX_BODY_BYTES:
-        raise HTTPException(413, f"request body over {MAX_BODY_BYTES} bytes")
-    return body
 
 
 def is_loopback(host: str) -> bool:
@@ -339,49 +329,7 @@ def create_app(
     def update_state() -> dict[str, object]:
         return gateway.flasher.job.view()
 
-    @app.get("/api/settings", summary="the gateway's own settings (network, map), without the token")
-    def gateway_settings() -> dict[str, Any]:
-        return gateway.settings.model_dump(exclude={"token"})
-
-    @app.put(
-        "/api/settings/network",
-        dependencies=[Guarded],
-        summary="bind address and port (at restart)",
-        responses=errors(400, 401, 422),
-    )
-    def network(body: NetworkSettings) -> dict[str, Any]:
-        gateway.update_settings(gateway.settings.model_copy(update={"network": body}))
-        return {"result": "saved; takes effect when the gateway restarts", **body.model_dump()}
-
-    @app.get("/api/settings/file", summary="download the settings file (the seed's settings.bin)")
-    def export_settings() -> Response:
-        data = gateway.settings.model_dump_json(indent=2, exclude={"token"})
-        headers = {"Content-Disposition": 'attachment; filename="cart2d-settings.json"'}
-        return Response(data, media_type="application/json", headers=headers)
-
-    @app.post(
-        "/api/settings/file",
-        dependencies=[Guarded],
-        summary="upload a settings file",
-        responses=errors(401, 422),
-        openapi_extra={
-            "requestBody": {
-                "required": True,
-                "content": {"application/json": {"schema": inline_refs(GatewaySettings.model_json_schema())}},
-            }
-        },
-    )
-    async def import_settings(request: Request) -> dict[str, Any]:
-        body = await read_body(request)
-        try:
-            imported = parse_settings(body)
-            # a new planner for the map: up to half a second for a 1000 x 1000 grid, so off the event loop
-            await asyncio.to_thread(
-                gateway.update_settings, imported.model_copy(update={"token": gateway.settings.token})
-            )
-        except ValueError as exc:  # PlanError too: obstacles off the file's own grid
-            raise HTTPException(422, str(exc)) from exc
-        return {"result": "imported; network changes take effect when the gateway restarts"}
+    add_admin_routes(app, gateway, Guarded)
 
     # -- live data ---------------------------------------------------------------------------
     @app.websocket("/ws")

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
+from fastapi import HTTPException, Request
 from pydantic import BaseModel, ConfigDict, Field, JsonValue, field_validator
 
 from cart2d.link.protocol import MAX_ARGS
@@ -29,6 +30,7 @@ ERRORS = {
     400: "the body is not readable (not UTF-8 JSON)",
     401: "the access token is missing or wrong (a gateway bound off loopback)",
     403: "a change from another origin or site (a web page elsewhere): refused, see SECURITY.md",
+    404: "not here: the simulator's faults on a gateway that drives a real cart",
     408: "the request body did not arrive in time",
     409: "the firmware refused the command (a value out of its range, busy, wrong mode), or the gateway "
     "does not trust the pose since the controller restarted",
@@ -40,6 +42,14 @@ ERRORS = {
     "beyond the arena's walls",
     503: "the robot is not reachable (link down, no reply)",
 }
+
+
+async def read_body(request: Request) -> bytes:
+    """The request's body, or 413 when over MAX_BODY_BYTES (a chunked body has no Content-Length)."""
+    body = await request.body()
+    if len(body) > MAX_BODY_BYTES:
+        raise HTTPException(413, f"request body over {MAX_BODY_BYTES} bytes")
+    return body
 
 
 def errors(*codes: int) -> dict[int | str, dict[str, Any]]:

@@ -219,10 +219,10 @@ def server(app: Any, connections: int = MAX_CONNECTIONS) -> uvicorn.Server:
     return uvicorn.Server(config)
 
 
-def serve(app: Any, host: str, port: int) -> None:
-    """Runs `app` on host:port until Ctrl-C or SIGTERM."""
-    connections, backlog = descriptor_budget()
-    server(app, connections).run(sockets=[listening_socket(host, port, backlog)])
+def serve(app: Any, sock: socket.socket, connections: int = MAX_CONNECTIONS) -> None:
+    """Runs `app` on the listening socket `sock` (listening_socket(), with the backlog of
+    descriptor_budget()) until Ctrl-C or SIGTERM."""
+    server(app, connections).run(sockets=[sock])
 
 
 class RepeatFilter(logging.Filter):

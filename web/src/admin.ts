@@ -149,6 +149,6 @@ export class GatewayPanel {
     if (this.polling !== null) window.clearInterval(this.polling);
     this.polling = null;
     if (job.state === "done") say(out, "The new firmware is running.");
-    else if (job.state === "failed") say(out, `The update failed: ${job.log[job.log.length - 1] ?? "see the log"}.`, true);
+    else if (job.state === "failed") say(out, `The update failed: ${job.error || "see the log"}.`, true);
   }
 }

@@ -209,6 +209,7 @@ export interface FirmwareSetting {
 
 export interface UpdateJob {
   state: "idle" | "running" | "done" | "failed";
+  error: string; // why it failed, without a label
   log: string[];
   elapsed_s: number;
 }

@@ -237,7 +237,7 @@ async function goTo(x: number, y: number): Promise<void> {
   say(gotoMsg, `Planning to (${x.toFixed(2)}, ${y.toFixed(2)})…`);
   try {
     const plan = await api<{ length_m: number; waypoints: Point[] }>("POST", "/api/goto", { x, y });
-    gotoMsg.textContent = `Driving to (${x.toFixed(2)}, ${y.toFixed(2)}): ${plan.length_m.toFixed(2)} m, ${plan.waypoints.length} waypoints.`;
+    gotoMsg.textContent = `Driving to (${x.toFixed(2)}, ${y.toFixed(2)}): ${plan.length_m.toFixed(2)} m, ${plan.waypoints.length} waypoint${plan.waypoints.length === 1 ? "" : "s"}.`;
   } catch (err) {
     const text = errorText(err);
     say(gotoMsg, text, true);

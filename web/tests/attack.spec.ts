@@ -32,6 +32,7 @@ const ROUTES: [string, string, string][] = [
   ["POST", "/api/goto", '{"x": 1.0, "y": 0.0}'],
   ["POST", "/api/drive", '{"v": 0.3, "omega": 0.0}'],
   ["POST", "/api/stop", ""],
+  ["PUT", "/api/sim/faults", '{"uart_rx_drop": 1}'],
 ];
 
 interface Snapshot {
@@ -41,6 +42,7 @@ interface Snapshot {
   restartsNoticed: number;
   mission: string;
   firmwareSettings: unknown;
+  simFaults: unknown;
   truePose: number[];
   simTime: number;
 }
@@ -61,6 +63,7 @@ async function snapshot(gw: Gateway): Promise<Snapshot> {
     restartsNoticed: status.reset.noticed,
     mission: status.mission.state,
     firmwareSettings: await get("/api/firmware/settings"),
+    simFaults: await get("/api/sim/faults"),
     truePose: ["x", "y", "theta"].map((k) => Math.round((truth[k] ?? NaN) * 1e4) / 1e4),
     simTime: truth["t"] ?? NaN,
   };

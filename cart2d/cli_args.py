@@ -1,0 +1,70 @@
+"""The command line's argument types and parser: a bad value is one sentence in argparse's words
+(`cart2d sim: error: argument --port: ...`), exit status 2, checked before anything starts."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from typing import NoReturn
+
+from cart2d import __version__
+from cart2d.spec import load_spec
+from cart2d.store import address_or_host_name
+
+SEED_MAX = 2**64 - 1  # the simulator's --seed is an unsigned 64-bit integer
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse's parser, whose errors are one line: what is wrong, and where the help is."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} ({self.prog} --help lists the options)\n")
+
+
+def port_number(text: str) -> int:
+    try:
+        port = int(text)
+    except ValueError:
+        port = -1
+    if not 1 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a port: give a whole number from 1 to 65535")
+    return port
+
+
+def host(text: str) -> str:
+    try:
+        return address_or_host_name(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"{text!r}: {exc}") from None
+
+
+def speed(text: str) -> str:
+    """'max', or a positive factor of real time, kept as typed (the simulator's --speed)."""
+    if text == "max":
+        return text
+    try:
+        factor = float(text)
+    except ValueError:
+        factor = math.nan
+    if not (math.isfinite(factor) and factor > 0.0):
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a speed: give simulated seconds per second (a number above 0, such as "
+            "1 or 10) or 'max'"
+        )
+    return text
+
+
+def seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if not 0 <= value <= SEED_MAX:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a seed: give a whole number from 0 to 2^64 - 1")
+    return value
+
+
+def version_text() -> str:
+    spec = load_spec()
+    table = f"{spec.dictionary_hash:#06x}"
+    return f"cart2d {__version__} (firmware protocol {spec.version}, command table {table})"

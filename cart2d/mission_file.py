@@ -1,0 +1,159 @@
+"""A mission file and its report, checked before anything runs (`cart2d mission`): the file is
+read, parsed and validated whole, the settings and faults are checked against their ranges,
+the start and the obstacles against the map, and the report's folder must take the report.
+Each problem is one sentence; the report, written whenever a mission ran, is always valid JSON
+(a number that is not finite is written as null)."""
+
+from __future__ import annotations
+
+import errno
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Any, TypeVar
+
+from pydantic import BaseModel, ValidationError
+
+from cart2d import faults as fault_table
+from cart2d.params import footprint_radius_m, robot, settings_table
+from cart2d.planner import Grid, PlanError
+
+Model = TypeVar("Model", bound=BaseModel)
+
+
+def default_report_path(mission: Path) -> Path:
+    """MISSION.report.json beside MISSION.json."""
+    return mission.with_name(f"{mission.stem if mission.suffix == '.json' else mission.name}.report.json")
+
+
+def _where(loc: tuple[int | str, ...]) -> str:
+    text = ""
+    for part in loc:
+        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+    return text or "the mission"
+
+
+def _sentence(error: Any, keys: list[str]) -> str:
+    loc = tuple(error["loc"])
+    where = _where(loc)
+    kind = error["type"]
+    if kind == "extra_forbidden":
+        parent = _where(loc[:-1]) if len(loc) > 1 else ""
+        if parent:
+            return f"unknown key {loc[-1]!r} in {parent}"
+        return f"unknown key {where!r} (a mission has: {', '.join(keys)})"
+    if loc == ("goals",) and kind in ("missing", "too_short"):
+        return "no goals: a mission needs at least one goal [x, y]"
+    if kind == "missing":
+        return f"{where} is missing"
+    message = str(error["msg"])
+    return f"{where}: {message[0].lower()}{message[1:]}"
+
+
+def parse(data: bytes, model: type[Model], name: str) -> tuple[Model | None, list[str]]:
+    """The file's content as `model`, or one sentence per problem (not JSON, unknown keys, values
+    of the wrong kind or out of range)."""
+    try:
+        raw = json.loads(data.decode("utf-8"))
+    except UnicodeDecodeError:
+        return None, [f"{name} is not UTF-8 text"]
+    except json.JSONDecodeError as exc:
+        return None, [f"{name} is not JSON: {exc.msg} at line {exc.lineno}, column {exc.colno}"]
+    if not isinstance(raw, dict):
+        return None, [f"{name} holds {type(raw).__name__ if raw is not None else 'null'}, not a JSON object"]
+    try:
+        return model.model_validate(raw), []
+    except ValidationError as exc:
+        keys = list(model.model_fields)
+        return None, [_sentence(error, keys) for error in exc.errors()]
+
+
+def settings_problems(settings: dict[str, float]) -> list[str]:
+    """One sentence per firmware setting that does not exist or whose value is out of its range."""
+    table = {entry["name"]: entry for entry in settings_table()}
+    problems = []
+    for name, value in settings.items():
+        entry = table.get(name)
+        if entry is None:
+            problems.append(f"settings: unknown firmware setting {name!r} (config/robot.toml lists them)")
+        elif not entry["min"] <= value <= entry["max"]:
+            unit = f" {entry['unit']}" if entry["unit"] else ""
+            low, high = entry["min"], entry["max"]
+            problems.append(f"settings.{name}: {value:g} is out of its range, from {low:g} to {high:g}{unit}")
+    return problems
+
+
+def map_problems(
+    grid: Grid, start: tuple[float, float, float], obstacles: list[tuple[float, float]]
+) -> list[str]:
+    """The start must leave the cart's footprint inside the arena's walls; obstacles must be on
+    the map."""
+    problems = []
+    margin = float(robot()["sim"]["arena_margin_m"])
+    width, height = grid.size_m
+    r = footprint_radius_m()
+    x, y, _ = start
+    low, x_high, y_high = r - margin, width + margin - r, height + margin - r
+    if not (low <= x <= x_high and low <= y <= y_high):
+        problems.append(
+            f"start ({x:g}, {y:g}) puts the cart ({r:g} m around its centre) into the arena's walls: "
+            f"x from {low:g} to {x_high:g} m, y from {low:g} to {y_high:g} m"
+        )
+    for k, (ox, oy) in enumerate(obstacles):
+        try:
+            grid.nearest_node(ox, oy)
+        except PlanError as exc:
+            problems.append(f"obstacles[{k}]: {exc}")
+    return problems
+
+
+def faults_problems(faults: dict[str, float]) -> list[str]:
+    return [f"faults: {p}" for p in fault_table.problems(dict(faults))]
+
+
+def report_problems(report: Path, mission: Path) -> list[str]:
+    """Whether the report can be written where asked, checked before the mission runs."""
+    folder = report.parent
+    if report.resolve() == mission.resolve():
+        return [f"the report {report} would overwrite the mission file: choose another --report"]
+    if not folder.is_dir():
+        return [f"the report's folder {folder} does not exist: create it, or choose another --report"]
+    if report.is_dir():
+        return [f"the report {report} is a folder: give a file name with --report"]
+    try:  # a file made and removed again: permissions, a read-only file system, root's too
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".cart2d-report-"):
+            pass
+        if report.exists() and not os.access(report, os.W_OK):
+            raise PermissionError(errno.EACCES, "permission denied")
+    except OSError as exc:
+        return [f"the report {report} cannot be written ({exc.strerror or exc}): choose another --report"]
+    return []
+
+
+def finite(value: Any) -> Any:
+    """`value` with every float that is not finite replaced by None (JSON has no NaN)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {key: finite(v) for key, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [finite(v) for v in value]
+    return value
+
+
+def write_report(path: Path, report: dict[str, Any]) -> None:
+    path.write_text(json.dumps(finite(report), indent=2, allow_nan=False) + "\n", encoding="utf-8")
+
+
+def read_problems(path: Path) -> tuple[bytes | None, list[str]]:
+    """The mission file's bytes, or why it cannot be read."""
+    try:
+        return path.read_bytes(), []
+    except FileNotFoundError:
+        return None, [f"there is no mission file {path}"]
+    except IsADirectoryError:
+        return None, [f"{path} is a folder, not a mission file"]
+    except OSError as exc:
+        return None, [f"the mission file {path} cannot be read: {exc.strerror or exc}"]

@@ -1,0 +1,183 @@
+"""The API's administration routes: the gateway's settings (network, the settings file with the
+firmware's tuning) and, in simulation, the simulator's faults. Added to the app by create_app;
+`guarded` is its dependency that checks the access token."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from typing import Any
+
+from fastapi import FastAPI, HTTPException, Request, Response
+from fastapi.params import Depends
+from pydantic import BaseModel, ConfigDict, Field, create_model
+
+from cart2d import faults as fault_table
+from cart2d.gateway import Gateway, backup
+from cart2d.link import LinkError
+from cart2d.server.addresses import address_problem
+from cart2d.server.models import errors, inline_refs, read_body
+from cart2d.simulator import SimulatorError
+from cart2d.store import Integer, NetworkSettings, SettingsFile, gateway_part, parse_settings
+
+NO_SIMULATOR = "there is no simulator: this gateway drives a real cart; faults exist only in simulation"
+
+
+def _fault_field(fault: fault_table.Fault) -> Any:
+    unit = f" ({fault.unit})" if fault.unit else ""
+    about = f"{fault.doc}{unit}"
+    if fault.whole:
+        return (Integer, Field(int(fault.default), ge=int(fault.low), le=int(fault.high), description=about))
+    return (float, Field(fault.default, ge=fault.low, le=fault.high, allow_inf_nan=False, description=about))
+
+
+# The faults a PUT sets: every key of cart2d/faults.py with its range; a key left out is off.
+SimFaultsIn: type[BaseModel] = create_model(
+    "SimFaultsIn",
+    __config__=ConfigDict(extra="forbid", strict=True),
+    **{fault.name: _fault_field(fault) for fault in fault_table.FAULTS},
+)
+
+
+def _faults_view(current: dict[str, float]) -> dict[str, Any]:
+    return {
+        "faults": current,
+        "available": [
+            {
+                "name": f.name,
+                "min": f.low,
+                "max": f.high,
+                "default": f.default,
+                "unit": f.unit,
+                "whole": f.whole,
+                "doc": f.doc,
+            }
+            for f in fault_table.FAULTS
+        ],
+    }
+
+
+def add_admin_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
+    def check_address(host: str, where: str) -> None:
+        problem = address_problem(host)
+        if problem is not None:
+            raise HTTPException(422, f"{where}: {problem}")
+
+    @app.get("/api/settings", summary="the gateway's own settings (network, map), without the token")
+    def gateway_settings() -> dict[str, Any]:
+        return gateway.settings.model_dump(exclude={"token"})
+
+    @app.put(
+        "/api/settings/network",
+        dependencies=[guarded],
+        summary="bind address and port (at restart)",
+        description="Refused (422) for an address this machine does not have; 0.0.0.0 and :: are every "
+        "interface, 127.0.0.1 this machine alone.",
+        responses=errors(400, 401, 422),
+    )
+    def network(body: NetworkSettings) -> dict[str, Any]:
+        check_address(body.host, "host")
+        gateway.update_settings(gateway.settings.model_copy(update={"network": body}))
+        return {"result": "saved; takes effect when the gateway restarts", **body.model_dump()}
+
+    @app.get(
+        "/api/settings/file",
+        summary="download the settings file: JSON of the gateway's network and map, and the firmware's "
+        "settings (its tuning) when the firmware answers",
+    )
+    def export_settings() -> Response:
+        data = gateway.settings.model_dump(mode="json", exclude={"token"})
+        firmware = backup.section(gateway)
+        if firmware is not None:
+            data["firmware"] = firmware
+        text = json.dumps(data, indent=2)
+        headers = {"Content-Disposition": 'attachment; filename="cart2d-settings.json"'}
+        return Response(text, media_type="application/json", headers=headers)
+
+    @app.post(
+        "/api/settings/file",
+        dependencies=[guarded],
+        summary="upload a settings file: the gateway's settings, and the firmware's written back",
+        description="Checked whole first (nothing changes on a 4xx). The firmware's settings, if the file "
+        "has them, are written with PARAM_SET (in RAM: POST /api/firmware/save keeps them); the answer's "
+        "`firmware` says what changed. A file without them leaves the firmware's as they are.",
+        responses=errors(401, 422, 503),
+        openapi_extra={
+            "requestBody": {
+                "required": True,
+                "content": {"application/json": {"schema": inline_refs(SettingsFile.model_json_schema())}},
+            }
+        },
+    )
+    async def import_settings(request: Request) -> dict[str, Any]:
+        body = await read_body(request)
+        try:
+            file = parse_settings(body)
+        except ValueError as exc:
+            raise HTTPException(422, str(exc)) from exc
+        todo = None
+        if file.firmware is not None:
+            todo, problems = backup.plan(file.firmware)
+            if problems:
+                raise HTTPException(422, "invalid settings file: " + "; ".join(problems))
+        problem = await asyncio.to_thread(address_problem, file.network.host)  # a name may ask DNS
+        if problem is not None:
+            raise HTTPException(422, f"invalid settings file: network.host: {problem}")
+        imported = gateway_part(file).model_copy(update={"token": gateway.settings.token})
+
+        def apply() -> dict[str, Any] | None:
+            if todo is not None:
+                gateway.firmware_settings()  # the firmware answers (LinkError: 503) before anything changes
+            gateway.update_settings(imported)  # PlanError: obstacles off the file's own grid
+            return backup.restore(gateway, todo) if todo is not None else None
+
+        try:
+            # a new planner for the map: up to half a second for a 1000 x 1000 grid, so off the event loop
+            restored = await asyncio.to_thread(apply)
+        except ValueError as exc:
+            raise HTTPException(422, str(exc)) from exc
+        except LinkError as exc:
+            raise HTTPException(503, f"the robot is not reachable, its settings not restored: {exc}") from exc
+        words = (
+            restored.pop("words")
+            if restored is not None
+            else "The file holds no firmware settings: the firmware's were left as they are."
+        )
+        return {
+            "result": "imported; network changes take effect when the gateway restarts",
+            "firmware": restored,
+            "words": words,
+        }
+
+    # -- the simulator's faults --------------------------------------------------------------------
+    def simulator() -> Any:
+        if gateway.sim is None:
+            raise HTTPException(404, NO_SIMULATOR)
+        return gateway.sim
+
+    @app.get(
+        "/api/sim/faults",
+        summary="the simulator's faults now, and every fault with its range (simulation only)",
+        responses=errors(404, 503),
+    )
+    def get_faults() -> dict[str, Any]:
+        sim = simulator()
+        try:
+            return _faults_view(sim.faults())
+        except SimulatorError as exc:
+            raise HTTPException(503, f"the simulator does not answer: {exc}") from exc
+
+    @app.put(
+        "/api/sim/faults",
+        dependencies=[guarded],
+        summary="set the simulator's faults (those left out: off); they last until changed or the "
+        "gateway stops (simulation only)",
+        responses=errors(400, 401, 404, 422, 503),
+    )
+    def put_faults(body: SimFaultsIn) -> dict[str, Any]:
+        sim = simulator()
+        chosen = {k: float(v) for k, v in body.model_dump().items()}
+        try:
+            return _faults_view(sim.set_faults(chosen))
+        except SimulatorError as exc:
+            raise HTTPException(503, f"the simulator does not answer: {exc}") from exc

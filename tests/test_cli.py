@@ -1,0 +1,190 @@
+"""The command line as a new user meets it: options that apply to one run, bad values in one
+sentence (no traceback), an address or a port it cannot listen on, a serial port that is not
+there, --version. Each `cart2d` runs in a process of its own with its own CART2D_HOME."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import urllib.request
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from cart2d import __version__
+from cart2d.spec import load_spec
+from tests.conftest import wait_for
+
+NOT_HERE = "198.51.100.77"  # TEST-NET-2 (RFC 5737): an address no machine running the tests has
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port: int = probe.getsockname()[1]
+        return port
+
+
+def cart2d(home: Path, *args: str, timeout_s: float = 60.0) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "cart2d.cli", *args],
+        env={**os.environ, "CART2D_HOME": str(home)},
+        capture_output=True,
+        text=True,
+        timeout=timeout_s,
+    )
+
+
+def one_sentence(stderr: str) -> str:
+    """stderr holds one line and no traceback; the line."""
+    lines = [line for line in stderr.splitlines() if line.strip()]
+    assert "Traceback" not in stderr and len(lines) == 1, stderr
+    return lines[0]
+
+
+@pytest.fixture
+def listening_elsewhere() -> Iterator[int]:
+    """A port another program listens on."""
+    with socket.socket() as other:
+        other.bind(("127.0.0.1", 0))
+        other.listen()
+        yield other.getsockname()[1]
+
+
+def test_version_names_the_package_and_the_protocol(tmp_path: Path) -> None:
+    done = cart2d(tmp_path, "--version")
+    assert done.returncode == 0
+    assert f"cart2d {__version__}" in done.stdout
+    assert f"firmware protocol {load_spec().version}" in done.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["sim", "--port", "99999"], "argument --port: '99999' is not a port"),
+        (["sim", "--port", "http"], "argument --port: 'http' is not a port"),
+        (["sim", "--speed", "0"], "argument --speed: '0' is not a speed"),
+        (["sim", "--speed", "abc"], "argument --speed: 'abc' is not a speed"),
+        (["sim", "--seed", "-1"], "argument --seed: '-1' is not a seed"),
+        (["sim", "--host", "evil host"], "argument --host: 'evil host'"),
+        (["mission", "m.json", "--speed", "nan"], "argument --speed: 'nan' is not a speed"),
+        (["calibrate", "--sim", "--speed", "-2"], "argument --speed: '-2' is not a speed"),
+    ],
+)
+def test_bad_option_values_are_one_sentence(tmp_path: Path, args: list[str], words: str) -> None:
+    done = cart2d(tmp_path, *args)
+    assert done.returncode == 2
+    line = one_sentence(done.stderr)
+    assert line.startswith(f"cart2d {args[0]}: error: {words}"), line
+    assert "cart2d-sim" not in done.stderr  # not the simulator's usage text
+    assert not (tmp_path / "settings.json").exists()
+
+
+def test_a_port_in_use_is_one_sentence_and_no_url(tmp_path: Path, listening_elsewhere: int) -> None:
+    done = cart2d(tmp_path, "sim", "--host", "127.0.0.1", "--port", str(listening_elsewhere))
+    assert done.returncode == 1
+    line = one_sentence(done.stderr)
+    assert f"127.0.0.1 port {listening_elsewhere} is in use" in line
+    assert "http://" not in done.stdout  # no panel address that is another program's
+    assert not (tmp_path / "settings.json").exists()
+
+
+def test_an_address_this_machine_does_not_have_is_one_sentence_and_not_saved(tmp_path: Path) -> None:
+    done = cart2d(tmp_path, "sim", "--host", NOT_HERE, "--port", str(free_port()))
+    assert done.returncode == 1
+    assert f"{NOT_HERE} is not an address of this machine" in one_sentence(done.stderr)
+    assert "http://" not in done.stdout
+    assert not (tmp_path / "settings.json").exists()  # neither the address nor a token kept
+
+
+def test_a_saved_address_this_machine_does_not_have_names_the_file(tmp_path: Path) -> None:
+    (tmp_path / "settings.json").write_text(json.dumps({"network": {"host": NOT_HERE, "port": 8080}}))
+    done = cart2d(tmp_path, "sim")
+    assert done.returncode == 1
+    line = one_sentence(done.stderr)
+    assert NOT_HERE in line and str(tmp_path / "settings.json") in line and "--host" in line
+
+
+def test_host_and_port_given_apply_to_that_run_only(tmp_path: Path) -> None:
+    """`cart2d sim --host 0.0.0.0 --port P --fault ...` listens there with that fault, says the
+    token is needed from this machine too, and leaves the saved address as it was (only the
+    token is kept)."""
+    port = free_port()
+    run = ["sim", "--host", "0.0.0.0", "--port", str(port), "--fault", "enc_slip_l=0.05"]
+    gateway = subprocess.Popen(
+        [sys.executable, "-m", "cart2d.cli", *run],
+        env={**os.environ, "CART2D_HOME": str(tmp_path)},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
+    try:
+
+        def ready() -> bool:
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/status", timeout=2) as answer:
+                    return bool(json.load(answer).get("firmware"))
+            except OSError:
+                return False
+
+        wait_for(ready, 60, 0.2)
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/sim/faults", timeout=5) as answer:
+            assert json.load(answer)["faults"]["enc_slip_l"] == 0.05  # --fault applies from the start
+        gateway.send_signal(signal.SIGTERM)
+        out, _ = gateway.communicate(timeout=30)
+    finally:
+        gateway.kill()
+    saved = json.loads((tmp_path / "settings.json").read_text())
+    assert saved["network"] == {"host": "127.0.0.1", "port": 8080}
+    assert saved["token"]
+    assert out.count("http://") == 1 and f"http://127.0.0.1:{port}/" in out
+    (token_line,) = [line for line in out.splitlines() if saved["token"] in line]
+    assert "off this machine" not in token_line and "from this machine too" in token_line
+
+
+def fake_ports_and_serve(tmp_path: Path, serial_port: str) -> subprocess.CompletedProcess[str]:
+    """`cart2d serve --serial PORT` where pyserial sees two USB serial ports."""
+    program = f"""
+import sys
+from serial.tools import list_ports, list_ports_common
+def comports(include_links=False):
+    found = []
+    for device, what in (("/dev/ttyUSB7", "FT232R USB UART"), ("/dev/ttyACM3", "USB2.0-Serial")):
+        port = list_ports_common.ListPortInfo(device, skip_link_detection=True)
+        port.description = what
+        found.append(port)
+    return found
+list_ports.comports = comports
+from cart2d.cli import main
+sys.exit(main(["serve", "--serial", {serial_port!r}, "--port", "{free_port()}"]))
+"""
+    return subprocess.run(
+        [sys.executable, "-c", program],
+        env={**os.environ, "CART2D_HOME": str(tmp_path)},
+        capture_output=True,
+        text=True,
+        timeout=30,  # the old gateway retried for ever
+    )
+
+
+def test_serve_with_a_serial_port_that_is_not_there_lists_those_that_are(tmp_path: Path) -> None:
+    done = fake_ports_and_serve(tmp_path, "/dev/ttyUSB9")
+    assert done.returncode == 1
+    line = one_sentence(done.stderr)
+    assert "there is no serial port /dev/ttyUSB9" in line
+    assert "/dev/ttyACM3 (USB2.0-Serial), /dev/ttyUSB7 (FT232R USB UART)" in line
+    assert "http://" not in done.stdout
+
+
+def test_serve_with_a_file_that_is_no_serial_port_says_why(tmp_path: Path) -> None:
+    not_a_tty = tmp_path / "notes.txt"
+    not_a_tty.write_text("not a serial port\n")
+    done = fake_ports_and_serve(tmp_path, str(not_a_tty))
+    assert done.returncode == 1
+    line = one_sentence(done.stderr)
+    assert f"cannot open {not_a_tty}" in line and "/dev/ttyUSB7" in line
