@@ -186,3 +186,40 @@ def test_refused_path_requests_change_nothing_while_a_path_streams(cart: tuple[S
     assert math.dist((end["x"], end["y"]), points[-1]) < 0.01
     row = [s for s in truth if refused_t - 0.5 <= s["t"] and s["y"] < 0.65 and s["x"] < 3.0]
     assert row and min(s["v"] for s in row) > 0.45
+
+
+class StatusOnlyLink:
+    """Answers STATUS with the firmware's state as given (a PATH of `count` points at `index`,
+    `received` of them in); the stream's progress from telemetry is fed to it by hand."""
+
+    def __init__(self, count: int, index: int, received: int) -> None:
+        self.state = (count, index, received)
+        self.status_calls = 0
+
+    def motion_token(self) -> int:
+        return 0
+
+    def call(self, command: str, *args: float, **options: Any) -> tuple[float, ...]:
+        assert command == "STATUS"
+        self.status_calls += 1
+        count, index, received = self.state
+        mode = next(code for code, name in load_spec().modes.items() if name == "PATH")
+        return (mode, 0, index, count, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0, received)
+
+
+def test_a_telemetry_frame_older_than_an_append_does_not_end_the_stream() -> None:
+    # Frames reach the stream through the link's telemetry thread and may wait behind a reply on
+    # the wire: one from before the last XY_APPEND's reply (an index behind, or IDLE from before
+    # the path began) is stale. It ended the stream ("replaced by another sender"), and the cart
+    # stopped at the window's end with the rest of the path unsent.
+    link = StatusOnlyLink(count=210, index=18, received=49)
+    stream = firmware.PathStream(link, [(0.01 * k, 0.0) for k in range(210)])  # type: ignore[arg-type]
+    stream.sent, stream.index, stream.window = 49, 18, 32
+    stream._follow("PATH", 17)
+    assert not stream.done.is_set() and stream.index == 18
+    stream._follow("IDLE", 0)  # checked with STATUS, which says PATH at 18
+    assert not stream.done.is_set() and link.status_calls == 1
+    link.state = (300, 0, 15)  # another sender's path
+    stream._follow("PATH", 19)
+    stream._follow("IDLE", 0)
+    assert stream.done.is_set() and stream.failure == "the path was replaced by another sender"

@@ -402,11 +402,21 @@ class PathStream:
         self._follow(status.mode, status.waypoint_index, status.waypoint_count, status.waypoints_received)
 
     def _follow(self, mode: str, index: int, count: int | None = None, received: int | None = None) -> None:
-        """The cart's progress, from telemetry (mode and index) or STATUS (all four)."""
-        if mode != "PATH":
+        """The cart's progress, from telemetry (mode and index) or STATUS (all four). A telemetry
+        frame may be older than the last XY_APPEND's reply (frames reach the listeners through a
+        thread of their own, and one may wait behind a reply on the wire): an index behind the
+        one known is stale, not a sign of another path, and a mode other than PATH is checked with
+        STATUS. STATUS is answered in turn with the appends: a count or an index that went back
+        there means another sender's path."""
+        stale = count is None and index < self.index
+        if mode != "PATH" and count is None:
+            self._resync()  # a frame from before the path began says IDLE too: STATUS decides
+        elif mode != "PATH":
             self._end(f"the firmware left PATH mode ({mode}) with {self.count - self.sent} points unsent")
-        elif index < self.index or (count is not None and count != self.count):
+        elif count is not None and (index < self.index or count != self.count):
             self._end("the path was replaced by another sender", failure=True)
+        elif stale:
+            return
         elif received is not None and received != self.sent:
             if self.sent <= received <= self.sent + POINTS_PER_FRAME:
                 self.sent = received  # an append whose reply was lost had arrived
