@@ -28,7 +28,7 @@ from cart2d.baseline import SEED_SETTINGS, seed_path
 from cart2d.gateway import Gateway, PoseUntrusted
 from cart2d.link import Link, LinkError, firmware
 from cart2d.params import robot, setting_id
-from cart2d.planner import Grid, PlanError, Point, point_polyline_distance, polyline_length
+from cart2d.planning import Grid, PlanError, Point, point_polyline_distance, polyline_length
 from cart2d.simulator import SimOptions, Simulator, SimulatorError, arena_world
 from cart2d.store import GatewaySettings, MapSettings, Store
 

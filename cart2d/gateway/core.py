@@ -57,7 +57,7 @@ from cart2d.link import CommandRefused, Link, LinkError, MotionCancelled, firmwa
 from cart2d.link.flashing import HURRIED_CHECK_S, Flasher
 from cart2d.link.protocol import Reply, Telemetry
 from cart2d.params import footprint_radius_m, planning_radius_m, robot, setting_id
-from cart2d.planner import Grid, Plan, Planner, polyline_length
+from cart2d.planning import Grid, Plan, Planner, polyline_length
 from cart2d.simulator import Simulator, SimulatorError
 from cart2d.smoothing import round_corners
 from cart2d.spec import load_spec

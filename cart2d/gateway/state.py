@@ -9,7 +9,7 @@ import signal
 from dataclasses import dataclass, field
 from typing import Any
 
-from cart2d.planner import PlanError
+from cart2d.planning import PlanError
 
 
 class PathTooLong(PlanError):

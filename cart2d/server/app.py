@@ -24,7 +24,7 @@ from starlette.routing import Match
 
 from cart2d.gateway import Gateway, PoseUntrusted
 from cart2d.link import CommandRefused, LinkError, MotionCancelled
-from cart2d.planner import PlanError
+from cart2d.planning import PlanError
 from cart2d.server import guards
 from cart2d.server.live import Viewers
 from cart2d.server.models import (
