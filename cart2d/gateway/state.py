@@ -83,6 +83,15 @@ class Mission:
     started_s: float = 0.0
     ended_s: float = 0.0
     plan: dict[str, Any] | None = field(default=None, repr=False)
+    # The route in the firmware: where it started and its waypoints as sent; the stop generation
+    # of the request that began the mission (a replan sent after a stop is refused); a count of
+    # the paths sent (a STATUS asked for before a replacement says nothing about it); replans.
+    token: int | None = None
+    route_start: tuple[float, float] = (0.0, 0.0)
+    route: tuple[tuple[float, float], ...] = ()
+    generation: int = 0
+    replans: list[Any] = field(default_factory=list, repr=False)
+    last_replan_s: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -151,7 +151,18 @@ class GridGraph:
     with the number of obstacles.
     """
 
-    def __init__(self, grid: Grid, obstacles: Iterable[Node], footprint_radius_m: float) -> None:
+    def __init__(
+        self,
+        grid: Grid,
+        obstacles: Iterable[Node],
+        footprint_radius_m: float,
+        blocked: npt.NDArray[np.bool_] | None = None,
+        outside_blocked: bool = False,
+    ) -> None:
+        """`obstacles`: the user's obstacle nodes; `blocked`: more cells to keep off, (rows, cols)
+        (a floor plan's walls and unknown space); `outside_blocked`: the cart's footprint must stay
+        on the grid's cells (a floor plan, whose walls may lie at its edge), else only its centre
+        (the seed's arena, whose walls lie a margin outside the nodes)."""
         r = footprint_radius_m
         if isinstance(r, bool) or not isinstance(r, int | float) or not math.isfinite(r) or r < 0:
             raise ValueError(f"footprint_radius_m must be a finite number >= 0, got {r!r}")
@@ -166,19 +177,32 @@ class GridGraph:
         nodes, ij = _obstacle_nodes(grid, obstacles)
         cols, rows = grid.cols, grid.rows
         self.obstacles = nodes
+        self.outside_blocked = bool(outside_blocked)
         self._r = self.footprint_radius_m / grid.step_m  # radius in grid units
 
-        occupied = np.zeros((rows, cols), dtype=np.bool_)
+        if blocked is None:
+            occupied = np.zeros((rows, cols), dtype=np.bool_)
+        else:
+            if blocked.shape != (rows, cols):
+                raise ValueError(f"blocked cells must be {rows} x {cols}, got {blocked.shape}")
+            occupied = np.array(blocked, dtype=np.bool_)
         occupied[ij[:, 1], ij[:, 0]] = True
+        self._any_occupied = bool(occupied.any())
         free = np.ones((rows, cols), dtype=np.bool_)
         edges = np.zeros((rows, cols), dtype=np.uint8)
-        if nodes:
+        if self._any_occupied:
             (node_runs, *edge_runs), pad = _footprint(self._r)
             dilation = _Dilation(occupied, pad)
             free = ~dilation.hits(node_runs)
             passable = [~dilation.hits(runs) for runs in edge_runs]
         else:
             passable = [free] * 4
+        if self.outside_blocked:
+            # the disc on a node stays on the cells: the edges' nodes decide for the edges too
+            # (the grid's rectangle is convex)
+            i = np.arange(cols)
+            j = np.arange(rows)
+            free = free & self._inward(j)[:, None] & self._inward(i, cols)[None, :]
         for d in range(4):
             # the edge from (i, j) along DIRECTIONS[d] (bit d), and back (bit d + 4): both ends on
             # the grid and the swept disc clear (its stencil holds both ends' node stencils, so
@@ -198,6 +222,22 @@ class GridGraph:
         self._free = self.free.tobytes()
         self._search: Any = None  # its search structure (search.py), built at the first search
         self._search_lock = threading.Lock()
+
+    def _inward(self, u: np.ndarray, count: int | None = None) -> npt.NDArray[np.bool_]:
+        """Whether coordinates u (grid units) keep the disc inside [-0.5, count - 0.5]."""
+        n = self.grid.rows if count is None else count
+        reach = self._r + EPS
+        inward: npt.NDArray[np.bool_] = (u + 0.5 > reach) & (n - 0.5 - u > reach)
+        return inward
+
+    def _inside(self, u: float, v: float, margin: float = 0.0) -> bool:
+        """Whether the disc (+ margin) at (u, v) stays on the grid's cells (always without
+        outside_blocked)."""
+        if not self.outside_blocked:
+            return True
+        reach = self._r + margin + EPS
+        cols, rows = self.grid.cols, self.grid.rows
+        return u + 0.5 > reach and cols - 0.5 - u > reach and v + 0.5 > reach and rows - 0.5 - v > reach
 
     # node queries
 
@@ -236,8 +276,11 @@ class GridGraph:
         (grid units).
 
         Only the cells near the segment are visited: column by column, the rows that the
-        segment, widened by r, can reach inside that column's slab."""
-        if not self.obstacles:
+        segment, widened by r, can reach inside that column's slab. With outside_blocked the
+        capsule must also stay on the grid's cells: it does when both ends do (convexity)."""
+        if not (self._inside(*a, margin) and self._inside(*b, margin)):
+            return False
+        if not self._any_occupied:
             return True
         occ = self._occ
         cols, rows = self.grid.cols, self.grid.rows
@@ -276,10 +319,17 @@ class GridGraph:
         """_segment_clear for many segments at once (arrays of shape (m, 2)): the same cells, the
         same decisions."""
         m = len(a)
-        if not self.obstacles or m == 0:
-            return np.ones(m, dtype=np.bool_)
+        if m == 0:
+            return np.ones(0, dtype=np.bool_)
         if m <= _FEW_SEGMENTS:  # faster one by one
             return np.array([self._segment_clear(p, q) for p, q in zip(a.tolist(), b.tolist(), strict=True)])
+        inside = np.ones(m, dtype=np.bool_)
+        if self.outside_blocked:
+            cols, rows = self.grid.cols, self.grid.rows
+            for ends in (a, b):
+                inside &= self._inward(ends[:, 0], cols) & self._inward(ends[:, 1], rows)
+        if not self._any_occupied:
+            return inside
         cols, rows = self.grid.cols, self.grid.rows
         reach = self._r + EPS
         reach2 = reach * reach
@@ -317,7 +367,7 @@ class GridGraph:
         seg, ci, cj = seg[close], ci[close], cj[close]
         d2 = _segment_box_d2_v(ax[seg], ay[seg], bx[seg], by[seg], ci - 0.5, ci + 0.5, cj - 0.5, cj + 0.5)
         clear[seg[d2 <= reach2]] = False
-        return clear
+        return clear & inside
 
     def _connections(self, u: float, v: float) -> dict[int, float]:
         """Free nodes within √2 steps of (u, v) (grid units) seen through a free segment, with

@@ -7,6 +7,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from cart2d.planning.geometry import polyline_length
 from cart2d.planning.graph import GridGraph
@@ -117,17 +118,28 @@ def plan_path(graph: GridGraph, start: Point, goal: Point) -> Plan:
 
 
 class Planner:
-    """The map (grid, footprint, obstacle nodes) and its plans; the graph is rebuilt lazily after
-    the obstacles change. Obstacles are edited by a point in metres, rounded to the nearest node."""
+    """The map (grid, footprint, obstacle nodes, and a floor plan's blocked cells) and its plans;
+    the graph is rebuilt lazily after the obstacles change. Obstacles are edited by a point in
+    metres, rounded to the nearest node. `blocked` and `outside_blocked`: see GridGraph."""
 
     def __init__(
-        self, grid: Grid | None = None, footprint_radius_m: float = 0.0, obstacles: Iterable[Node] = ()
+        self,
+        grid: Grid | None = None,
+        footprint_radius_m: float = 0.0,
+        obstacles: Iterable[Node] = (),
+        blocked: npt.NDArray[np.bool_] | None = None,
+        outside_blocked: bool = False,
     ) -> None:
         self.grid = grid if grid is not None else Grid()
-        self._graph = GridGraph(self.grid, obstacles, footprint_radius_m)  # validates everything
+        self.blocked = None if blocked is None else np.array(blocked, dtype=np.bool_)
+        self.outside_blocked = outside_blocked
+        self._graph = self._build(obstacles, footprint_radius_m)  # validates everything
         self.footprint_radius_m = self._graph.footprint_radius_m
         self._obstacles = set(self._graph.obstacles)
         self._stale = False
+
+    def _build(self, obstacles: Iterable[Node], radius_m: float) -> GridGraph:
+        return GridGraph(self.grid, obstacles, radius_m, self.blocked, self.outside_blocked)
 
     @property
     def obstacles(self) -> frozenset[Node]:
@@ -136,7 +148,7 @@ class Planner:
     @property
     def graph(self) -> GridGraph:
         if self._stale:
-            self._graph = GridGraph(self.grid, self._obstacles, self.footprint_radius_m)
+            self._graph = self._build(self._obstacles, self.footprint_radius_m)
             self._stale = False
         return self._graph
 
@@ -170,7 +182,7 @@ class Planner:
 
     def set_obstacles(self, nodes: Iterable[Node]) -> None:
         """Replaces every obstacle (node indices); refused as a whole if one is off the grid."""
-        graph = GridGraph(self.grid, nodes, self.footprint_radius_m)
+        graph = self._build(nodes, self.footprint_radius_m)
         self._graph, self._obstacles, self._stale = graph, set(graph.obstacles), False
 
     def plan(self, start: Point, goal: Point) -> Plan:
