@@ -193,6 +193,7 @@ def ros_yaml(occupancy: OccupancyMap, image_name: str) -> str:
 def save_ros_map(occupancy: OccupancyMap, yaml_path: Path, image_suffix: str = ".pgm") -> Path:
     """Writes YAML_PATH and the image beside it (same stem); returns the image's path."""
     image_path = yaml_path.with_suffix(image_suffix)
+    yaml_path.parent.mkdir(parents=True, exist_ok=True)
     image_path.write_bytes(image_bytes(occupancy, image_suffix))
     yaml_path.write_text(ros_yaml(occupancy, image_path.name), encoding="utf-8")
     return image_path
