@@ -15,12 +15,6 @@ from cart2d.planning.geometry import FloatArray, IndexArray
 from cart2d.planning.graph import GridGraph
 from cart2d.planning.grid import DIRECTIONS, SQRT2, PlanError
 
-# _DIRECTION_RANK[mask, r]: the direction of the r-th set bit of an edge mask
-_DIRECTION_RANK = np.array(
-    [[d for d in range(8) if mask >> d & 1] + [0] * (8 - mask.bit_count()) for mask in range(256)],
-    dtype=np.intp,
-).reshape(-1)
-
 
 class _Search:
     """The graph in compressed sparse rows for scipy's Dijkstra, plus one virtual source node
@@ -39,17 +33,19 @@ class _Search:
         self.indptr: IndexArray = np.empty(n + 2, dtype=np.int32)
         self.indptr[0] = 0
         np.cumsum(count, out=self.indptr[1 : n + 1])
-        # row k: the edges of node k in DIRECTIONS order (the r-th is its mask's r-th set bit)
-        node = np.repeat(np.arange(n, dtype=np.int32), count)
-        rank = np.arange(nnz, dtype=np.int32) - self.indptr[node]
-        d = _DIRECTION_RANK[edges[node].astype(np.intp) * 8 + rank]
+        # row k: the edges of node k in DIRECTIONS order: the (node, direction) table of edge bits,
+        # read row by row, keeps exactly the edges the graph has, grouped by node
+        has = np.unpackbits(edges[:, None], axis=1, bitorder="little").view(np.bool_).reshape(-1)
         offsets = np.array([di + dj * grid.cols for di, dj in DIRECTIONS], dtype=np.int32)
         lengths = np.array([grid.step_m * (SQRT2 if di and dj else 1.0) for di, dj in DIRECTIONS])
         self.slots = 9  # the virtual source's: the nodes within √2 steps of a point, at most 3 x 3
         self.indices: IndexArray = np.empty(nnz + self.slots, dtype=np.int32)
-        np.add(node, offsets[d], out=self.indices[:nnz])
+        self.indices[:nnz] = (np.arange(n, dtype=np.int32)[:, None] + offsets[None, :]).reshape(-1)[has]
         self.data: FloatArray = np.empty(nnz + self.slots, dtype=np.float64)
-        np.take(lengths, d, out=self.data[:nnz], mode="clip")  # (unbuffered)
+        # odd directions are the diagonals (a table of flags: an eighth of the bytes of lengths)
+        diagonal = np.broadcast_to(np.arange(8) % 2 == 1, (n, 8)).reshape(-1)[has]
+        np.copyto(self.data[:nnz], lengths[0])
+        self.data[:nnz][diagonal] = lengths[1]
         self.indptr[n + 1] = nnz + self.slots
         self.matrix = csr_array((self.data, self.indices, self.indptr), shape=(n + 1, n + 1))
         self.lock = threading.Lock()

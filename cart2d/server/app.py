@@ -214,9 +214,9 @@ def create_app(
             elif body.resolution_m is None:
                 raise HTTPException(422, "a plain image needs resolution_m (or send its map_server yaml)")
             else:
-                occupancy = map_from_image(
-                    data, body.resolution_m, body.origin_m, Thresholds(negate=body.negate)
-                )
+                origin = (body.origin_m[0], body.origin_m[1])
+                thresholds = Thresholds(negate=body.negate)
+                occupancy = map_from_image(data, body.resolution_m, origin, thresholds)
             return gateway.load_floor_plan(occupancy, body.name, body.planning_step_m, body.unknown_is_free)
         except MapError as exc:
             raise HTTPException(422, str(exc)) from exc

@@ -136,8 +136,11 @@ class MapUploadIn(Strict):
     resolution_m: float | None = Field(
         None, gt=0.0, le=10.0, allow_inf_nan=False, description="a plain image's cell side, m"
     )
-    origin_m: tuple[Number, Number] = Field(
-        (0.0, 0.0), description="a plain image's lower-left corner, m (the YAML gives a map_server map's)"
+    origin_m: list[Number] = Field(
+        default_factory=lambda: [0.0, 0.0],
+        min_length=2,
+        max_length=2,
+        description="[x, y]: a plain image's lower-left corner, m (the YAML gives a map_server map's)",
     )
     negate: bool = Field(False, description="a plain image: light is occupied, dark free")
     planning_step_m: float | None = Field(
