@@ -507,7 +507,7 @@ export class LiveMap {
     const i1 = Math.min(m.cols - 1, Math.ceil((v.x_max - gx) / m.step_m));
     const j0 = Math.max(0, Math.floor((v.y_min - gy) / m.step_m));
     const j1 = Math.min(m.rows - 1, Math.ceil((v.y_max - gy) / m.step_m));
-    if (spacing >= 8 && (i1 - i0 + 1) * (j1 - j0 + 1) <= MAX_NODE_DOTS) {
+    if (spacing >= 14 && (i1 - i0 + 1) * (j1 - j0 + 1) <= MAX_NODE_DOTS) {
       ctx.fillStyle = colors["node"] ?? "";
       const r = Math.min(3, spacing * 0.12);
       for (let i = i0; i <= i1; i++) {
