@@ -27,7 +27,7 @@ from bench.common import Section, section_main, spread, table
 from bench.scenes import Scene, scenes
 from bench.visibility import shortest_length
 from cart2d.params import footprint_radius_m, planning_radius_m, settings_table
-from cart2d.planner import point_square_distance
+from cart2d.planning import point_square_distance
 
 BEHAVIOURS = ("cart2d", "seed")
 TIME_TARGET = 1.25  # x the lower bound

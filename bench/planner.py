@@ -52,7 +52,7 @@ from bench.common import Section, section_main, spread, table
 from bench.scenes import scenes as seed_scenes
 from bench.visibility import QUAD_SEGMENTS, grown_obstacles, node_bounds, true_shortest
 from cart2d.params import planning_radius_m
-from cart2d.planner import DIRECTIONS, Grid, GridGraph, Node, Plan, Planner, Point, Unreachable, simplify
+from cart2d.planning import DIRECTIONS, Grid, GridGraph, Node, Plan, Planner, Point, Unreachable, simplify
 
 FULL_SIZES = (10, 20, 50, 100, 200, 500, 1000)
 QUICK_SIZES = (10, 20, 50, 100, 200)
@@ -533,7 +533,7 @@ def run(out: Path, quick: bool) -> Section:
         [
             "## Planner",
             "",
-            f"The grid planner (cart2d/planner.py) on grids of {sizes[0]} x {sizes[0]} to "
+            f"The grid planner (cart2d/planning/) on grids of {sizes[0]} x {sizes[0]} to "
             f"{sizes[-1]} x {sizes[-1]} nodes, planning corner to corner for the disc the gateway uses "
             f"({planning_radius_m():g} m: the footprint plus the clearance margin). Random fields: each "
             f"node an obstacle with the given probability (fixed seeds), {RANDOM_STEP_M:g} m step; "

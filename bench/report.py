@@ -24,6 +24,7 @@ SECTIONS = (
     "planner",
     "firmware",
     "streaming",
+    "live_map",
     "safety",
     "drivetrain",
     "serial",

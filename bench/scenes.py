@@ -8,7 +8,7 @@ import random
 from dataclasses import dataclass
 
 from cart2d.params import planning_radius_m
-from cart2d.planner import Grid, Node, PlanError, Planner
+from cart2d.planning import Grid, Node, PlanError, Planner
 
 Pose = tuple[float, float, float]
 

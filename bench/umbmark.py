@@ -39,7 +39,7 @@ from cart2d.calibrate import (
     true_geometry,
 )
 from cart2d.link import Link
-from cart2d.planner import point_polyline_distance
+from cart2d.planning import point_polyline_distance
 from cart2d.simulator import SimOptions, Simulator
 
 NAME = "umbmark"

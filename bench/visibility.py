@@ -23,7 +23,7 @@ from scipy.sparse import csr_array
 from scipy.sparse.csgraph import dijkstra
 
 from cart2d.params import robot
-from cart2d.planner import Grid, Node, Point
+from cart2d.planning import Grid, Node, Point
 
 QUAD_SEGMENTS = 16  # per quarter circle of a grown corner
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import heapq
 from collections.abc import Iterable
 
-from cart2d.planner import DIRECTIONS, Grid, Node, Point, Unreachable
+from cart2d.planning import DIRECTIONS, Grid, Node, Point, Unreachable
 
 # The firmware settings that make our firmware behave as the seed's did (by name, see
 # config/robot.toml): unit polar gains, 10 cm tolerances, no speed feedforward.

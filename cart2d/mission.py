@@ -7,7 +7,12 @@ goal and against odometry) and the path length driven and planned. The mission f
 whole before anything runs (mission_file.py); once it runs, the report is written however it
 ends, and a goal off the map or unreachable is reported with its reason and nothing is sent.
 `resets_at_s` presses the simulated reset button: the goal in progress fails with the reset's
-words, and the goals after it are not driven (the gateway no longer trusts the pose)."""
+words, and the goals after it are not driven (the gateway no longer trusts the pose).
+
+`"map": "path/to/map.yaml"` (a ROS map_server map, relative to the mission file) takes the place
+of `"grid"`: the gateway plans on it and its occupied cells are the simulated world's walls.
+`"events"` change the map at simulated times (cart2d/mission_events.py): the report lists
+them and every replan of the gateway (time, reason, plan time, new length)."""
 
 from __future__ import annotations
 
@@ -21,17 +26,20 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 from tqdm import tqdm
 
 from cart2d import mission_file
 from cart2d.baseline import SEED_SETTINGS, seed_path
 from cart2d.gateway import Gateway, PoseUntrusted
+from cart2d.gateway.live_map import planner_for, world_for
 from cart2d.link import CommandRefused, Link, LinkError, firmware
+from cart2d.maps import MapError, load_ros_map
+from cart2d.mission_events import EventPlayer, MapEvent, Pacer, snapped
 from cart2d.params import robot, setting_id
-from cart2d.planner import Grid, PlanError, Point, point_polyline_distance, polyline_length
-from cart2d.simulator import SimOptions, Simulator, SimulatorError, arena_world
-from cart2d.store import GatewaySettings, MapSettings, Store
+from cart2d.planning import Grid, PlanError, Point, point_polyline_distance, polyline_length
+from cart2d.simulator import SimOptions, Simulator, SimulatorError
+from cart2d.store import FloorPlan, GatewaySettings, MapSettings, Store
 
 Coordinate = Annotated[float, Field(allow_inf_nan=False)]
 Finite = Annotated[float, Field(allow_inf_nan=False)]
@@ -47,6 +55,21 @@ class GridSpec(BaseModel):
 class MissionSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
     grid: GridSpec = Field(default_factory=GridSpec)
+    map: str | None = Field(
+        None,
+        min_length=1,
+        max_length=4096,
+        description="a ROS map_server .yaml (relative to the mission file), in place of 'grid'",
+    )
+    unknown_is_free: bool = Field(False, description="with 'map': plan through unknown cells")
+    planning_step: float | None = Field(
+        None, ge=0.01, le=10.0, allow_inf_nan=False, description="with 'map': the planning grid's step, m"
+    )
+    events: list[MapEvent] = Field(
+        default_factory=list,
+        max_length=1000,
+        description="map changes at simulated times: obstacles added and removed (physical in the simulator)",
+    )
     obstacles: list[tuple[Coordinate, Coordinate]] = Field(default_factory=list)
     start: tuple[Coordinate, Coordinate, Coordinate] = (0.0, 0.0, 0.0)
     goals: list[tuple[Coordinate, Coordinate]] = Field(min_length=1, max_length=1000)
@@ -63,6 +86,14 @@ class MissionSpec(BaseModel):
         description="simulated seconds after the start at which the MCU is reset (the reset button)",
     )
 
+    @model_validator(mode="after")
+    def map_or_grid(self) -> MissionSpec:
+        if self.map is not None and "grid" in self.model_fields_set:
+            raise ValueError("give 'map' or 'grid', not both")
+        if self.map is not None and self.behaviour == "seed":
+            raise ValueError("the seed's behaviour plans on a node grid only: give 'grid', not 'map'")
+        return self
+
     @field_validator("resets_at_s")
     @classmethod
     def finite_times(cls, times: list[float]) -> list[float]:
@@ -76,8 +107,10 @@ class Recorder:
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
+        self.t0 = 0.0  # the simulated time the mission started at
         self.truth: list[tuple[float, float, float]] = []
         self.modes: list[tuple[int, str]] = []
+        self.routes: list[list[Point]] = []  # every route the gateway sent (a replan sends one more)
 
     def __call__(self, message: dict[str, Any]) -> None:
         with self._lock:
@@ -85,6 +118,15 @@ class Recorder:
                 self.truth.append((message["t"], message["x"], message["y"]))
             elif message.get("type") == "telemetry":
                 self.modes.append((message["tick"], message["mode_name"]))
+            elif message.get("type") == "mission" and message.get("plan"):
+                plan = message["plan"]
+                route = [tuple(plan["start"]), *map(tuple, plan["waypoints"])]
+                if not self.routes or self.routes[-1] != route:
+                    self.routes.append(route)
+
+    def routes_since(self, mark: int) -> list[list[Point]]:
+        with self._lock:
+            return self.routes[mark:]
 
     def mark(self) -> tuple[int, int]:
         with self._lock:
@@ -108,18 +150,6 @@ class Recorder:
 def _apply_settings(link: Link, settings: dict[str, float]) -> None:
     for name, value in settings.items():
         firmware.write_setting(link, setting_id(name), value)
-
-
-@contextlib.contextmanager
-def _in_real_time(sim: Simulator) -> Iterator[None]:
-    """Paces the simulator to the wall clock while the gateway plans and uploads, as a real cart
-    would be: in fast mode a gateway slowed by a busy machine would otherwise cost the cart
-    seconds of simulated time with the path half uploaded."""
-    sim.control("speed", factor=1)
-    try:
-        yield
-    finally:
-        sim.control("speed", factor="max" if sim.options.speed == "max" else float(sim.options.speed))
 
 
 def _wait_for_path_end(link: Link, sim: Simulator, deadline_t: float, watch: firmware.ResetWatch) -> str:
@@ -167,7 +197,7 @@ def _resets_at(sim: Simulator, times_s: list[float]) -> Iterator[None]:
 
 
 def _drive_like_the_seed(
-    gateway: Gateway, sim: Simulator, goal: Point, deadline_t: float
+    gateway: Gateway, sim: Simulator, pacer: Pacer, goal: Point, deadline_t: float
 ) -> tuple[list[Point], str]:
     """The seed's way: a waypoint at every node, sent as many buffers-full as it takes."""
     watch = firmware.ResetWatch(gateway.read_status())  # the gateway notices a restart before this too
@@ -178,7 +208,7 @@ def _drive_like_the_seed(
     waypoints = seed_path(gateway.planner.grid, m.obstacles, (x, y), goal)
     capacity = gateway.waypoint_capacity
     for first in range(0, len(waypoints), capacity):
-        with _in_real_time(sim):
+        with pacer.real_time():
             firmware.upload_path(gateway.link, waypoints[first : first + capacity])
         reason = _wait_for_path_end(gateway.link, sim, deadline_t, watch)
         if reason:
@@ -187,35 +217,48 @@ def _drive_like_the_seed(
 
 
 def _drive_with_cart2d(
-    gateway: Gateway, sim: Simulator, goal: Point, deadline_t: float
+    gateway: Gateway, sim: Simulator, pacer: Pacer, goal: Point, deadline_t: float
 ) -> tuple[list[Point], str]:
-    with _in_real_time(sim):
+    with pacer.real_time():
         plan = gateway.go_to(*goal)
-        # A path longer than the firmware's window streams while the cart drives: in real time,
-        # as on a cart, or the uploader's latency would cost it a multiple in simulated time.
-        stream = gateway.path_stream
-        while stream is not None and stream.sending and gateway.mission_view()["state"] == "driving":
+    # A path longer than the firmware's window streams while the cart drives, and a replan sends
+    # a new one: in real time, as on a cart, or the uploader's latency would cost it a multiple
+    # in simulated time.
+    paced, holding = contextlib.ExitStack(), False
+    with paced:
+        while gateway.mission_view()["state"] == "driving":
             if sim.truth()["t"] > deadline_t:
-                break
+                gateway.stop()
+                return [plan.start, *plan.waypoints], "timeout: the mission's time ran out"
+            stream = gateway.path_stream
+            sending = stream is not None and stream.sending
+            if sending and not holding:
+                paced.enter_context(pacer.real_time())
+            elif holding and not sending:
+                paced.close()
+            holding = sending
             time.sleep(0.005)
-    while gateway.mission_view()["state"] == "driving":
-        if sim.truth()["t"] > deadline_t:
-            gateway.stop()
-            return [plan.start, *plan.waypoints], "timeout: the mission's time ran out"
-        time.sleep(0.005)
     mission = gateway.mission_view()
-    return [plan.start, *plan.waypoints], "" if mission["state"] == "arrived" else mission["reason"]
+    first = [plan.start, *plan.waypoints]
+    return first, "" if mission["state"] == "arrived" else mission["reason"]
 
 
 def _drive_to(
-    gateway: Gateway, sim: Simulator, recorder: Recorder, goal: Point, deadline_t: float, seed: bool
+    gateway: Gateway,
+    sim: Simulator,
+    pacer: Pacer,
+    recorder: Recorder,
+    goal: Point,
+    deadline_t: float,
+    seed: bool,
 ) -> dict[str, Any]:
     result: dict[str, Any] = {"goal": list(goal), "reached": False}
     truth_mark, modes_mark = recorder.mark()
+    routes_mark = len(recorder.routes)
     t_goal = sim.truth()["t"]
     drive = _drive_like_the_seed if seed else _drive_with_cart2d
     try:
-        planned, reason = drive(gateway, sim, goal, deadline_t)
+        planned, reason = drive(gateway, sim, pacer, goal, deadline_t)
     except PlanError as exc:
         return {**result, "reason": str(exc), "time_s": 0.0, "path_length_m": 0.0}
     except PoseUntrusted:
@@ -223,6 +266,11 @@ def _drive_to(
         return {**result, "reason": reason, "time_s": 0.0, "path_length_m": 0.0}
     result["planned_path"] = [list(p) for p in planned]
     result["planned_length_m"] = polyline_length(planned)
+    if not seed:
+        result["replans"] = _replans(gateway, sim, recorder.t0)
+        if result["replans"]:
+            final = gateway.mission_view()["plan"] or {}
+            result["final_plan"] = [list(p) for p in final.get("waypoints", [])]
     if reason:
         result["reason"] = reason
     else:
@@ -241,9 +289,50 @@ def _drive_to(
     trace = recorder.samples(truth_mark)
     points = [(x, y) for _, x, y in trace]
     result["path_length_m"] = polyline_length(points)
-    result["max_deviation_m"] = max((point_polyline_distance(p, planned) for p in points), default=0.0)
+    # from the plan, or from the nearest of the plans when the gateway replanned
+    routes = [planned, *recorder.routes_since(routes_mark)]
+    result["max_deviation_m"] = max(
+        (min(point_polyline_distance(p, route) for route in routes) for p in points), default=0.0
+    )
     result["trace"] = [[round(t, 3), round(x, 4), round(y, 4)] for t, x, y in trace]
     return result
+
+
+def _replans(gateway: Gateway, sim: Simulator, t0: float) -> list[dict[str, Any]]:
+    """The mission's replans, their times in simulated seconds from the mission's start."""
+    return [
+        {
+            "time_s": None if r["sim_t"] is None else r["sim_t"] - t0,
+            "reason": r["reason"],
+            "plan_time_s": r["plan_time_s"],
+            "new_length_m": r["length_m"],
+            "waypoints": r["waypoints"],
+            "outcome": r["outcome"],
+        }
+        for r in gateway.mission_view()["replans"]
+    ]
+
+
+def mission_map(spec: MissionSpec, base_dir: Path | None = None) -> MapSettings:
+    """The map the mission's gateway plans on (the floor plan read, the obstacles on its nodes)."""
+    if spec.map is not None:
+        path = Path(spec.map)
+        if not path.is_absolute() and base_dir is not None:
+            path = base_dir / path
+        occupancy = load_ros_map(path)
+        m = MapSettings.model_validate(
+            {
+                "floor_plan": FloorPlan.of(occupancy, path.name),
+                "planning_step_m": spec.planning_step,
+                "unknown_is_free": spec.unknown_is_free,
+            }
+        )
+    else:
+        g = spec.grid
+        m = MapSettings(cols=g.cols, rows=g.rows, step_m=g.step)
+    grid = planner_for(m).grid
+    nodes = sorted({grid.nearest_node(x, y) for x, y in spec.obstacles})
+    return m.model_copy(update={"obstacles": nodes})
 
 
 def run_mission(
@@ -252,31 +341,33 @@ def run_mission(
     seed: int = 1,
     progress: bool = False,
     report: dict[str, Any] | None = None,
+    base_dir: Path | None = None,
 ) -> dict[str, Any]:
     """Runs the mission in a fresh simulator (blank EEPROM); returns the report. `report`, if
     given, is filled as the mission goes (each goal as it ends): what it holds is the report so
-    far if the run stops on an error."""
+    far if the run stops on an error. `base_dir`: where a relative "map" path starts (the
+    mission file's folder)."""
     report = {} if report is None else report
     report.update(behaviour=spec.behaviour, goals=[], resets=[])
-    g = spec.grid
-    grid = Grid(cols=g.cols, rows=g.rows, step_m=g.step)
+    map_settings = mission_map(spec, base_dir)
     with tempfile.TemporaryDirectory() as tmp:
         options = SimOptions(
             speed=speed,
             seed=seed,
             eeprom=Path(tmp) / "eeprom.bin",
             start=spec.start,
-            world=arena_world(g.cols, g.rows, g.step),  # the walls around this grid, square or not
+            world=world_for(map_settings),  # the walls around the grid, or the floor plan's
             quiet=True,
             faults=dict(spec.faults),
         )
         store = Store(Path(tmp) / "gateway")
-        nodes = sorted({grid.nearest_node(x, y) for x, y in spec.obstacles})
-        settings = GatewaySettings(map=MapSettings(cols=g.cols, rows=g.rows, step_m=g.step, obstacles=nodes))
+        settings = GatewaySettings(map=map_settings)
         wall_start = time.monotonic()
         with Simulator(options) as sim, Link(sim.pty) as link:
-            sim.control("obstacles", step=g.step, size=max(g.cols, g.rows), cells=[list(n) for n in nodes])
             gateway = Gateway(link, store, settings, sim)
+            grid = gateway.planner.grid
+            points = snapped(grid, [grid.node_xy(i, j) for i, j in map_settings.obstacles])
+            sim.change_obstacles(add=points, step=grid.step_m)  # virtual: counted, not felt
             recorder = Recorder()
             gateway.subscribe(recorder)
             gateway.check_firmware()
@@ -286,17 +377,24 @@ def run_mission(
             link.call("SET_POSE", *spec.start)
             gateway.start()
             t0 = sim.truth()["t"]
+            recorder.t0 = t0
             deadline = t0 + spec.timeout_s
             resets: list[dict[str, Any]] = report["resets"]
             keys = ("time", "cause", "cause_words", "boot_count", "message")
             gateway.subscribe(
                 lambda m: resets.append({key: m[key] for key in keys}) if m.get("type") == "reset" else None
             )
+            pacer = Pacer(sim)
+            events = EventPlayer(gateway, sim, pacer, spec.events, t0)
             try:
-                with _resets_at(sim, [t0 + t for t in spec.resets_at_s]):
-                    _drive_goals(gateway, sim, recorder, spec, deadline, progress, report["goals"])
+                with _resets_at(sim, [t0 + t for t in spec.resets_at_s]), events:
+                    _drive_goals(gateway, sim, pacer, recorder, spec, deadline, progress, report["goals"])
             finally:
                 gateway.close()
+                if spec.events:
+                    report["events"] = events.applied
+                if spec.behaviour != "seed":
+                    report["replans"] = [r for g in report["goals"] for r in g.get("replans", [])]
                 with contextlib.suppress(SimulatorError):  # the simulator may be what failed
                     truth = sim.truth()
                     sim_time = truth["t"] - t0
@@ -312,6 +410,7 @@ def run_mission(
 def _drive_goals(
     gateway: Gateway,
     sim: Simulator,
+    pacer: Pacer,
     recorder: Recorder,
     spec: MissionSpec,
     deadline: float,
@@ -319,7 +418,7 @@ def _drive_goals(
     goals: list[dict[str, Any]],
 ) -> None:
     for goal in tqdm(spec.goals, desc="goals", unit="goal", disable=not progress):
-        result = _drive_to(gateway, sim, recorder, goal, deadline, spec.behaviour == "seed")
+        result = _drive_to(gateway, sim, pacer, recorder, goal, deadline, spec.behaviour == "seed")
         truth = sim.truth()
         x, y, _ = gateway.link.call("POSE")
         result.update(
@@ -336,11 +435,17 @@ def check_mission(mission_path: Path, report_path: Path) -> tuple[MissionSpec | 
     if data is not None:
         spec, problems = mission_file.parse(data, MissionSpec, str(mission_path))
     if spec is not None:
-        g = spec.grid
         problems += mission_file.settings_problems(spec.settings)
         problems += mission_file.faults_problems(spec.faults)
-        grid = Grid(cols=g.cols, rows=g.rows, step_m=g.step)
-        problems += mission_file.map_problems(grid, spec.start, spec.obstacles)
+        if spec.map is None:
+            g = spec.grid
+            grid = Grid(cols=g.cols, rows=g.rows, step_m=g.step)
+            problems += mission_file.map_problems(grid, spec.start, spec.obstacles)
+        else:
+            try:
+                mission_map(spec, mission_path.parent)
+            except (MapError, PlanError, OSError) as exc:
+                problems.append(f"map: {exc}")
     problems += mission_file.report_problems(report_path, mission_path)
     return (spec if not problems else None), problems
 
@@ -358,8 +463,10 @@ def main_mission(mission_path: Path, report_path: Path | None, speed: str, seed:
         return 2
     report: dict[str, Any] = {}
     try:
-        run_mission(spec, speed, seed, progress=sys.stderr.isatty(), report=report)
-    except (LinkError, CommandRefused, SimulatorError, PlanError, OSError) as exc:
+        run_mission(
+            spec, speed, seed, progress=sys.stderr.isatty(), report=report, base_dir=mission_path.parent
+        )
+    except (LinkError, CommandRefused, SimulatorError, PlanError, MapError, OSError) as exc:
         report["error"] = str(exc)
     except KeyboardInterrupt:
         report["error"] = "interrupted (Ctrl-C)"

@@ -25,6 +25,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from cart2d.params import robot
 from cart2d.spec import repo_file
 
@@ -70,15 +72,16 @@ class Box:
 
 def run_lengths(cells: Iterable[bool]) -> list[int]:
     """Runs alternately free and occupied, starting with free (the side channel's "rle")."""
-    runs: list[int] = []
-    current, length = False, 0
-    for cell in cells:
-        if bool(cell) != current:
-            runs.append(length)
-            current, length = not current, 0
-        length += 1
-    runs.append(length)
-    return runs
+    array = (
+        np.fromiter(cells, dtype=np.bool_) if not isinstance(cells, np.ndarray) else cells.astype(np.bool_)
+    )
+    array = array.reshape(-1)
+    if array.size == 0:
+        return [0]
+    changes = np.flatnonzero(array[1:] != array[:-1]) + 1
+    runs = np.diff(np.concatenate(([0], changes, [array.size])))
+    out: list[int] = runs.tolist()
+    return [0, *out] if array[0] else out
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ import itertools
 import math
 from collections.abc import Callable, Sequence
 
-from cart2d.planner import Point
+from cart2d.planning import Point
 
 SegmentFree = Callable[[Point, Point], bool]
 

@@ -17,9 +17,20 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import platformdirs
-from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, Strict, ValidationError
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    Strict,
+    ValidationError,
+    model_validator,
+)
 
-from cart2d.params import robot
+from cart2d.maps import MAX_MAP_CELLS, OccupancyMap
+from cart2d.params import planning_radius_m, robot
 
 log = logging.getLogger(__name__)
 
@@ -75,13 +86,95 @@ class NetworkSettings(BaseModel):
     port: Integer = Field(8080, ge=1, le=65535)
 
 
-class MapSettings(BaseModel):
+Metres = Annotated[float, Field(allow_inf_nan=False, ge=-100_000.0, le=100_000.0)]
+# A floor plan's cells as text: base64 of zlib data, 2000 x 2000 cells deflate to far less.
+MAX_CELLS_TEXT = 8 * 1024 * 1024
+
+
+class FloorPlan(BaseModel):
+    """A floor plan: an occupancy grid as nav_msgs/OccupancyGrid (cart2d/maps/occupancy.py)."""
+
     model_config = ConfigDict(extra="forbid", strict=True)
-    cols: Integer = Field(int(_grid_default("grid_nodes")), ge=2, le=1000, description="nodes along x")
-    rows: Integer = Field(int(_grid_default("grid_nodes")), ge=2, le=1000, description="nodes along y")
+    name: str = Field("", max_length=200, description="where it came from (a file name)")
+    origin_m: tuple[Metres, Metres] = Field(description="the lower-left corner of cell (0, 0), m")
+    resolution_m: float = Field(ge=0.001, le=10.0, allow_inf_nan=False, description="cell side, m")
+    width: Integer = Field(ge=2, le=MAX_MAP_CELLS, description="cells along x")
+    height: Integer = Field(ge=2, le=MAX_MAP_CELLS, description="cells along y")
+    cells: str = Field(
+        max_length=MAX_CELLS_TEXT,
+        description="base64 of the zlib-deflated cells, one signed byte each, row-major from the "
+        "origin (row 0 the lowest y): 0 free, 100 occupied, -1 unknown",
+    )
+    _map: OccupancyMap | None = PrivateAttr(None)
+
+    @model_validator(mode="after")
+    def _decodes(self) -> FloorPlan:
+        self._map = OccupancyMap.decode(self.origin_m, self.resolution_m, self.width, self.height, self.cells)
+        return self
+
+    def occupancy(self) -> OccupancyMap:
+        if self._map is None:
+            self._map = OccupancyMap.decode(
+                self.origin_m, self.resolution_m, self.width, self.height, self.cells
+            )
+        return self._map
+
+    @classmethod
+    def of(cls, occupancy: OccupancyMap, name: str = "") -> FloorPlan:
+        plan = cls.model_construct(
+            name=name[:200],
+            origin_m=occupancy.origin_m,
+            resolution_m=occupancy.resolution_m,
+            width=occupancy.width,
+            height=occupancy.height,
+            cells=occupancy.encode_cells(),
+        )
+        plan._map = occupancy
+        return cls.model_validate(plan.model_dump())  # checked as an uploaded one would be
+
+
+class MapSettings(BaseModel):
+    """The map the gateway plans on: a grid of nodes, or a floor plan planned on blocks of its
+    cells (then cols, rows, step_m and origin_m are derived from it)."""
+
+    model_config = ConfigDict(extra="forbid", strict=True)
+    cols: Integer = Field(
+        int(_grid_default("grid_nodes")), ge=2, le=MAX_MAP_CELLS, description="nodes along x"
+    )
+    rows: Integer = Field(
+        int(_grid_default("grid_nodes")), ge=2, le=MAX_MAP_CELLS, description="nodes along y"
+    )
     # at least 1 cm: the planner's footprint stencils grow as (footprint / step)^2
     step_m: float = Field(_grid_default("grid_step_m"), ge=0.01, le=10.0, allow_inf_nan=False)
-    obstacles: list[tuple[Integer, Integer]] = Field(default_factory=list, max_length=1_000_000)
+    origin_m: tuple[Metres, Metres] = Field((0.0, 0.0), description="where node (0, 0) is, m")
+    obstacles: list[tuple[Integer, Integer]] = Field(default_factory=list, max_length=4_000_000)
+    floor_plan: FloorPlan | None = Field(
+        None, description=f"a floor plan of up to {MAX_MAP_CELLS} x {MAX_MAP_CELLS} cells"
+    )
+    planning_step_m: float | None = Field(
+        None,
+        ge=0.01,
+        le=10.0,
+        allow_inf_nan=False,
+        description="plan a floor plan on blocks of cells at most this wide (default: half the planning "
+        "radius); a block is occupied if any of its cells is",
+    )
+    unknown_is_free: bool = Field(False, description="plan through a floor plan's unknown cells")
+
+    @model_validator(mode="after")
+    def _grid_of_the_floor_plan(self) -> MapSettings:
+        if self.floor_plan is not None:
+            grid = planning_map(self).grid()
+            self.cols, self.rows, self.step_m, self.origin_m = grid.cols, grid.rows, grid.step_m, grid.origin
+        return self
+
+
+def planning_map(m: MapSettings) -> OccupancyMap:
+    """The floor plan coarsened to the blocks the planner works on; ValueError without one."""
+    if m.floor_plan is None:
+        raise ValueError("the map has no floor plan")
+    occupancy = m.floor_plan.occupancy()
+    return occupancy.coarsened(occupancy.planning_factor(m.planning_step_m, planning_radius_m()))
 
 
 class GatewaySettings(BaseModel):

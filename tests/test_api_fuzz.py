@@ -43,14 +43,16 @@ SEED = 20261121
 # Refusals that JSON Schema cannot express, answered 422 with a reason: a goal or an obstacle off
 # the *current* map (which /api/settings/file changes at run time), blocked or unreachable; a pose
 # beyond the current arena's walls; a settings file whose obstacles lie off its own grid; a HEX file
-# with bad records or checksums; a network host that is neither an IP address nor a host name (the
-# schema's pattern gives only its characters). Only for these does positive_data_acceptance take 422
-# as well (its defaults, plus 422); every other check, including that the 422 is documented and its
-# body matches the documented schema, applies as everywhere.
+# with bad records or checksums; a map whose image or YAML cannot be read; a network host that is
+# neither an IP address nor a host name (the schema's pattern gives only its characters). Only for
+# these does positive_data_acceptance take 422 as well (its defaults, plus 422); every other check,
+# including that the 422 is documented and its body matches the documented schema, applies as
+# everywhere.
 SEMANTIC_REFUSALS = [
     "POST /api/goto",
     "POST /api/pose",
     "PUT /api/map/obstacle",
+    "POST /api/map",
     "POST /api/settings/file",
     "POST /api/firmware/update",
     "PUT /api/settings/network",

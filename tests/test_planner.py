@@ -1,4 +1,4 @@
-"""Tests of the path planner (cart2d/planner.py).
+"""Tests of the path planner (cart2d/planning/).
 
 Expectations come from hand calculation or from an independent reference written here: its own
 disc-square distance (nearest point by clamping), its own segment check (ternary search of the
@@ -19,8 +19,7 @@ from numpy import array as np_array
 from numpy import int64 as np_int64
 from numpy import isfinite as np_isfinite
 
-from cart2d import planner as planner_module
-from cart2d.planner import (
+from cart2d.planning import (
     GoalBlocked,
     Grid,
     GridGraph,
@@ -36,6 +35,8 @@ from cart2d.planner import (
     segment_square_distance,
     shortest_path,
 )
+from cart2d.planning import search as search_module
+from cart2d.planning import simplification as simplify_module
 
 STEP = 0.2
 TOL = 1e-9  # metres: the reference's contact tolerance (touching = blocked) and length tolerance
@@ -533,7 +534,7 @@ def test_shortcuts_never_lengthen_a_path() -> None:
         assert plan.length_m <= plan.grid_length_m + 1e-12
         assert plan.length_m >= math.dist(start, goal) - 1e-12
         # taut corners only replace or drop pulled ones; sharp bends get more, up to a bound
-        assert len(plan.waypoints) <= max(len(plan.path) - 1, planner_module._SPLIT_MAX)
+        assert len(plan.waypoints) <= max(len(plan.path) - 1, simplify_module._SPLIT_MAX)
 
 
 # --- obstacles by metres ------------------------------------------------------------------------
@@ -685,13 +686,13 @@ def test_large_grid_plans_are_optimal_against_a_heap_dijkstra(
     rng = random.Random(case)
     pairs = [corner, *(tuple(rng.sample(free, 2)) for _ in range(3))]
     searches: list[float] = []
-    run = planner_module._Search.run
+    run = search_module._Search.run
 
-    def counting_run(self: planner_module._Search, sources: dict[int, float], limit: float) -> object:
+    def counting_run(self: search_module._Search, sources: dict[int, float], limit: float) -> object:
         searches.append(limit)
         return run(self, sources, limit)
 
-    monkeypatch.setattr(planner_module._Search, "run", counting_run)
+    monkeypatch.setattr(search_module._Search, "run", counting_run)
     for s, g in pairs:
         dist = heap_dijkstra(graph, {s: 0.0})
         start, goal = grid.node_xy(*s), grid.node_xy(*g)
@@ -777,14 +778,14 @@ def test_a_near_goal_on_a_large_map_is_planned_without_searching_it_all(
     grid = Grid(400, 400, 0.2)
     planner = Planner(grid, 0.17, {(200, j) for j in range(195, 206)})  # a wall 2 m long
     searches: list[tuple[float, int]] = []
-    run = planner_module._Search.run
+    run = search_module._Search.run
 
-    def spy(self: planner_module._Search, sources: dict[int, float], limit: float) -> object:
+    def spy(self: search_module._Search, sources: dict[int, float], limit: float) -> object:
         dist, pred = run(self, sources, limit)
         searches.append((limit, int(np_isfinite(dist).sum())))
         return dist, pred
 
-    monkeypatch.setattr(planner_module._Search, "run", spy)
+    monkeypatch.setattr(search_module._Search, "run", spy)
     plan = planner.plan((39.0, 40.03), (41.6, 40.0))  # across the wall's middle
     assert 3.0 < plan.grid_length_m < 5.0  # around the wall
     # one search, within twice the octile distance (plus the ends), that reached few nodes
@@ -834,8 +835,8 @@ def pulled_path(planner: Planner, plan: Plan) -> tuple[list[Point], list[int]]:
     grid = planner.grid
     inner = [grid.nearest_node(*p) for p in plan.path[1:-1]]
     points = np_array([grid.to_grid(*plan.path[0]), *inner, grid.to_grid(*plan.path[-1])], dtype=float)
-    corners = points[planner_module._drop_collinear(points)]
-    pulled = planner_module._string_pull(planner.graph, corners)
+    corners = points[simplify_module._drop_collinear(points)]
+    pulled = simplify_module._string_pull(planner.graph, corners)
     return [(float(u), float(v)) for u, v in corners.tolist()], pulled
 
 
@@ -854,13 +855,13 @@ def test_string_pulling_on_long_paths_follows_its_specification(
         grid, start, goal = Grid(n, n, 0.4), (0.0, 0.0), ((n - 1) * 0.4, (n - 1) * 0.4)
     planner = Planner(grid, 0.17, obstacles)
     # string pulling alone: the plan's waypoints are then the pulled corners, not pulled taut
-    monkeypatch.setattr(planner_module, "_taut", lambda _graph, points: points)
+    monkeypatch.setattr(simplify_module, "_taut", lambda _graph, points: points)
     plan = planner.plan(start, goal)
     corners, pulled = pulled_path(planner, plan)
-    assert len(corners) > planner_module._PULL_WINDOW + 1
-    assert pulled == farthest_in_sight(planner.graph, corners, planner_module._PULL_WINDOW)
-    monkeypatch.setattr(planner_module, "_PULL_CELLS", 40)  # a few segments at a time: the same
-    assert planner_module._string_pull(planner.graph, np_array(corners)) == pulled
+    assert len(corners) > simplify_module._PULL_WINDOW + 1
+    assert pulled == farthest_in_sight(planner.graph, corners, simplify_module._PULL_WINDOW)
+    monkeypatch.setattr(simplify_module, "_PULL_CELLS", 40)  # a few segments at a time: the same
+    assert simplify_module._string_pull(planner.graph, np_array(corners)) == pulled
     assert [corners[k] for k in pulled[1:]] == [
         tuple(map(float, grid.nearest_node(*w))) for w in plan.waypoints
     ]
@@ -883,7 +884,7 @@ def test_string_pulling_on_small_maps_keeps_the_farthest_point_in_sight() -> Non
             except Unreachable:
                 continue
             corners, pulled = pulled_path(planner, plan)
-            if len(corners) > planner_module._PULL_WINDOW + 1:
+            if len(corners) > simplify_module._PULL_WINDOW + 1:
                 continue
             keep = [0]
             while keep[-1] < len(corners) - 1:
@@ -906,12 +907,12 @@ def test_string_pulling_follows_a_long_line_of_sight() -> None:
     graph = GridGraph(Grid(60, 30, 0.2), {(30, 10)}, 0.0)
     zigzag = [(float(k), 10.0 + 0.5 * (k % 2)) for k in range(26)]
     points = np_array([*zigzag, (28.0, 10.0), (29.0, 11.0), (31.0, 11.0), (32.0, 10.0), (40.0, 10.0)])
-    assert len(zigzag) + 2 > planner_module._PULL_WINDOW
-    assert planner_module._string_pull(graph, points) == [0, len(zigzag) + 2, len(points) - 1]
-    assert planner_module._string_pull(graph, points[:2]) == [0, 1]
+    assert len(zigzag) + 2 > simplify_module._PULL_WINDOW
+    assert simplify_module._string_pull(graph, points) == [0, len(zigzag) + 2, len(points) - 1]
+    assert simplify_module._string_pull(graph, points[:2]) == [0, 1]
     # from (29, 11): (31, 11) in sight, (32, 10) not (the segment touches the obstacle's corner),
     # (40, 10) again
-    assert planner_module._string_pull(graph, points[-4:]) == [0, 3]
+    assert simplify_module._string_pull(graph, points[-4:]) == [0, 3]
 
 
 def test_pulled_taut_the_path_nears_the_true_shortest_and_stays_free() -> None:
@@ -924,7 +925,7 @@ def test_pulled_taut_the_path_nears_the_true_shortest_and_stays_free() -> None:
     points = [plan.start, *plan.waypoints]
     for p, q in itertools.pairwise(points):
         assert planner.graph.segment_free(p, q)
-    pulled = planner_module._string_pull(
+    pulled = simplify_module._string_pull(
         planner.graph, np_array([grid.to_grid(*p) for p in plan.path], dtype=float)
     )
     pulled_length = math.fsum(math.dist(plan.path[a], plan.path[b]) for a, b in itertools.pairwise(pulled))

@@ -313,8 +313,10 @@ def test_map_gives_the_arena_walls_the_simulator_uses(rig: Rig) -> None:
     arena = rig.client.get("/api/map").json()["arena"]
     # The grid spans 0..1.8 m; the walls stand 0.25 m outside it (config/robot.toml, [sim]).
     assert arena == pytest.approx({"x_min": -0.25, "y_min": -0.25, "x_max": 2.05, "y_max": 2.05})
-    # The simulator agrees: placing the cart's 0.17 m disc against the east wall works, beyond fails.
-    rig.sim.control("place", x=2.05 - 0.17, y=0.9)
+    # The simulator agrees (the gateway gave it the walls of its map): placing the cart's 0.17 m
+    # disc against the east wall works (a nanometre off: an exact touch is decided by rounding),
+    # beyond fails.
+    rig.sim.control("place", x=2.05 - 0.17 - 1e-9, y=0.9)
     with pytest.raises(SimulatorError):
         rig.sim.control("place", x=2.05 - 0.16, y=0.9)
 

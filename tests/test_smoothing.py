@@ -5,7 +5,7 @@ from __future__ import annotations
 import itertools
 import math
 
-from cart2d.planner import Grid, GridGraph, Point
+from cart2d.planning import Grid, GridGraph, Point
 from cart2d.smoothing import CHORD_TURN_RAD, RADIUS_M, round_corners
 
 

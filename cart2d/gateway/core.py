@@ -35,6 +35,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict
 from typing import Any
 
+from cart2d.gateway.live_map import Replan, RouteAhead, arena, planner_for, world_for
 from cart2d.gateway.state import (
     BUSY_POLL_S,
     RESET_POSE_SETTINGS,
@@ -56,12 +57,13 @@ from cart2d.gateway.state import (
 from cart2d.link import CommandRefused, Link, LinkError, MotionCancelled, firmware
 from cart2d.link.flashing import HURRIED_CHECK_S, Flasher
 from cart2d.link.protocol import Reply, Telemetry
-from cart2d.params import footprint_radius_m, planning_radius_m, robot, setting_id
-from cart2d.planner import Grid, Plan, Planner, polyline_length
+from cart2d.maps import OccupancyMap
+from cart2d.params import footprint_radius_m, robot, setting_id
+from cart2d.planning import Plan, PlanError, Point, StartBlocked, polyline_length
 from cart2d.simulator import Simulator, SimulatorError
 from cart2d.smoothing import round_corners
 from cart2d.spec import load_spec
-from cart2d.store import GatewaySettings, MapSettings, Store
+from cart2d.store import FloorPlan, GatewaySettings, MapSettings, Store
 
 log = logging.getLogger(__name__)
 
@@ -80,9 +82,12 @@ class Gateway:
         self.store = store
         self.settings = settings
         self.sim = sim
-        self.planner = self._planner_for(settings.map)
+        self.planner = planner_for(settings.map)
+        self.map_version = 1  # counts the map's changes (the panel fetches the map again)
+        self._last_truth_t: float | None = None  # the simulator's time in its latest truth message
         self.mission = Mission()
         self._stream: firmware.PathStream | None = None  # the mission's path, streamed to the firmware
+        self._frames_at_route = 0  # telemetry frames received when the last route was sent
         self._lock = threading.RLock()  # guards settings, planner and mission
         # The listeners are replaced, never changed in place, under their own lock: publishing
         # reads them without any lock (telemetry and a stop share none).
@@ -118,6 +123,7 @@ class Gateway:
         if sim is not None:
             sim.subscribe_truth(self._on_truth)
             sim.on_exit = self._simulator_exited
+            self._sync_world()
 
     # -- lifecycle -------------------------------------------------------------------------
     def start(self) -> None:
@@ -190,54 +196,117 @@ class Gateway:
         self._publish({"type": "telemetry", **data})
 
     def _on_truth(self, truth: dict[str, Any]) -> None:
+        self._last_truth_t = truth.get("t")
         self._publish(truth)  # already {"type": "truth", ...}
 
     # -- map ---------------------------------------------------------------------------------
-    def _planner_for(self, m: MapSettings) -> Planner:
-        grid = Grid(cols=m.cols, rows=m.rows, step_m=m.step_m)
-        return Planner(grid, planning_radius_m(), obstacles=m.obstacles)
-
     def map_view(self) -> dict[str, Any]:
         with self._lock:
+            m = self.settings.map
             g = self.planner.grid
-            margin = float(robot()["sim"]["arena_margin_m"])  # walls outside the grid (the brief)
-            width, height = g.size_m
-            return {
+            view: dict[str, Any] = {
+                "version": self.map_version,
                 "cols": g.cols,
                 "rows": g.rows,
                 "step_m": g.step_m,
-                "arena": {
-                    "x_min": -margin,
-                    "y_min": -margin,
-                    "x_max": width + margin,
-                    "y_max": height + margin,
-                },
+                "origin_m": list(g.origin),
+                "arena": arena(m),
                 "footprint_radius_m": footprint_radius_m(),
                 "planning_radius_m": self.planner.footprint_radius_m,
                 "obstacles": [list(g.node_xy(i, j)) for i, j in sorted(self.planner.obstacles)],
+                "floor_plan": None,
+                "unknown_is_free": m.unknown_is_free,
             }
+            if m.floor_plan is not None:
+                plan = m.floor_plan
+                view["floor_plan"] = {
+                    "name": plan.name,
+                    "origin_m": list(plan.origin_m),
+                    "resolution_m": plan.resolution_m,
+                    "width": plan.width,
+                    "height": plan.height,
+                    "cells": plan.occupancy().counts(),
+                    "image": f"/api/map/image?version={self.map_version}",
+                }
+            return view
+
+    def floor_plan(self) -> OccupancyMap | None:
+        with self._lock:
+            plan = self.settings.map.floor_plan
+            return plan.occupancy() if plan is not None else None
 
     def set_obstacle(self, x: float, y: float, present: bool) -> dict[str, Any]:
         """Adds or removes the obstacle at the node nearest (x, y), and saves the map."""
+        added, removed = ([(x, y)], []) if present else ([], [(x, y)])
+        return self.change_obstacles(added, removed, "an obstacle was " + ("added" if present else "removed"))
+
+    def change_obstacles(self, add: Sequence[Point], remove: Sequence[Point], why: str) -> dict[str, Any]:
+        """Adds and removes obstacles at the nodes nearest the points (all or nothing: OffMap for
+        a point off the map changes nothing), saves the map and, during a mission, replans if
+        the rest of the path is blocked now."""
         with self._lock:
-            if present:
-                self.planner.add_obstacle(x, y)
-            else:
-                self.planner.remove_obstacle(x, y)
-            nodes = sorted(self.planner.obstacles)
-            self.settings = self.settings.model_copy(
-                update={"map": self.settings.map.model_copy(update={"obstacles": nodes})}
-            )
-            self.store.save(self.settings)
+            grid = self.planner.grid
+            added = {grid.nearest_node(x, y) for x, y in add}
+            removed = {grid.nearest_node(x, y) for x, y in remove} - added
+            before = self.planner.obstacles
+            nodes = sorted((before - removed) | added)
+            if set(nodes) != before:
+                self.planner.set_obstacles(nodes)
+                self.settings = self.settings.model_copy(
+                    update={"map": self.settings.map.model_copy(update={"obstacles": nodes})}
+                )
+                self.store.save(self.settings)
+                self._map_changed(why)
             return self.map_view()
 
-    def update_settings(self, settings: GatewaySettings) -> None:
+    def load_floor_plan(
+        self,
+        occupancy: OccupancyMap,
+        name: str = "",
+        planning_step_m: float | None = None,
+        unknown_is_free: bool = False,
+    ) -> dict[str, Any]:
+        """Plans on this floor plan from now on (the user's obstacles are cleared), saves it and,
+        in simulation, makes its walls the simulated world's."""
+        floor = FloorPlan.of(occupancy, name)
+        m = MapSettings.model_validate(
+            {"floor_plan": floor, "planning_step_m": planning_step_m, "unknown_is_free": unknown_is_free}
+        )
+        self.update_settings(
+            self.settings.model_copy(update={"map": m}), f"the floor plan {name!r} was loaded"
+        )
+        return self.map_view()
+
+    def update_settings(self, settings: GatewaySettings, why: str = "new settings were loaded") -> None:
         """Replaces the gateway's settings (a new map takes effect now) and saves them."""
         with self._lock:
-            planner = self._planner_for(settings.map)  # validates the map before anything changes
+            planner = planner_for(settings.map)  # validates the map before anything changes
             self.store.save(settings)
+            new_map = settings.map != self.settings.map
             self.settings = settings
             self.planner = planner
+            if new_map:
+                self._sync_world()
+                self._map_changed(why)
+
+    def _sync_world(self) -> None:
+        """The simulator's walls follow the map (and do so again after a restart)."""
+        if self.sim is None:
+            return
+        world = world_for(self.settings.map)
+        self.sim.options.world = world
+        if self.sim.running():
+            try:
+                self.sim.set_world(world)
+            except SimulatorError as exc:
+                log.warning("the simulator's walls could not follow the map: %s", exc)
+
+    def _map_changed(self, why: str) -> None:
+        """Tells viewers, and replans a driven path the change blocks (lock held)."""
+        self.map_version += 1
+        self._publish({"type": "map", "version": self.map_version, "why": why})
+        if self.mission.state == "driving" and self.mission.route:
+            self._check_route(f"the map changed: {why}")
 
     # -- motion ------------------------------------------------------------------------------
     def go_to(self, x: float, y: float, token: int | None = None) -> Plan:
@@ -262,20 +331,133 @@ class Gateway:
                     f"{firmware.MAX_PATH_POINTS}: remove obstacles or pick a nearer goal"
                 )
             plan = self._rounded(plan, firmware.MAX_PATH_POINTS)
-            # The old path's stream stops before the new path replaces it: an append of the old
-            # path must never reach the new one (docs/protocol.md, Paths and the waypoint window).
-            self._cancel_stream()
-            self._stream = firmware.upload_path(self.link, plan.waypoints, token)
+            self._send_route(plan, token)
             if self.routine.state == "running":
                 self._end_routine("failed", "a path replaced it before it squared up")
             self.mission = Mission(
-                state="driving", goal=(x, y), started_s=time.monotonic(), plan=self.plan_view(plan)
+                state="driving",
+                goal=(x, y),
+                started_s=time.monotonic(),
+                plan=self.plan_view(plan),
+                token=token,
+                route_start=plan.start,
+                route=plan.waypoints,
             )
             if self.link.stopped_since(token):  # the stop went right after the last frame
                 self._end_mission("failed", "stopped by the user")
                 raise MotionCancelled("the path was sent as a stop came: the stop ended it")
         self._publish({"type": "mission", **self.mission_view()})
         return plan
+
+    def _send_route(self, plan: Plan, token: int | None) -> None:
+        """Sends the plan's waypoints as the firmware's path (lock held). The old path's stream
+        stops before the new path replaces it: an append of the old path must never reach the
+        new one (docs/protocol.md, Paths and the waypoint window)."""
+        self._cancel_stream()
+        self._stream = firmware.upload_path(self.link, plan.waypoints, token)
+        self._frames_at_route = self.link.telemetry_count
+
+    # -- replanning ---------------------------------------------------------------------------
+    def _check_route(self, why: str) -> None:
+        """Checks the rest of the driven route against the map now (the planner's own check:
+        footprint plus clearance); replans from the measured pose if it is blocked (lock held)."""
+        mission = self.mission
+        try:
+            status = self.read_status()
+            pose = self._pose()
+        except (LinkError, CommandRefused) as exc:
+            log.warning("the path could not be checked against the changed map: %s", exc)
+            return
+        if self.mission is not mission or mission.state != "driving" or status.mode != "PATH":
+            return  # ended meanwhile, or about to be ended by the monitor
+        here = (pose[0], pose[1])
+        ahead = RouteAhead.of(mission.route_start, mission.route, status.waypoint_index, here)
+        if ahead.blocked(self.planner.graph):
+            self._replan(why, here, ahead.entry)
+
+    def _check_off_path(self) -> None:
+        """Replans when telemetry shows the cart off its route by more than robot.toml's
+        [planning] off_path_replan_m (at most once per off_path_replan_interval_s)."""
+        limits = robot()["planning"]
+        frame = self.link.telemetry
+        with self._lock:
+            mission = self.mission
+            if mission.state != "driving" or not mission.route or frame is None:
+                return
+            # a frame sent before the route was: its waypoint index is another path's
+            if (
+                self.link.telemetry_count <= self._frames_at_route + 1
+                or firmware.mode_name(frame.mode) != "PATH"
+            ):
+                return
+            if time.monotonic() - max(mission.started_s, mission.last_replan_s) < float(
+                limits["off_path_replan_interval_s"]
+            ):
+                return
+            here = (frame.x, frame.y)
+            ahead = RouteAhead.of(mission.route_start, mission.route, int(frame.waypoint_index), here)
+            off_m = ahead.distance(here)
+            if off_m > float(limits["off_path_replan_m"]):
+                self._replan(f"the cart was {off_m:.2f} m off its path", here, ahead.entry)
+
+    def _replan(self, reason: str, pose: Point, entry: Point) -> None:
+        """Plans again from the measured pose to the mission's goal and replaces the firmware's
+        path with it (WAIT_XY_ARRAY: atomic, the speed carried on through the acceleration
+        limits); with no path left, stops the cart and fails the mission with the reason (lock
+        held). A cart within its clearance of an obstacle (it follows its path within that) is
+        planned from the nearest point of its route."""
+        mission = self.mission
+        goal = mission.goal
+        assert goal is not None
+        started = time.perf_counter()
+        try:
+            try:
+                plan = self.planner.plan(pose, goal)
+            except StartBlocked:
+                plan = self.planner.plan(entry, goal)
+            plan = self._rounded(plan, firmware.MAX_PATH_POINTS)
+        except PlanError as exc:
+            self._record_replan(mission, reason, time.perf_counter() - started, None, str(exc))
+            with contextlib.suppress(LinkError, CommandRefused):
+                self.link.stop()
+            self._cancel_stream()
+            log.warning("%s, and no path remains: %s", reason, exc)
+            self._end_mission("failed", f"{reason}, and no path remains: {exc}")
+            return
+        plan_time_s = time.perf_counter() - started
+        try:
+            self._send_route(plan, mission.token)
+        except MotionCancelled:
+            self._end_mission("failed", "stopped by the user")
+            return
+        except (LinkError, CommandRefused) as exc:
+            with contextlib.suppress(LinkError, CommandRefused):
+                self.link.stop()
+            self._end_mission("failed", f"{reason}; the new path could not be sent: {exc}")
+            return
+        mission.generation += 1
+        mission.route_start, mission.route = plan.start, plan.waypoints
+        mission.plan = self.plan_view(plan)
+        self._record_replan(mission, reason, plan_time_s, plan, "replanned")
+        log.info("%s: replanned in %.3f s, %.2f m to go", reason, plan_time_s, plan.length_m)
+        self._publish({"type": "mission", **self.mission_view()})
+
+    def _record_replan(
+        self, mission: Mission, reason: str, plan_time_s: float, plan: Plan | None, outcome: str
+    ) -> None:
+        now = time.monotonic()
+        replan = Replan(
+            reason=reason,
+            at_s=now - mission.started_s,
+            sim_t=self._last_truth_t if self.sim is not None else None,
+            plan_time_s=plan_time_s,
+            length_m=plan.length_m if plan is not None else 0.0,
+            waypoints=len(plan.waypoints) if plan is not None else 0,
+            outcome=outcome,
+        )
+        mission.replans.append(replan)
+        mission.last_replan_s = now
+        self._publish({"type": "replan", **asdict(replan)})
 
     @property
     def waypoint_capacity(self) -> int:
@@ -304,6 +486,7 @@ class Gateway:
     @staticmethod
     def plan_view(plan: Plan) -> dict[str, Any]:
         return {
+            "start": list(plan.start),
             "waypoints": [list(p) for p in plan.waypoints],
             "grid_path": [list(p) for p in plan.path],
             "length_m": plan.length_m,
@@ -359,6 +542,7 @@ class Gateway:
                 "reason": m.reason,
                 "elapsed_s": round(elapsed, 3),
                 "plan": m.plan,
+                "replans": [asdict(r) for r in m.replans],
             }
 
     def _end_mission(self, state: str, reason: str) -> None:
@@ -639,26 +823,32 @@ class Gateway:
             if self._stop.is_set() or not self.link.connected.is_set():
                 continue
             with self._lock:  # a STATUS asked for before a new path or routine says nothing about it
-                mission, routine = self.mission, self.routine
+                mission, routine, generation = self.mission, self.routine, self.mission.generation
             try:
                 status = self.read_status()
-                self._follow(status, mission, routine)
+                self._follow(status, mission, routine, generation)
+                self._check_off_path()
             except (LinkError, CommandRefused):
                 continue  # the link is reconnecting: the firmware keeps driving on its own
 
-    def _follow(self, status: firmware.Status, mission: Mission, routine: Routine) -> None:
+    def _follow(
+        self, status: firmware.Status, mission: Mission, routine: Routine, generation: int = 0
+    ) -> None:
         """Ends `mission` or `routine` (those running when `status` was asked for) when `status`
         shows their end. A path or routine started while the STATUS was on its way is a new
-        object: the stale IDLE of before it must not end it."""
+        object, and a replan a new generation of the mission: the stale IDLE of before it must
+        not end it."""
         outcome = status.path_outcome()
         with self._lock:
-            stream = self._stream if self.mission is mission and mission.state == "driving" else None
+            current = self.mission is mission and mission.generation == generation
+            stream = self._stream if current and mission.state == "driving" else None
         if outcome is None and stream is not None and stream.failure:
             outcome = f"the path could not be streamed to the firmware: {stream.failure}"
             with contextlib.suppress(LinkError, CommandRefused):
                 self.link.call("STOP")  # the cart waits at the end of the points it has: stop it
         with self._lock:
-            if outcome is not None and self.mission is mission and mission.state == "driving":
+            current = self.mission is mission and mission.generation == generation
+            if outcome is not None and current and mission.state == "driving":
                 self._end_mission("failed" if outcome else "arrived", outcome)
         if routine.state != "running" or status.mode == "RESET_ROUTINE":
             return

@@ -9,7 +9,7 @@ import signal
 from dataclasses import dataclass, field
 from typing import Any
 
-from cart2d.planner import PlanError
+from cart2d.planning import PlanError
 
 
 class PathTooLong(PlanError):
@@ -85,6 +85,15 @@ class Mission:
     plan: dict[str, Any] | None = field(default=None, repr=False)
     # Ended by a stop with its path still in the firmware: a START resumes it (Gateway.command).
     resumable: bool = False
+    # The route in the firmware: where it started and its waypoints as sent; the stop generation
+    # of the request that began the mission (a replan sent after a stop is refused); a count of
+    # the paths sent (a STATUS asked for before a replacement says nothing about it); replans.
+    token: int | None = None
+    route_start: tuple[float, float] = (0.0, 0.0)
+    route: tuple[tuple[float, float], ...] = ()
+    generation: int = 0
+    replans: list[Any] = field(default_factory=list, repr=False)
+    last_replan_s: float = 0.0
 
 
 @dataclass(frozen=True)

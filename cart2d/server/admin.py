@@ -16,7 +16,7 @@ from cart2d import faults as fault_table
 from cart2d.gateway import Gateway, backup
 from cart2d.link import LinkError
 from cart2d.server.addresses import address_problem
-from cart2d.server.models import errors, inline_refs, read_body
+from cart2d.server.models import MAX_MAP_BODY_BYTES, errors, inline_refs, read_body
 from cart2d.simulator import SimulatorError
 from cart2d.store import Integer, NetworkSettings, SettingsFile, gateway_part, parse_settings
 
@@ -103,14 +103,15 @@ def add_admin_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
         "`firmware` says what changed. A file without them leaves the firmware's as they are.",
         responses=errors(401, 422, 503),
         openapi_extra={
+            "x-max-body-bytes": MAX_MAP_BODY_BYTES,  # it may carry a floor plan
             "requestBody": {
                 "required": True,
                 "content": {"application/json": {"schema": inline_refs(SettingsFile.model_json_schema())}},
-            }
+            },
         },
     )
     async def import_settings(request: Request) -> dict[str, Any]:
-        body = await read_body(request)
+        body = await read_body(request, MAX_MAP_BODY_BYTES)
         try:
             file = parse_settings(body)
         except ValueError as exc:

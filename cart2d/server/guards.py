@@ -12,7 +12,8 @@
   or not; else 415. No HTML form, sendBeacon, ping or no-cors fetch can send these types without a
   CORS preflight, which this gateway never grants: the defence holds even in a browser that sent
   no Origin.
-- The **body** is counted as it streams and cut at the limit (413) before any handler or the token
+- The **body** is counted as it streams and cut at the limit (413: 256 KiB, or the operation's
+  `x-max-body-bytes`, the map uploads' 8 MiB) before any handler or the token
   check has read it, and must arrive within a time limit (408). A response sent before the whole
   body was read closes the connection, so the rest is never read.
 """
@@ -200,6 +201,14 @@ def cross_origin_refusal(headers: Headers, scheme: str) -> Refusal | None:
     return None
 
 
+def body_limit(route: APIRoute | None, default: int) -> int:
+    """The most bytes an operation's body may have: its OpenAPI `x-max-body-bytes` (a map upload,
+    a settings file with its floor plan), else `default`."""
+    extra = (route.openapi_extra or {}) if route is not None else {}
+    limit = extra.get("x-max-body-bytes", default)
+    return int(limit) if isinstance(limit, int) else default
+
+
 def body_types(route: APIRoute) -> frozenset[str]:
     """The content types an operation takes: its documented requestBody's, else JSON."""
     body = (route.openapi_extra or {}).get("requestBody", {})
@@ -236,7 +245,8 @@ class RequestGuard:
         if scope["type"] == "websocket":
             await self.app(scope, receive, send)
             return
-        await BodyLimit(self.app, scope, receive, send, self.max_body_bytes, self.body_timeout_s).run()
+        limit = body_limit(self.route_of(scope), self.max_body_bytes)
+        await BodyLimit(self.app, scope, receive, send, limit, self.body_timeout_s).run()
 
     def refusal(self, scope: Scope, headers: Headers) -> Refusal | None:
         host = headers.get("host")

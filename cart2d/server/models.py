@@ -12,7 +12,10 @@ from cart2d.link.protocol import MAX_ARGS
 from cart2d.spec import load_spec
 from cart2d.store import Integer
 
-MAX_BODY_BYTES = 256 * 1024  # the largest request: an imported settings file
+MAX_BODY_BYTES = 256 * 1024  # the largest request but a map's
+# A floor plan: a map upload (a 2000 x 2000 PGM is 4 MB, 5.3 MB in base64) or a settings file
+# that carries one.
+MAX_MAP_BODY_BYTES = 8 * 1024 * 1024
 # Numbers the firmware accepts (docs/protocol.md): finite, magnitude below 2^20.
 Number = Annotated[float, Field(allow_inf_nan=False, gt=-1048576.0, lt=1048576.0)]
 
@@ -30,11 +33,12 @@ ERRORS = {
     400: "the body is not readable (not UTF-8 JSON)",
     401: "the access token is missing or wrong (a gateway bound off loopback)",
     403: "a change from another origin or site (a web page elsewhere): refused, see SECURITY.md",
-    404: "not here: the simulator's faults on a gateway that drives a real cart",
+    404: "not here: the simulator's faults on a gateway that drives a real cart, or a floor plan's image "
+    "while the map is a grid of nodes",
     408: "the request body did not arrive in time",
     409: "the firmware refused the command (a value out of its range, busy, wrong mode), or the gateway "
     "does not trust the pose since the controller restarted",
-    413: f"the request body is over {MAX_BODY_BYTES} bytes",
+    413: f"the request body is over {MAX_BODY_BYTES} bytes ({MAX_MAP_BODY_BYTES} for a map or settings file)",
     415: "a change not sent with the content type its operation takes (application/json unless "
     "documented otherwise), even without a body",
     421: "the Host header does not name this gateway (DNS rebinding): refused, see SECURITY.md",
@@ -44,11 +48,11 @@ ERRORS = {
 }
 
 
-async def read_body(request: Request) -> bytes:
-    """The request's body, or 413 when over MAX_BODY_BYTES (a chunked body has no Content-Length)."""
+async def read_body(request: Request, limit: int = MAX_BODY_BYTES) -> bytes:
+    """The request's body, or 413 when over `limit` (a chunked body has no Content-Length)."""
     body = await request.body()
-    if len(body) > MAX_BODY_BYTES:
-        raise HTTPException(413, f"request body over {MAX_BODY_BYTES} bytes")
+    if len(body) > limit:
+        raise HTTPException(413, f"request body over {limit} bytes")
     return body
 
 
@@ -119,3 +123,42 @@ class DriveIn(Strict):
 class SettingIn(Strict):
     id: Integer = Field(ge=0, le=255, description="stable setting id (config/robot.toml)")
     value: Number
+
+
+class MapUploadIn(Strict):
+    """A floor plan: a ROS map_server map (its .yaml's text and the image it names), or a plain
+    image with its resolution. Up to 2000 x 2000 cells."""
+
+    image: str = Field(
+        min_length=1,
+        max_length=MAX_MAP_BODY_BYTES,
+        description="base64 of the image file: PGM or PNG (any 8-bit format Pillow reads); dark is "
+        "occupied, light free, between unknown (map_server's trinary thresholds); at most 2000 x 2000 "
+        "pixels",
+    )
+    yaml: str | None = Field(
+        None,
+        max_length=64 * 1024,
+        description="the map_server .yaml's text (resolution, origin, negate, occupied_thresh, free_thresh, "
+        "mode trinary); its `image` names the file sent as `image`. Without it, `resolution_m` is needed",
+    )
+    name: str = Field("", max_length=200, description="a name for the map (its file name)")
+    resolution_m: float | None = Field(
+        None, gt=0.0, le=10.0, allow_inf_nan=False, description="a plain image's cell side, m"
+    )
+    origin_m: list[Number] = Field(
+        default_factory=lambda: [0.0, 0.0],
+        min_length=2,
+        max_length=2,
+        description="[x, y]: a plain image's lower-left corner, m (the YAML gives a map_server map's)",
+    )
+    negate: bool = Field(False, description="a plain image: light is occupied, dark free")
+    planning_step_m: float | None = Field(
+        None,
+        ge=0.01,
+        le=10.0,
+        allow_inf_nan=False,
+        description="plan on blocks of cells at most this wide (default: half the planning radius); a block "
+        "is occupied if any of its cells is, so no obstacle is lost",
+    )
+    unknown_is_free: bool = Field(False, description="plan through unknown cells (default: blocked)")

@@ -11,16 +11,31 @@ export interface Arena {
   y_max: number;
 }
 
+export interface FloorPlanView {
+  name: string;
+  origin_m: Point; // the lower-left corner of cell (0, 0)
+  resolution_m: number;
+  width: number;
+  height: number;
+  cells: { free: number; occupied: number; unknown: number };
+  image: string; // the PNG's URL
+}
+
 export interface MapView {
+  version?: number;
   cols: number;
   rows: number;
   step_m: number;
+  origin_m?: Point; // node (0, 0)
   footprint_radius_m: number;
   arena: Arena;
   obstacles: Point[];
+  floor_plan?: FloorPlanView | null;
+  unknown_is_free?: boolean;
 }
 
 export interface Plan {
+  start?: Point;
   waypoints: Point[];
   grid_path: Point[];
   length_m: number;
@@ -144,7 +159,8 @@ export type LiveMessage =
   | ({ type: "mission" } & MissionView)
   | ({ type: "reset"; pose_trust: PoseTrust } & ResetReport)
   | ({ type: "pose_trust"; how: string } & PoseTrust)
-  | ({ type: "routine" } & RoutineView);
+  | ({ type: "routine" } & RoutineView)
+  | { type: "map"; version: number; why: string };
 
 /** A failed request, with the gateway's {"detail": ...} (or what went wrong) as its message. */
 export class ApiError extends Error {

@@ -17,7 +17,8 @@ import {
   type StatusView,
 } from "./api";
 import { Joystick, type Stick } from "./joystick";
-import { LiveMap } from "./map";
+import { LiveMap, type MapMode, type Pose } from "./map";
+import { uploadBody, uploadMap } from "./map_upload";
 import { parseNumber } from "./parse";
 import { GatewayPanel } from "./admin";
 import { byId as $, say } from "./dom";
@@ -188,24 +189,68 @@ async function pollStatus(): Promise<void> {
 }
 
 // -- map and mission ---------------------------------------------------------------------------
-type MapMode = "obstacle" | "goto";
 const canvas = $<HTMLCanvasElement>("map");
-const liveMap = new LiveMap(canvas, (world, node) => void mapClick(world, node));
+const liveMap = new LiveMap(
+  canvas,
+  { click: (world, node) => void mapClick(world, node), setPose: (p) => void setPoseFromMap(p) },
+  $("map-cursor"),
+);
 let mapMode: MapMode = "obstacle";
 let missionState = "";
+const MAP_HINTS: Record<MapMode, string> = {
+  obstacle: "Click a node to add or remove an obstacle. Wheel or pinch to zoom, drag to pan.",
+  goto: "Click a point to send the robot there (planned around the obstacles).",
+  pose: "Press where the cart is and drag the way it faces, then release: that sets its pose.",
+};
 
 for (const radio of document.querySelectorAll<HTMLInputElement>('input[name="map-mode"]')) {
   radio.addEventListener("change", () => {
     if (!radio.checked) return;
-    mapMode = radio.value === "goto" ? "goto" : "obstacle";
+    mapMode = radio.value === "goto" || radio.value === "pose" ? radio.value : "obstacle";
+    liveMap.mode = mapMode;
     canvas.dataset["mode"] = mapMode;
-    $("map-hint").textContent =
-      mapMode === "goto"
-        ? "Click a point to send the robot there (planned around the obstacles)."
-        : "Click a node to add or remove an obstacle.";
+    $("map-hint").textContent = MAP_HINTS[mapMode];
   });
 }
 canvas.dataset["mode"] = mapMode;
+$("map-zoom-in").addEventListener("click", () => liveMap.zoomIn());
+$("map-zoom-out").addEventListener("click", () => liveMap.zoomOut());
+$("map-fit").addEventListener("click", () => liveMap.fit());
+
+async function setPoseFromMap(p: Pose): Promise<void> {
+  try {
+    await api("POST", "/api/pose", { x: round3(p.x), y: round3(p.y), theta: round3(p.theta) });
+    liveMap.hidePlan(); // planned from the pose before
+    liveMap.clearTrails();
+    notify(`Pose set to (${p.x.toFixed(2)}, ${p.y.toFixed(2)}), facing ${((p.theta * 180) / Math.PI).toFixed(0)}°.`, "info");
+  } catch (err) {
+    notify(errorText(err));
+  }
+}
+
+const round3 = (v: number): number => Math.round(v * 1000) / 1000;
+
+const mapFile = $<HTMLInputElement>("map-file");
+mapFile.addEventListener("change", () => void loadFloorPlan());
+async function loadFloorPlan(): Promise<void> {
+  const files = [...(mapFile.files ?? [])];
+  mapFile.value = "";
+  if (!files.length) return;
+  const body = await uploadBody(files, $<HTMLInputElement>("map-resolution").value);
+  if (typeof body === "string") {
+    notify(body);
+    return;
+  }
+  try {
+    const view = await uploadMap(body);
+    liveMap.setMap(view);
+    liveMap.fit();
+    const plan = view.floor_plan;
+    notify(plan ? `Loaded ${plan.name}: ${plan.width} × ${plan.height} cells of ${plan.resolution_m} m.` : "Map loaded.", "info");
+  } catch (err) {
+    notify(errorText(err));
+  }
+}
 
 async function loadMap(): Promise<void> {
   try {
@@ -260,9 +305,8 @@ gotoForm.addEventListener("submit", (e) => {
 });
 
 function renderMission(m: MissionView, fromStream: boolean): void {
-  liveMap.plan = m.plan;
-  liveMap.goal = m.goal;
-  liveMap.invalidate();
+  liveMap.setPlan(m.plan, m.goal);
+  liveMap.driving = m.state === "driving";
   $("mission-state").textContent = m.state;
   document.body.dataset["mission"] = m.state;
   const at = m.goal ? `(${m.goal[0].toFixed(2)}, ${m.goal[1].toFixed(2)})` : "";
@@ -330,6 +374,10 @@ function onMessage(msg: LiveMessage): void {
       break;
     case "reset":
       restartNotice.onReset(msg, msg.pose_trust);
+      liveMap.hidePlan(); // the plan's pose is gone
+      break;
+    case "map":
+      if (msg.version !== liveMap.map?.version) void loadMap();
       break;
     case "pose_trust":
       restartNotice.onPoseTrust(msg, msg.how);
@@ -631,9 +679,26 @@ async function sendCommand(c: ProtocolCommand, args: number[]): Promise<void> {
             .join(", ");
     $("cmd-message").textContent = reply.message || "–";
     cmdMsg.textContent = `${c.name} answered.`;
+    if (reply.status === "CONTROL_OK") showRawPath(c.name, args);
   } catch (err) {
     say(cmdMsg, errorText(err), true);
   }
+}
+
+/** A path sent past the planner (GOTO, WAIT_XY_ARRAY from this form) is drawn, with a warning. */
+function showRawPath(name: string, args: number[]): void {
+  let points: Point[] = [];
+  if (name === "GOTO" && args.length >= 2) points = [[args[0] ?? 0, args[1] ?? 0]];
+  if (name === "WAIT_XY_ARRAY") {
+    for (let k = 1; k + 1 < args.length; k += 2) points.push([args[k] ?? 0, args[k + 1] ?? 0]);
+  }
+  if (name === "SET_POSE" || name === "RESET") liveMap.hidePlan();
+  if (!points.length) return;
+  liveMap.setRawPath(points);
+  const warning = $("map-warning");
+  warning.hidden = false;
+  warning.textContent = `The path sent with ${name} bypasses the planner: nothing checks it against the obstacles or the walls.`;
+  notify(warning.textContent, "info");
 }
 
 // -- plots -------------------------------------------------------------------------------------

@@ -1,14 +1,19 @@
-// The live map on a canvas: grid nodes, obstacles (with the footprint they keep the cart's centre
-// out of), the planned path and current waypoint, the goal, the robot's pose and footprint from
-// odometry with its trail, and, in simulation, the true pose and its trail beside it.
+// The live map on a canvas: the floor plan (walls, unknown space shaded), grid nodes, obstacles as
+// the cells they fill (with the footprint they keep the cart's centre out of), the planned path
+// and current waypoint, the goal, a raw path sent past the planner, the robot's pose and
+// footprint from odometry with its trail, and, in simulation, the true pose and its trail.
+// Axes in metres; zoom and pan with the wheel, a drag, a pinch or the buttons; fit-to-map; the
+// cursor's x, y; in "pose" mode a drag sets the pose (where the cart is, then the way it faces),
+// as RViz's 2D Pose Estimate.
 //
 // The canvas publishes its world-to-screen transform as data attributes (data-origin-x,
-// data-origin-y: CSS pixels of the world's (0, 0); data-scale: CSS pixels per metre), so tools
-// and tests can find a node without reverse-engineering the drawing; data-arena is the walls it
-// draws ("x_min y_min x_max y_max", metres), all inside the drawn extent.
+// data-origin-y: CSS pixels of the world's (0, 0); data-scale: CSS pixels per metre), updated at
+// every zoom and pan, so tools and tests can find a node without reverse-engineering the drawing;
+// data-arena is the walls it draws ("x_min y_min x_max y_max", metres).
 
 import type { Arena, MapView, Plan, Point } from "./api";
 import { cssVar } from "./dom";
+import { AXIS_BOTTOM_PX, Viewport, drawAxes } from "./map_view";
 
 export interface Pose {
   x: number;
@@ -16,44 +21,80 @@ export interface Pose {
   theta: number;
 }
 
+export type MapMode = "obstacle" | "goto" | "pose";
+
+export interface MapActions {
+  click: (world: Point, node: Point | null) => void;
+  setPose: (pose: Pose) => void;
+}
+
 const TRAIL_MAX = 3000;
 const TRAIL_MIN_STEP_M = 0.004;
 const PAD_M = 0.3; // room around the nodes when the gateway gives no walls
 const WALL_PAD_M = 0.04; // room outside the walls for their line width
+const DRAG_PX = 4; // a press that moves less is a click
+const WHEEL_ZOOM = 0.0015; // per wheel delta unit (pixels)
+const BUTTON_ZOOM = 1.5;
+const MAX_NODE_DOTS = 20000;
+const MAX_KEEPOUT_DISCS = 2000;
+
+// map_server's trinary grey levels in the floor plan's PNG (cart2d/maps/ros.py)
+const PNG_OCCUPIED = 0;
+const PNG_UNKNOWN = 205;
+
+interface Press {
+  id: number;
+  x: number;
+  y: number;
+}
 
 export class LiveMap {
   map: MapView | null = null;
   plan: Plan | null = null;
   goal: Point | null = null;
   waypointIndex = -1;
+  driving = false;
+  mode: MapMode = "obstacle";
   pose: Pose | null = null;
   truth: Pose | null = null;
+  private rawPath: Point[] | null = null;
+  private hiddenPlan = ""; // a plan not to draw again (from before a reset or a new pose)
   private readonly trail: Point[] = [];
   private readonly truthTrail: Point[] = [];
   private obstacleKeys = new Set<string>();
-  private scale = 1;
-  private ox = 0;
-  private oy = 0;
+  private readonly view = new Viewport();
+  private cssW = 200;
+  private cssH = 200;
   private dirty = true;
   private hover: Point | null = null;
+  private floor: HTMLCanvasElement | null = null; // the floor plan, recoloured
+  private floorUrl = "";
+  private readonly presses = new Map<number, Press>();
+  private dragged = false;
+  private pinch = 0; // the distance between two pointers at the last move
+  private poseDrag: { from: Point; to: Point } | null = null;
 
   constructor(
     private readonly canvas: HTMLCanvasElement,
-    private readonly onClick: (world: Point, node: Point | null) => void,
+    private readonly actions: MapActions,
+    private readonly cursor: HTMLElement | null = null,
   ) {
     new ResizeObserver(() => this.resize()).observe(canvas.parentElement ?? canvas);
-    canvas.addEventListener("click", (e) => {
-      const world = this.toWorld(e.offsetX, e.offsetY);
-      this.onClick(world, this.nearestNode(world));
-    });
-    canvas.addEventListener("pointermove", (e) => {
-      this.hover = this.nearestNode(this.toWorld(e.offsetX, e.offsetY));
-      this.invalidate();
-    });
+    canvas.style.touchAction = "none"; // the map's own pinch and drag, not the page's
+    canvas.addEventListener("pointerdown", (e) => this.down(e));
+    canvas.addEventListener("pointermove", (e) => this.move(e));
+    canvas.addEventListener("pointerup", (e) => this.up(e));
+    canvas.addEventListener("pointercancel", (e) => this.cancel(e));
     canvas.addEventListener("pointerleave", () => {
       this.hover = null;
+      this.showCursor(null);
       this.invalidate();
     });
+    canvas.addEventListener("wheel", (e) => {
+      e.preventDefault();
+      this.view.zoomAt(e.offsetX, e.offsetY, Math.exp(-e.deltaY * WHEEL_ZOOM));
+      this.viewChanged();
+    }, { passive: false });
     const frame = (): void => {
       if (this.dirty) {
         this.dirty = false;
@@ -64,15 +105,50 @@ export class LiveMap {
     requestAnimationFrame(frame);
   }
 
+  // -- what is drawn -------------------------------------------------------------------------------
   setMap(map: MapView): void {
+    const newExtent = JSON.stringify(this.map?.arena) !== JSON.stringify(map.arena);
     this.map = map;
     this.obstacleKeys = new Set(map.obstacles.map(([x, y]) => this.key(x, y)));
     this.canvas.dataset["obstacles"] = String(map.obstacles.length);
+    this.canvas.dataset["mapVersion"] = String(map.version ?? 0);
+    const url = map.floor_plan?.image ?? "";
+    if (url !== this.floorUrl) {
+      this.floorUrl = url;
+      this.floor = null;
+      if (url) void this.loadFloor(url);
+    }
+    if (newExtent) this.view.fitted = true;
     this.resize();
   }
 
   hasObstacle(node: Point): boolean {
     return this.obstacleKeys.has(this.key(node[0], node[1]));
+  }
+
+  /** The mission's plan; a plan hidden by hidePlan() stays hidden until another one comes. */
+  setPlan(plan: Plan | null, goal: Point | null): void {
+    const key = plan ? JSON.stringify(plan.waypoints) : "";
+    this.plan = key && key === this.hiddenPlan ? null : plan;
+    this.goal = this.plan ? goal : null;
+    if (this.plan) this.rawPath = null;
+    this.invalidate();
+  }
+
+  /** Stops drawing the current plan (the pose it was planned from is gone: a reset, a new pose). */
+  hidePlan(): void {
+    if (this.plan) this.hiddenPlan = JSON.stringify(this.plan.waypoints);
+    this.plan = null;
+    this.goal = null;
+    this.rawPath = null;
+    this.invalidate();
+  }
+
+  /** A path sent straight to the firmware (GOTO, WAIT_XY_ARRAY): drawn, and marked as unplanned. */
+  setRawPath(points: Point[] | null): void {
+    this.rawPath = points && points.length ? points : null;
+    this.canvas.dataset["rawPath"] = String(this.rawPath?.length ?? 0);
+    this.invalidate();
   }
 
   setPose(pose: Pose): void {
@@ -97,9 +173,52 @@ export class LiveMap {
     this.dirty = true;
   }
 
+  // -- the view ------------------------------------------------------------------------------------
+  zoom(factor: number): void {
+    this.view.zoomAt(this.cssW / 2, (this.cssH - AXIS_BOTTOM_PX) / 2, factor);
+    this.viewChanged();
+  }
+
+  zoomIn(): void {
+    this.zoom(BUTTON_ZOOM);
+  }
+
+  zoomOut(): void {
+    this.zoom(1 / BUTTON_ZOOM);
+  }
+
+  fit(): void {
+    this.view.fit(this.extent(), this.cssW, this.cssH);
+    this.viewChanged();
+  }
+
+  toScreen(x: number, y: number): Point {
+    return this.view.toScreen(x, y);
+  }
+
+  toWorld(px: number, py: number): Point {
+    return this.view.toWorld(px, py);
+  }
+
+  /** The node within half a step of `p`, or null (outside the grid). */
+  nearestNode(p: Point): Point | null {
+    const m = this.map;
+    if (!m) return null;
+    const [ox, oy] = m.origin_m ?? [0, 0];
+    const i = Math.round((p[0] - ox) / m.step_m);
+    const j = Math.round((p[1] - oy) / m.step_m);
+    if (i < 0 || j < 0 || i >= m.cols || j >= m.rows) return null;
+    const nx = ox + i * m.step_m;
+    const ny = oy + j * m.step_m;
+    if (Math.max(Math.abs(p[0] - nx), Math.abs(p[1] - ny)) > m.step_m * 0.5) return null;
+    return [nx, ny];
+  }
+
   private key(x: number, y: number): string {
-    const step = this.map?.step_m ?? 1;
-    return `${Math.round(x / step)},${Math.round(y / step)}`;
+    const m = this.map;
+    const step = m?.step_m ?? 1;
+    const [ox, oy] = m?.origin_m ?? [0, 0];
+    return `${Math.round((x - ox) / step)},${Math.round((y - oy) / step)}`;
   }
 
   /** The walls, or (an older gateway) the nodes' bounding box with PAD_M around it. */
@@ -111,7 +230,7 @@ export class LiveMap {
     return { x_min: -PAD_M, y_min: -PAD_M, x_max: w + PAD_M, y_max: h + PAD_M };
   }
 
-  /** The world rectangle drawn: the arena and a little room for the walls' line. */
+  /** The world rectangle fitted: the arena and a little room for the walls' line. */
   private extent(): Arena {
     const a = this.arena();
     return {
@@ -129,153 +248,200 @@ export class LiveMap {
     const w = e.x_max - e.x_min;
     const h = e.y_max - e.y_min;
     const cssW = Math.max(200, parent.clientWidth);
-    const cssH = Math.min(cssW * (h / w), Math.max(260, window.innerHeight * 0.7));
+    const cssH = Math.min(cssW * (h / w) + AXIS_BOTTOM_PX, Math.max(260, window.innerHeight * 0.7));
     const dpr = window.devicePixelRatio || 1;
+    this.cssW = cssW;
+    this.cssH = cssH;
     this.canvas.style.width = `${cssW}px`;
     this.canvas.style.height = `${cssH}px`;
     this.canvas.width = Math.round(cssW * dpr);
     this.canvas.height = Math.round(cssH * dpr);
-    this.scale = Math.min(cssW / w, cssH / h);
-    // centre the world in the canvas; y grows upwards
-    this.ox = (cssW - w * this.scale) / 2 - e.x_min * this.scale;
-    this.oy = cssH - (cssH - h * this.scale) / 2 + e.y_min * this.scale;
+    if (this.view.fitted) this.view.fit(e, cssW, cssH);
     const a = this.arena();
     this.canvas.dataset["arena"] = [a.x_min, a.y_min, a.x_max, a.y_max].map((v) => v.toFixed(3)).join(" ");
-    this.canvas.dataset["originX"] = this.ox.toFixed(2);
-    this.canvas.dataset["originY"] = this.oy.toFixed(2);
-    this.canvas.dataset["scale"] = this.scale.toFixed(4);
+    this.viewChanged();
+  }
+
+  private viewChanged(): void {
+    this.canvas.dataset["originX"] = this.view.ox.toFixed(2);
+    this.canvas.dataset["originY"] = this.view.oy.toFixed(2);
+    this.canvas.dataset["scale"] = this.view.scale.toFixed(4);
+    this.canvas.dataset["fitted"] = String(this.view.fitted);
     this.invalidate();
   }
 
-  toScreen(x: number, y: number): Point {
-    return [this.ox + x * this.scale, this.oy - y * this.scale];
+  // -- pointers ------------------------------------------------------------------------------------
+  private down(e: PointerEvent): void {
+    if (e.button !== 0) return;
+    this.canvas.setPointerCapture(e.pointerId);
+    this.presses.set(e.pointerId, { id: e.pointerId, x: e.offsetX, y: e.offsetY });
+    if (this.presses.size === 1) {
+      this.dragged = false;
+      if (this.mode === "pose") {
+        const at = this.toWorld(e.offsetX, e.offsetY);
+        this.poseDrag = { from: at, to: at };
+      }
+    } else {
+      this.poseDrag = null; // a second finger: a pinch, not a pose
+      this.dragged = true;
+      this.pinch = this.spread();
+    }
   }
 
-  toWorld(px: number, py: number): Point {
-    return [(px - this.ox) / this.scale, (this.oy - py) / this.scale];
+  private move(e: PointerEvent): void {
+    const world = this.toWorld(e.offsetX, e.offsetY);
+    this.showCursor(world);
+    this.hover = this.mode === "obstacle" ? this.nearestNode(world) : null;
+    const press = this.presses.get(e.pointerId);
+    if (!press) {
+      this.invalidate();
+      return;
+    }
+    if (this.presses.size >= 2) {
+      press.x = e.offsetX;
+      press.y = e.offsetY;
+      const spread = this.spread();
+      if (this.pinch > 0 && spread > 0) {
+        const [cx, cy] = this.centre();
+        this.view.zoomAt(cx, cy, spread / this.pinch);
+        this.viewChanged();
+      }
+      this.pinch = spread;
+      return;
+    }
+    const dx = e.offsetX - press.x;
+    const dy = e.offsetY - press.y;
+    if (!this.dragged && Math.hypot(dx, dy) < DRAG_PX) return;
+    this.dragged = true;
+    if (this.poseDrag) {
+      this.poseDrag.to = world;
+      this.invalidate();
+      return;
+    }
+    this.view.pan(dx, dy);
+    press.x = e.offsetX;
+    press.y = e.offsetY;
+    this.viewChanged();
   }
 
-  /** The node within half a step of `p`, or null (outside the grid). */
-  nearestNode(p: Point): Point | null {
-    const m = this.map;
-    if (!m) return null;
-    const i = Math.round(p[0] / m.step_m);
-    const j = Math.round(p[1] / m.step_m);
-    if (i < 0 || j < 0 || i >= m.cols || j >= m.rows) return null;
-    const nx = i * m.step_m;
-    const ny = j * m.step_m;
-    if (Math.hypot(p[0] - nx, p[1] - ny) > m.step_m * 0.5) return null;
-    return [nx, ny];
+  private up(e: PointerEvent): void {
+    const press = this.presses.get(e.pointerId);
+    if (!press) return;
+    this.presses.delete(e.pointerId);
+    if (this.presses.size > 0) return; // the pinch goes on with one finger less
+    const world = this.toWorld(e.offsetX, e.offsetY);
+    const drag = this.poseDrag;
+    this.poseDrag = null;
+    if (drag) {
+      const [fx, fy] = drag.from;
+      const theta = this.dragged
+        ? Math.atan2(world[1] - fy, world[0] - fx)
+        : (this.pose?.theta ?? 0); // a click: the place, keeping the heading
+      this.actions.setPose({ x: fx, y: fy, theta });
+      this.invalidate();
+      return;
+    }
+    if (!this.dragged) this.actions.click(world, this.nearestNode(world));
   }
 
+  private cancel(e: PointerEvent): void {
+    this.presses.delete(e.pointerId);
+    this.poseDrag = null;
+    this.invalidate();
+  }
+
+  private spread(): number {
+    const [a, b] = [...this.presses.values()];
+    return a && b ? Math.hypot(a.x - b.x, a.y - b.y) : 0;
+  }
+
+  private centre(): Point {
+    const [a, b] = [...this.presses.values()];
+    return a && b ? [(a.x + b.x) / 2, (a.y + b.y) / 2] : [this.cssW / 2, this.cssH / 2];
+  }
+
+  private showCursor(world: Point | null): void {
+    if (!this.cursor) return;
+    if (!world) {
+      this.cursor.textContent = "x –  y –";
+      delete this.cursor.dataset["x"];
+      delete this.cursor.dataset["y"];
+      return;
+    }
+    const digits = this.view.scale > 500 ? 3 : 2;
+    const text = (v: number): string => (Number(v.toFixed(digits)) === 0 ? 0 : v).toFixed(digits); // no "-0.00"
+    this.cursor.textContent = `x ${text(world[0])} m  y ${text(world[1])} m`;
+    this.cursor.dataset["x"] = world[0].toFixed(4);
+    this.cursor.dataset["y"] = world[1].toFixed(4);
+  }
+
+  // -- the floor plan ------------------------------------------------------------------------------
+  private async loadFloor(url: string): Promise<void> {
+    const image = new Image();
+    image.src = url;
+    try {
+      await image.decode();
+    } catch {
+      return; // drawn without it; the next map message tries again
+    }
+    if (url !== this.floorUrl) return; // another map came meanwhile
+    const css = getComputedStyle(document.documentElement);
+    const occupied = rgb(cssVar("--map-obstacle", "#333", css));
+    const unknown = rgb(cssVar("--map-unknown", "#94a3b8", css));
+    const out = document.createElement("canvas");
+    out.width = image.naturalWidth;
+    out.height = image.naturalHeight;
+    const ctx = out.getContext("2d");
+    if (!ctx) return;
+    ctx.drawImage(image, 0, 0);
+    const pixels = ctx.getImageData(0, 0, out.width, out.height);
+    const d = pixels.data;
+    for (let k = 0; k < d.length; k += 4) {
+      const grey = d[k] ?? 255;
+      const colour = grey === PNG_OCCUPIED ? occupied : grey === PNG_UNKNOWN ? unknown : null;
+      if (colour) {
+        d[k] = colour[0];
+        d[k + 1] = colour[1];
+        d[k + 2] = colour[2];
+        d[k + 3] = grey === PNG_OCCUPIED ? 255 : 90; // unknown: shaded
+      } else {
+        d[k + 3] = 0;
+      }
+    }
+    ctx.putImageData(pixels, 0, 0);
+    this.floor = out;
+    this.canvas.dataset["floorPlan"] = `${out.width}x${out.height}`;
+    this.invalidate();
+  }
+
+  // -- drawing -------------------------------------------------------------------------------------
   private draw(): void {
     const ctx = this.canvas.getContext("2d");
     if (!ctx) return;
     const dpr = window.devicePixelRatio || 1;
     ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
-    const cssW = this.canvas.width / dpr;
-    const cssH = this.canvas.height / dpr;
+    const cssW = this.cssW;
+    const cssH = this.cssH;
     ctx.clearRect(0, 0, cssW, cssH);
     const m = this.map;
-    const s = this.scale;
+    const s = this.view.scale;
     const css = getComputedStyle(document.documentElement); // once per draw: dark mode changes it
     const colors = {
       node: cssVar("--map-node", "#9aa4b2", css),
       obstacle: cssVar("--map-obstacle", "#333", css),
       keepout: cssVar("--map-keepout", "rgba(200,60,60,0.12)", css),
       path: cssVar("--map-path", "#2a9d8f", css),
+      raw: cssVar("--map-raw", "#d97706", css),
       robot: cssVar("--map-robot", "#1d4ed8", css),
       truth: cssVar("--map-truth", "#e76f51", css),
       border: cssVar("--map-border", "#cbd5e1", css),
       wall: cssVar("--map-wall", "#475569", css),
+      text: cssVar("--muted", "#64748b", css),
+      band: cssVar("--map-axis-band", "rgba(127,127,127,0.08)", css),
     };
 
-    if (m) {
-      // the arena's walls: a solid outline, its inner edge on the wall
-      const a = this.arena();
-      const [wx0, wy0] = this.toScreen(a.x_min, a.y_min);
-      const [wx1, wy1] = this.toScreen(a.x_max, a.y_max);
-      const wallPx = 3;
-      ctx.strokeStyle = colors.wall;
-      ctx.lineWidth = wallPx;
-      ctx.strokeRect(wx0 - wallPx / 2, wy1 - wallPx / 2, wx1 - wx0 + wallPx, wy0 - wy1 + wallPx);
-
-      const [x0, y0] = this.toScreen(0, 0);
-      const [x1, y1] = this.toScreen((m.cols - 1) * m.step_m, (m.rows - 1) * m.step_m);
-      // the area the cart's centre may reach (the nodes' bounding box)
-      ctx.strokeStyle = colors.border;
-      ctx.lineWidth = 1;
-      ctx.strokeRect(x0, y1, x1 - x0, y0 - y1);
-
-      // keep-out discs, then obstacles
-      ctx.fillStyle = colors.keepout;
-      for (const [ox, oy] of m.obstacles) {
-        const [px, py] = this.toScreen(ox, oy);
-        ctx.beginPath();
-        ctx.arc(px, py, m.footprint_radius_m * s, 0, 2 * Math.PI);
-        ctx.fill();
-      }
-      const spacing = m.step_m * s;
-      if (spacing >= 5) {
-        ctx.fillStyle = colors.node;
-        const r = Math.min(3, spacing * 0.12);
-        for (let i = 0; i < m.cols; i++) {
-          for (let j = 0; j < m.rows; j++) {
-            const [px, py] = this.toScreen(i * m.step_m, j * m.step_m);
-            ctx.beginPath();
-            ctx.arc(px, py, r, 0, 2 * Math.PI);
-            ctx.fill();
-          }
-        }
-      }
-      ctx.fillStyle = colors.obstacle;
-      const half = Math.max(2, spacing * 0.3);
-      for (const [ox, oy] of m.obstacles) {
-        const [px, py] = this.toScreen(ox, oy);
-        ctx.fillRect(px - half, py - half, 2 * half, 2 * half);
-      }
-      if (this.hover) {
-        const [px, py] = this.toScreen(this.hover[0], this.hover[1]);
-        ctx.strokeStyle = colors.robot;
-        ctx.lineWidth = 1.5;
-        ctx.strokeRect(px - half - 2, py - half - 2, 2 * half + 4, 2 * half + 4);
-      }
-    }
-
-    // planned path: the grid path thin, the waypoints the firmware follows bold
-    if (this.plan) {
-      ctx.strokeStyle = colors.path;
-      ctx.setLineDash([4, 4]);
-      ctx.lineWidth = 1;
-      this.polyline(ctx, this.plan.grid_path);
-      ctx.setLineDash([]);
-      ctx.lineWidth = 2.5;
-      const start: Point[] = this.pose && this.waypointIndex <= 0 ? [[this.pose.x, this.pose.y]] : [];
-      this.polyline(ctx, [...start, ...this.plan.waypoints]);
-      ctx.fillStyle = colors.path;
-      this.plan.waypoints.forEach(([wx, wy], k) => {
-        const [px, py] = this.toScreen(wx, wy);
-        ctx.beginPath();
-        ctx.arc(px, py, k === this.waypointIndex ? 6 : 3.5, 0, 2 * Math.PI);
-        if (k === this.waypointIndex) {
-          ctx.lineWidth = 2;
-          ctx.stroke();
-        } else {
-          ctx.fill();
-        }
-      });
-    }
-    if (this.goal) {
-      const [gx, gy] = this.toScreen(this.goal[0], this.goal[1]);
-      ctx.strokeStyle = colors.path;
-      ctx.lineWidth = 2.5;
-      ctx.beginPath();
-      ctx.moveTo(gx - 7, gy - 7);
-      ctx.lineTo(gx + 7, gy + 7);
-      ctx.moveTo(gx + 7, gy - 7);
-      ctx.lineTo(gx - 7, gy + 7);
-      ctx.stroke();
-    }
+    if (m) this.drawMap(ctx, m, s, colors);
+    this.drawPaths(ctx, colors);
 
     const radius = (m?.footprint_radius_m ?? 0.17) * s;
     ctx.lineWidth = 1.5;
@@ -287,6 +453,136 @@ export class LiveMap {
     ctx.globalAlpha = 1;
     if (this.truth) this.robot(ctx, this.truth, radius, colors.truth, true);
     if (this.pose) this.robot(ctx, this.pose, radius, colors.robot, false);
+    if (this.poseDrag) {
+      const { from, to } = this.poseDrag;
+      const theta = Math.atan2(to[1] - from[1], to[0] - from[0]);
+      this.robot(ctx, { x: from[0], y: from[1], theta }, radius, colors.path, true);
+    }
+    drawAxes(ctx, this.view, cssW, cssH, { text: colors.text, grid: colors.text, band: colors.band });
+  }
+
+  private drawMap(
+    ctx: CanvasRenderingContext2D,
+    m: MapView,
+    s: number,
+    colors: Record<string, string>,
+  ): void {
+    const plan = m.floor_plan;
+    if (plan && this.floor) {
+      const [ox, oy] = plan.origin_m;
+      const [px, py] = this.toScreen(ox, oy + plan.height * plan.resolution_m);
+      ctx.imageSmoothingEnabled = false; // cells stay cells at any zoom
+      ctx.drawImage(this.floor, px, py, plan.width * plan.resolution_m * s, plan.height * plan.resolution_m * s);
+      ctx.imageSmoothingEnabled = true;
+    }
+    // the arena's walls: a solid outline, its inner edge on the wall
+    const a = this.arena();
+    const [wx0, wy0] = this.toScreen(a.x_min, a.y_min);
+    const [wx1, wy1] = this.toScreen(a.x_max, a.y_max);
+    const wallPx = 3;
+    ctx.strokeStyle = colors["wall"] ?? "#475569";
+    ctx.lineWidth = wallPx;
+    ctx.strokeRect(wx0 - wallPx / 2, wy1 - wallPx / 2, wx1 - wx0 + wallPx, wy0 - wy1 + wallPx);
+
+    const [gx, gy] = m.origin_m ?? [0, 0];
+    const [x0, y0] = this.toScreen(gx, gy);
+    const [x1, y1] = this.toScreen(gx + (m.cols - 1) * m.step_m, gy + (m.rows - 1) * m.step_m);
+    // the area the cart's centre may reach (the nodes' bounding box)
+    ctx.strokeStyle = colors["border"] ?? "#cbd5e1";
+    ctx.lineWidth = 1;
+    ctx.strokeRect(x0, y1, x1 - x0, y0 - y1);
+
+    if (m.obstacles.length <= MAX_KEEPOUT_DISCS) {
+      ctx.fillStyle = colors["keepout"] ?? "";
+      for (const [ox, oy] of m.obstacles) {
+        const [px, py] = this.toScreen(ox, oy);
+        ctx.beginPath();
+        ctx.arc(px, py, m.footprint_radius_m * s, 0, 2 * Math.PI);
+        ctx.fill();
+      }
+    }
+    const spacing = m.step_m * s;
+    const v = this.view.visible(this.cssW, this.cssH);
+    const i0 = Math.max(0, Math.floor((v.x_min - gx) / m.step_m));
+    const i1 = Math.min(m.cols - 1, Math.ceil((v.x_max - gx) / m.step_m));
+    const j0 = Math.max(0, Math.floor((v.y_min - gy) / m.step_m));
+    const j1 = Math.min(m.rows - 1, Math.ceil((v.y_max - gy) / m.step_m));
+    if (spacing >= 14 && (i1 - i0 + 1) * (j1 - j0 + 1) <= MAX_NODE_DOTS) {
+      ctx.fillStyle = colors["node"] ?? "";
+      const r = Math.min(3, spacing * 0.12);
+      for (let i = i0; i <= i1; i++) {
+        for (let j = j0; j <= j1; j++) {
+          const [px, py] = this.toScreen(gx + i * m.step_m, gy + j * m.step_m);
+          ctx.beginPath();
+          ctx.arc(px, py, r, 0, 2 * Math.PI);
+          ctx.fill();
+        }
+      }
+    }
+    // obstacles: the cells they fill, at least 2 px across
+    ctx.fillStyle = colors["obstacle"] ?? "";
+    const half = Math.max(1, spacing / 2);
+    for (const [ox, oy] of m.obstacles) {
+      const [px, py] = this.toScreen(ox, oy);
+      ctx.fillRect(px - half, py - half, 2 * half, 2 * half);
+    }
+    if (this.hover) {
+      const [px, py] = this.toScreen(this.hover[0], this.hover[1]);
+      ctx.strokeStyle = colors["robot"] ?? "";
+      ctx.lineWidth = 1.5;
+      ctx.strokeRect(px - half - 2, py - half - 2, 2 * half + 4, 2 * half + 4);
+    }
+  }
+
+  private drawPaths(ctx: CanvasRenderingContext2D, colors: Record<string, string>): void {
+    // planned path: the grid path thin, the waypoints the firmware follows bold; while driving
+    // from the cart on, else from where it was planned (never a stray line back to the cart)
+    const plan = this.plan;
+    const path = colors["path"] ?? "";
+    if (plan) {
+      ctx.strokeStyle = path;
+      ctx.setLineDash([4, 4]);
+      ctx.lineWidth = 1;
+      this.polyline(ctx, plan.grid_path);
+      ctx.setLineDash([]);
+      ctx.lineWidth = 2.5;
+      const live = this.driving && this.pose && this.waypointIndex >= 0;
+      const ahead = live ? plan.waypoints.slice(this.waypointIndex) : plan.waypoints;
+      const from: Point[] = live && this.pose ? [[this.pose.x, this.pose.y]] : plan.start ? [plan.start] : [];
+      this.polyline(ctx, [...from, ...ahead]);
+      ctx.fillStyle = path;
+      plan.waypoints.forEach(([wx, wy], k) => {
+        const [px, py] = this.toScreen(wx, wy);
+        ctx.beginPath();
+        ctx.arc(px, py, k === this.waypointIndex && this.driving ? 6 : 3.5, 0, 2 * Math.PI);
+        if (k === this.waypointIndex && this.driving) {
+          ctx.lineWidth = 2;
+          ctx.stroke();
+        } else {
+          ctx.fill();
+        }
+      });
+    }
+    if (this.goal) {
+      const [gx, gy] = this.toScreen(this.goal[0], this.goal[1]);
+      ctx.strokeStyle = path;
+      ctx.lineWidth = 2.5;
+      ctx.beginPath();
+      ctx.moveTo(gx - 7, gy - 7);
+      ctx.lineTo(gx + 7, gy + 7);
+      ctx.moveTo(gx + 7, gy - 7);
+      ctx.lineTo(gx - 7, gy + 7);
+      ctx.stroke();
+    }
+    if (this.rawPath) {
+      // sent past the planner: dashed, from the cart, in the warning colour
+      ctx.strokeStyle = colors["raw"] ?? "";
+      ctx.setLineDash([8, 5]);
+      ctx.lineWidth = 2;
+      const from: Point[] = this.pose ? [[this.pose.x, this.pose.y]] : [];
+      this.polyline(ctx, [...from, ...this.rawPath]);
+      ctx.setLineDash([]);
+    }
   }
 
   private polyline(ctx: CanvasRenderingContext2D, points: readonly Point[]): void {
@@ -338,4 +634,15 @@ function push(trail: Point[], p: Pose): void {
   if (last && Math.hypot(last[0] - p.x, last[1] - p.y) < TRAIL_MIN_STEP_M) return;
   trail.push([p.x, p.y]);
   if (trail.length > TRAIL_MAX) trail.splice(0, trail.length - TRAIL_MAX);
+}
+
+/** [r, g, b] of a CSS colour (#rgb, #rrggbb or rgb()/rgba()); grey when unreadable. */
+function rgb(colour: string): [number, number, number] {
+  const hex = colour.match(/^#([0-9a-f]{3}|[0-9a-f]{6})$/i)?.[1];
+  if (hex) {
+    const full = hex.length === 3 ? [...hex].map((c) => c + c).join("") : hex;
+    return [0, 2, 4].map((k) => parseInt(full.slice(k, k + 2), 16)) as [number, number, number];
+  }
+  const parts = colour.match(/\d+(\.\d+)?/g)?.map(Number);
+  return parts && parts.length >= 3 ? [parts[0] ?? 128, parts[1] ?? 128, parts[2] ?? 128] : [128, 128, 128];
 }

@@ -1,0 +1,119 @@
+"""The map as the gateway keeps it, and the checks that decide a replan.
+
+- `planner_for`: the planner of a MapSettings: the seed's node grid (walls a margin outside the
+  nodes), or a floor plan planned on blocks of its cells (cart2d/maps/occupancy.py), whose
+  footprint must stay on the map's cells, unknown cells blocked unless allowed.
+- `world_for`: the simulator's physical world for that map: the arena's walls around the node
+  grid, or the floor plan's occupied cells as walls and a boundary at its edge. Unknown cells are
+  floor in the simulated world: what is unknown is the gateway's belief, not the world.
+- `route_blocked`, `off_route_m`: the rest of a driven route against the map (footprint plus
+  clearance, the planner's own check), and how far the cart is off it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from cart2d.params import planning_radius_m, robot
+from cart2d.planning import Grid, GridGraph, Planner, Point, point_segment_distance
+from cart2d.simulator import WallGrid, World, arena_world
+from cart2d.store import MapSettings, planning_map
+
+
+def planner_for(m: MapSettings) -> Planner:
+    if m.floor_plan is None:
+        grid = Grid(cols=m.cols, rows=m.rows, step_m=m.step_m, origin=m.origin_m)
+        return Planner(grid, planning_radius_m(), obstacles=m.obstacles)
+    coarse = planning_map(m)
+    return Planner(
+        coarse.grid(),
+        planning_radius_m(),
+        obstacles=m.obstacles,
+        blocked=coarse.blocked(m.unknown_is_free),
+        outside_blocked=True,
+    )
+
+
+def world_for(m: MapSettings) -> World:
+    if m.floor_plan is None:
+        return arena_world(m.cols, m.rows, m.step_m, origin=m.origin_m)
+    occupancy = m.floor_plan.occupancy()
+    walls = WallGrid(
+        occupancy.origin_m,
+        occupancy.resolution_m,
+        occupancy.width,
+        occupancy.height,
+        tuple((occupancy.cells == 100).reshape(-1).tolist()),
+    )
+    return World(walls=walls, boundary=True)
+
+
+def arena(m: MapSettings) -> dict[str, float]:
+    """Where the walls around the map are: a margin outside the nodes, or the floor plan's edge."""
+    if m.floor_plan is not None:
+        x0, y0, x1, y1 = m.floor_plan.occupancy().extent_m
+        return {"x_min": x0, "y_min": y0, "x_max": x1, "y_max": y1}
+    margin = float(robot()["sim"]["arena_margin_m"])  # walls outside the grid (the brief)
+    ox, oy = m.origin_m
+    return {
+        "x_min": ox - margin,
+        "y_min": oy - margin,
+        "x_max": ox + (m.cols - 1) * m.step_m + margin,
+        "y_max": oy + (m.rows - 1) * m.step_m + margin,
+    }
+
+
+def projection(p: Point, a: Point, b: Point) -> Point:
+    """The point of segment ab nearest p."""
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    length2 = dx * dx + dy * dy
+    t = 0.0 if length2 == 0.0 else min(max(((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / length2, 0.0), 1.0)
+    return (a[0] + t * dx, a[1] + t * dy)
+
+
+@dataclass(frozen=True)
+class RouteAhead:
+    """What is left of a driven route: from the point of the current segment nearest the cart
+    (`entry`) through the waypoints not yet reached."""
+
+    entry: Point
+    points: tuple[Point, ...]
+
+    @classmethod
+    def of(cls, start: Point, waypoints: Sequence[Point], index: int, pose: Point) -> RouteAhead:
+        """`waypoints`: the route as sent (without its start); `index`: the waypoint the cart
+        drives to (the firmware's waypoint index)."""
+        index = min(max(index, 0), len(waypoints) - 1)
+        before = start if index == 0 else waypoints[index - 1]
+        return cls(projection(pose, before, waypoints[index]), tuple(waypoints[index:]))
+
+    def blocked(self, graph: GridGraph) -> bool:
+        """Whether a segment of it is no longer free for the planner's disc (footprint plus
+        clearance): the check the planner made when it planned them."""
+        return any(not graph.segment_free(a, b) for a, b in itertools.pairwise((self.entry, *self.points)))
+
+    def distance(self, pose: Point) -> float:
+        line = (self.entry, *self.points)
+        if len(line) == 1:
+            return math.dist(pose, line[0])
+        return min(point_segment_distance(pose, a, b) for a, b in itertools.pairwise(line))
+
+
+@dataclass(frozen=True)
+class Replan:
+    """One replan of a mission, for the report and viewers."""
+
+    reason: str  # why: the map changed (what), or the cart left its path
+    at_s: float  # seconds since the mission started (monotonic)
+    sim_t: float | None  # the simulator's time when the new path was in the firmware, if simulated
+    plan_time_s: float  # planning (search, simplification, rounding), wall-clock
+    length_m: float  # the new path's length, from the cart's position
+    waypoints: int
+    outcome: str  # "replanned", or why no path remains
+
+
+def cells_text(counts: dict[str, int]) -> str:
+    return ", ".join(f"{n} {what}" for what, n in counts.items())
