@@ -18,7 +18,7 @@ from pydantic import BaseModel, ValidationError
 
 from cart2d import faults as fault_table
 from cart2d.params import footprint_radius_m, robot, settings_table
-from cart2d.planner import Grid, PlanError
+from cart2d.planning import Grid, PlanError
 
 Model = TypeVar("Model", bound=BaseModel)
 

@@ -8,7 +8,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from cart2d.planner import Grid
+from cart2d.planning import Grid
 
 from bench.streaming import ARENA_NODES, ARENA_STEP_M, serpentine_mission
 from cart2d.gateway import Gateway
