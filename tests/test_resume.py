@@ -8,11 +8,11 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from cart2d.planning import Grid
 
 from bench.streaming import ARENA_NODES, ARENA_STEP_M, serpentine_mission
 from cart2d.gateway import Gateway
 from cart2d.link import Link
+from cart2d.planning import Grid
 from cart2d.spec import load_spec
 from cart2d.store import GatewaySettings, MapSettings, Store
 from tests.conftest import start_sim, wait_for
