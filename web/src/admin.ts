@@ -49,8 +49,12 @@ export class GatewayPanel {
           const answer = await api<{ result: string; reset: ResetReport | null }>("POST", "/api/reset", undefined, 10_000);
           this.ctx.notify(
             answer.reset
-              ? `Soft reset: the controller restarted. ${answer.reset.pose_restored ? "It kept its pose." : "Its pose restarted at (0, 0, 0)."}`
-              : "Soft reset sent; the restart has not been seen yet.",
+              ? `Soft reset: the controller restarted. ${
+                  answer.reset.pose_restored
+                    ? "The firmware restored its pose from RAM (the pose at the reset)."
+                    : "Its odometry restarted at (0, 0, 0), not at the reset pose."
+                }`
+              : "Soft reset sent, but no restart was seen within 5 s: watch the status bar.",
             "info",
           );
         } catch (err) {
@@ -149,6 +153,10 @@ export class GatewayPanel {
     if (this.polling !== null) window.clearInterval(this.polling);
     this.polling = null;
     if (job.state === "done") say(out, "The new firmware is running.");
-    else if (job.state === "failed") say(out, `The update failed: ${job.log[job.log.length - 1] ?? "see the log"}.`, true);
+    else if (job.state === "failed") {
+      // the job's last line is "failed: <why>": the why, once
+      const why = (job.log[job.log.length - 1] ?? "").replace(/^failed:\s*/i, "").replace(/[.\s]+$/, "");
+      say(out, `The update failed: ${why || "see the log below"}.`, true);
+    }
   }
 }
