@@ -7,7 +7,8 @@ import type { TelemetryRecord } from "./record";
 
 type Pt = [number, number];
 
-const HEIGHT = 260;
+const HEIGHT = 300;
+const MAX_WIDTH = 520; // about square: equal axes leave a wide canvas mostly empty
 const MIN_SPAN_M = 0.2;
 
 /** A "nice" grid step (1, 2 or 5 × 10^k) for about `target` lines over `span`. */
@@ -39,7 +40,7 @@ export class Trajectory {
   }
 
   resize(): void {
-    const width = Math.max(240, this.host.clientWidth);
+    const width = Math.min(MAX_WIDTH, Math.max(240, this.host.clientWidth));
     const dpr = window.devicePixelRatio || 1;
     this.canvas.style.width = `${width}px`;
     this.canvas.style.height = `${HEIGHT}px`;

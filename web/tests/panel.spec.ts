@@ -142,6 +142,14 @@ test("a click in Go-here mode sends the robot around an obstacle to the point", 
   await expect.poll(async () => Math.hypot((await pose(page))[0] - goal[0], (await pose(page))[1] - goal[1])).toBeLessThan(0.02);
   await expect(page.locator("#mission-detail")).toContainText("arrived");
   await page.screenshot({ path: `${SHOTS}/arrived-desktop.png`, fullPage: true });
+  // README's picture (docs/images/panel.png): the page down to the plots, its toasts dismissed
+  for (const close of await page.locator("#messages .msg-close").all()) await close.click();
+  const plots = await page.locator(".plots-card").boundingBox();
+  const scrolled = await page.evaluate(() => window.scrollY);
+  if (plots) {
+    const height = Math.ceil(plots.y + scrolled + plots.height + 12);
+    await page.screenshot({ path: `${SHOTS}/readme-panel.png`, fullPage: true, clip: { x: 0, y: 0, width: 1280, height } });
+  }
 
   // clean up: obstacle mode, remove the blocker
   await page.locator("label", { hasText: "Obstacles" }).click();
