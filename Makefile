@@ -14,7 +14,7 @@ SIM_BIN := $(SIM_BUILD)/cart2d-sim
 VENV := build/venv
 PY := $(VENV)/bin/python
 PANEL := cart2d/panel/index.html
-PANEL_SOURCES := $(shell find web/src -type f 2>/dev/null) web/index.html web/vite.config.ts web/tsconfig.json
+PANEL_SOURCES := $(shell find web/src -type f 2>/dev/null) web/index.html web/vite.config.ts web/tsconfig.json docs/protocol.md
 
 .PHONY: help deps firmware flash host-tests fuzz fuzz-quick sim sim-tests python-env python-checks python-tests panel panel-tests test bench-firmware bench-sim profile-firmware bench bench-quick run clean
 

@@ -49,8 +49,12 @@ export class GatewayPanel {
           const answer = await api<{ result: string; reset: ResetReport | null }>("POST", "/api/reset", undefined, 10_000);
           this.ctx.notify(
             answer.reset
-              ? `Soft reset: the controller restarted. ${answer.reset.pose_restored ? "It kept its pose." : "Its pose restarted at (0, 0, 0)."}`
-              : "Soft reset sent; the restart has not been seen yet.",
+              ? `Soft reset: the controller restarted. ${
+                  answer.reset.pose_restored
+                    ? "The firmware restored its pose from RAM (the pose at the reset)."
+                    : "Its odometry restarted at (0, 0, 0), not at the reset pose."
+                }`
+              : "Soft reset sent, but no restart was seen within 5 s: watch the status bar.",
             "info",
           );
         } catch (err) {

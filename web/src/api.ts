@@ -150,6 +150,8 @@ export interface Truth {
   v: number;
   omega: number;
   collisions: number;
+  wall_contacts?: number; // touches of a wall, and of a box the map may not know (sim/README.md)
+  box_contacts?: number;
 }
 
 export type LiveMessage =

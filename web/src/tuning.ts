@@ -1,31 +1,35 @@
-// Tuning: every firmware setting (GET /api/firmware/settings) with its unit, range and doc,
-// edited and applied one at a time (PUT), saved to / loaded from EEPROM; and a step response
-// (drive straight at a fixed speed for a moment, plot the measured wheel speeds against it).
+// Tuning: every firmware setting (GET /api/firmware/settings) with its unit, range and what it
+// does (a tap or click on its name shows it: touch screens have no hover), edited and applied one
+// at a time (PUT), saved to / loaded from EEPROM. An edit not applied yet is marked, and "Save to
+// EEPROM" refuses while there is one: it would save the value applied, not the one on screen.
 
-import uPlot from "uplot";
-import { api, type FirmwareSetting, type Telemetry } from "./api";
-import { byId, cssVar, say } from "./dom";
+import { api, type FirmwareSetting } from "./api";
+import { byId, say } from "./dom";
+import { count, num } from "./format";
 import { parseNumber } from "./parse";
-import { axisStyle } from "./plots";
 
 export interface PanelContext {
   notify(text: string, kind?: "error" | "info"): void;
   errorText(err: unknown): string;
 }
 
-/** A value as the firmware holds it (float32), shown without its rounding noise. */
-function show(v: number): string {
-  return String(Number(v.toPrecision(6)));
-}
-
 function el<K extends keyof HTMLElementTagNameMap>(tag: K, props: Partial<HTMLElementTagNameMap[K]> = {}): HTMLElementTagNameMap[K] {
   return Object.assign(document.createElement(tag), props);
+}
+
+/** A setting's name with line-break opportunities after its underscores only, so a narrow
+ * screen wraps "manual_timeout_s" as "manual_ timeout_s", never inside a word. */
+function breakable(name: string): Node[] {
+  const parts = name.split(/(?<=_)/);
+  return parts.flatMap((part, k) => (k < parts.length - 1 ? [document.createTextNode(part), el("wbr")] : [document.createTextNode(part)]));
 }
 
 export class Tuning {
   private settings: FirmwareSetting[] = [];
   private readonly table: HTMLElement;
   private readonly msg: HTMLOutputElement;
+  /** Called after every (re)load of the table. */
+  onLoad: () => void = () => {};
 
   constructor(
     root: HTMLElement,
@@ -43,6 +47,11 @@ export class Tuning {
     return this.settings.find((s) => s.name === name)?.value;
   }
 
+  /** Every setting's id and name (the command form takes names for ids). */
+  names(): { id: number; name: string }[] {
+    return this.settings.map(({ id, name }) => ({ id, name }));
+  }
+
   async load(): Promise<void> {
     try {
       this.settings = await api<FirmwareSetting[]>("GET", "/api/firmware/settings");
@@ -52,37 +61,62 @@ export class Tuning {
     }
     this.table.replaceChildren(...this.settings.map((s) => this.row(s)));
     this.table.dataset["count"] = String(this.settings.length);
+    this.onLoad();
+  }
+
+  /** The names of the settings whose field differs from the value applied. */
+  unapplied(): string[] {
+    return [...this.table.querySelectorAll<HTMLElement>('.tune-row[data-unapplied="true"]')].map((r) => r.dataset["setting"] ?? "");
   }
 
   private row(s: FirmwareSetting): HTMLElement {
     const form = el("form", { className: "tune-row", noValidate: true });
     form.dataset["setting"] = s.name;
-    const label = el("label", { className: "tune-name", title: s.doc, htmlFor: `tune-${s.id}` });
-    label.textContent = s.name;
+    const docId = `tune-doc-${s.id}`;
+    const name = el("button", { type: "button", className: "tune-name", title: s.doc });
+    name.append(...breakable(s.name));
+    name.setAttribute("aria-expanded", "false");
+    name.setAttribute("aria-controls", docId);
+    const doc = el("p", { id: docId, className: "tune-doc", hidden: true });
+    doc.textContent = `${s.doc.charAt(0).toUpperCase()}${s.doc.slice(1)} (${s.name}, id ${s.id}; default ${num(s.default)} ${s.unit}).`;
+    name.addEventListener("click", () => {
+      doc.hidden = !doc.hidden;
+      name.setAttribute("aria-expanded", String(!doc.hidden));
+    });
     const input = el("input", {
       id: `tune-${s.id}`,
       name: "value",
       inputMode: "decimal",
       autocomplete: "off",
-      value: show(s.value),
+      value: num(s.value),
       title: s.doc,
     });
     input.setAttribute("aria-label", `${s.name} (${s.unit})`);
+    input.setAttribute("aria-describedby", docId);
     const unit = el("span", { className: "tune-unit" });
     unit.textContent = s.unit;
     const range = el("span", { className: "tune-range muted" });
-    range.textContent = `${show(s.min)} … ${show(s.max)}`;
+    range.textContent = `${num(s.min)} … ${num(s.max)}`;
+    const mark = el("span", { className: "tune-unapplied" });
+    mark.textContent = "not applied";
     const apply = el("button", { type: "submit", className: "small" });
     apply.textContent = "Apply";
-    form.append(label, input, unit, range, apply);
+    form.append(name, input, unit, range, mark, apply, doc);
+    input.addEventListener("input", () => this.mark(form, s, input));
     form.addEventListener("submit", (e) => {
       e.preventDefault();
-      void this.apply(s, input);
+      void this.apply(s, input, form);
     });
     return form;
   }
 
-  private async apply(s: FirmwareSetting, input: HTMLInputElement): Promise<void> {
+  /** Marks the row while its field differs from the value applied. */
+  private mark(form: HTMLElement, s: FirmwareSetting, input: HTMLInputElement): void {
+    const p = parseNumber(input.value, s.name);
+    form.dataset["unapplied"] = String(!(p.ok && num(p.value) === num(s.value)));
+  }
+
+  private async apply(s: FirmwareSetting, input: HTMLInputElement, form: HTMLElement): Promise<void> {
     const p = parseNumber(input.value, s.name);
     if (!p.ok) {
       say(this.msg, p.message, true);
@@ -90,7 +124,7 @@ export class Tuning {
       return;
     }
     if (p.value < s.min || p.value > s.max) {
-      say(this.msg, `${s.name} must be between ${show(s.min)} and ${show(s.max)} ${s.unit}: ${show(p.value)} is out of range.`, true);
+      say(this.msg, `${s.name} must be between ${num(s.min)} and ${num(s.max)} ${s.unit}: ${num(p.value)} is out of range.`, true);
       input.setAttribute("aria-invalid", "true");
       return;
     }
@@ -98,8 +132,9 @@ export class Tuning {
     try {
       const reply = await api<{ value: number }>("PUT", "/api/firmware/settings", { id: s.id, value: p.value });
       s.value = reply.value;
-      input.value = show(reply.value);
-      say(this.msg, `${s.name} = ${show(reply.value)} ${s.unit} (applied; “Save to EEPROM” keeps it after a reset).`);
+      input.value = num(reply.value);
+      this.mark(form, s, input);
+      say(this.msg, `${s.name} = ${num(reply.value)} ${s.unit} (applied; “Save to EEPROM” keeps it after a reset).`);
     } catch (err) {
       input.setAttribute("aria-invalid", "true");
       say(this.msg, this.ctx.errorText(err), true);
@@ -107,6 +142,18 @@ export class Tuning {
   }
 
   private async eeprom(what: "save" | "load"): Promise<void> {
+    const pending = this.unapplied();
+    if (what === "save" && pending.length > 0) {
+      const them = pending.length === 1 ? "it" : "them";
+      say(
+        this.msg,
+        `Not saved: ${count(pending.length, "edit")} not applied yet (${pending.join(", ")}). ` +
+          `Save to EEPROM keeps the values applied: apply ${them} first, or Re-read to drop ${them}.`,
+        true,
+      );
+      this.table.querySelector<HTMLInputElement>('.tune-row[data-unapplied="true"] input')?.focus();
+      return;
+    }
     try {
       await api("POST", `/api/firmware/${what}`);
     } catch (err) {
@@ -115,134 +162,5 @@ export class Tuning {
     }
     if (what === "load") await this.load();
     say(this.msg, what === "save" ? "Settings saved to EEPROM." : "Settings loaded from EEPROM.");
-  }
-}
-
-// -- step response -----------------------------------------------------------------------------
-
-const STEP_V = 0.3; // m/s
-const STEP_S = 1.5; // driving
-const AFTER_S = 0.6; // recorded after the stop
-const REPEAT_MS = 150; // the gateway stops manual driving without a command every 0.5 s
-
-export class StepResponse {
-  private recording: { t0: number; t: number[]; left: number[]; right: number[]; target: number[] } | null = null;
-  private timer: number | null = null;
-  private plot: uPlot | null = null;
-  private readonly button: HTMLButtonElement;
-  private readonly msg: HTMLOutputElement;
-
-  constructor(
-    private readonly root: HTMLElement,
-    private readonly ctx: PanelContext,
-  ) {
-    this.button = byId<HTMLButtonElement>("step-run", root);
-    this.msg = byId<HTMLOutputElement>("step-msg", root);
-    this.button.addEventListener("click", () => void this.run());
-  }
-
-  get running(): boolean {
-    return this.timer !== null;
-  }
-
-  onTelemetry(frame: Telemetry): void {
-    const r = this.recording;
-    if (!r) return;
-    r.t.push((performance.now() - r.t0) / 1000);
-    r.left.push(frame.v_left);
-    r.right.push(frame.v_right);
-    r.target.push((frame.v_left_target + frame.v_right_target) / 2);
-  }
-
-  /** Stops a step response under way (the emergency stop). */
-  cancel(): void {
-    if (this.timer !== null) window.clearInterval(this.timer);
-    this.timer = null;
-    if (this.recording) this.finish("Step response interrupted.");
-  }
-
-  private async run(): Promise<void> {
-    if (this.running) return;
-    this.root.dataset["step"] = "running";
-    this.button.disabled = true;
-    say(this.msg, `Driving straight at ${STEP_V} m/s for ${STEP_S} s…`);
-    this.recording = { t0: performance.now(), t: [], left: [], right: [], target: [] };
-    const started = performance.now();
-    const send = async (v: number): Promise<boolean> => {
-      try {
-        await api("POST", "/api/drive", { v, omega: 0 }, 2000);
-        return true;
-      } catch (err) {
-        this.cancel();
-        say(this.msg, this.ctx.errorText(err), true);
-        return false;
-      }
-    };
-    if (!(await send(STEP_V))) return;
-    this.timer = window.setInterval(() => {
-      if ((performance.now() - started) / 1000 < STEP_S) {
-        void send(STEP_V);
-        return;
-      }
-      if (this.timer !== null) window.clearInterval(this.timer);
-      this.timer = null;
-      void send(0).then(() => window.setTimeout(() => this.finish(), AFTER_S * 1000));
-    }, REPEAT_MS);
-  }
-
-  private finish(note = ""): void {
-    const r = this.recording;
-    this.recording = null;
-    this.button.disabled = false;
-    this.root.dataset["step"] = "done";
-    if (!r) return;
-    this.draw(r);
-    // over the last half second of driving: the mean speed and its error
-    const window0 = STEP_S - 0.5;
-    const steady = r.t.map((t, k) => [t, ((r.left[k] ?? 0) + (r.right[k] ?? 0)) / 2] as const).filter(([t]) => t >= window0 && t <= STEP_S);
-    const mean = steady.reduce((a, [, v]) => a + v, 0) / Math.max(1, steady.length);
-    const peak = Math.max(0, ...r.left, ...r.right);
-    const rise = r.t.find((_, k) => ((r.left[k] ?? 0) + (r.right[k] ?? 0)) / 2 >= 0.9 * STEP_V);
-    this.root.dataset["samples"] = String(r.t.length);
-    this.root.dataset["peak"] = peak.toFixed(4);
-    if (note) {
-      this.msg.textContent = note;
-      return;
-    }
-    this.msg.textContent =
-      `${r.t.length} samples: ` +
-      `90 % of ${STEP_V} m/s ${rise === undefined ? "never reached" : `after ${rise.toFixed(2)} s`}, ` +
-      `peak ${peak.toFixed(3)} m/s (${(((peak - STEP_V) / STEP_V) * 100).toFixed(0)} % overshoot), ` +
-      `steady ${mean.toFixed(3)} m/s (error ${(((mean - STEP_V) / STEP_V) * 100).toFixed(1)} %).`;
-  }
-
-  private draw(r: { t: number[]; left: number[]; right: number[]; target: number[] }): void {
-    const host = this.root.querySelector<HTMLElement>("#step-plot");
-    if (!host) return;
-    const data: uPlot.AlignedData = [r.t, r.left, r.right, r.target];
-    if (this.plot) {
-      this.plot.setData(data);
-      return;
-    }
-    const css = getComputedStyle(document.documentElement);
-    const axis = axisStyle(css);
-    this.plot = new uPlot(
-      {
-        title: "step response: wheel speed (m/s)",
-        width: Math.max(240, host.clientWidth),
-        height: 200,
-        scales: { x: { time: false } },
-        axes: [{ ...axis, label: "s" }, { ...axis }],
-        series: [
-          { label: "t (s)" },
-          { label: "left", stroke: cssVar("--plot-a", "#1d4ed8", css), width: 2, points: { show: false } },
-          { label: "right", stroke: cssVar("--plot-b", "#e76f51", css), width: 2, points: { show: false } },
-          { label: "target", stroke: cssVar("--fg-muted", "#667", css), width: 1, dash: [6, 4], points: { show: false } },
-        ],
-      },
-      data,
-      host,
-    );
-    new ResizeObserver(() => this.plot?.setSize({ width: Math.max(240, host.clientWidth), height: 200 })).observe(host);
   }
 }

@@ -1,99 +1,31 @@
 // The panel in Chromium against a real gateway and simulator (tests/global-setup.ts). The
 // robot is shared: the tests run in order, each leaving it stopped.
 
-import { mkdirSync, readFileSync } from "node:fs";
+import { readFileSync } from "node:fs";
 import { join, resolve } from "node:path";
-import { expect, test, type Page } from "@playwright/test";
+import { expect, test } from "@playwright/test";
 
 import { simControl, startGateway } from "./gateway";
-
-const BASE = process.env["CART2D_URL"] ?? "";
-const SIM = process.env["CART2D_SIM_CONTROL"] ?? ""; // the simulator's side channel
-const SHOTS = resolve(import.meta.dirname, "..", "..", "build", "screenshots");
-mkdirSync(SHOTS, { recursive: true });
-
-type Point = [number, number];
-
-interface Watched {
-  consoleErrors: string[];
-  pageErrors: string[];
-  requests: string[];
-}
-
-async function open(page: Page): Promise<Watched> {
-  const watched: Watched = { consoleErrors: [], pageErrors: [], requests: [] };
-  page.on("console", (m) => {
-    if (m.type() === "error") watched.consoleErrors.push(m.text());
-  });
-  page.on("pageerror", (e) => watched.pageErrors.push(String(e)));
-  page.on("request", (r) => {
-    if (r.method() !== "GET") watched.requests.push(`${r.method()} ${new URL(r.url()).pathname}`);
-  });
-  await page.goto(`${BASE}/`);
-  await expect(page.locator("body")).toHaveAttribute("data-link", "connected");
-  await expect(page.locator("#pose-x")).toHaveAttribute("data-value", /\d/);
-  await expect(page.locator("#map")).toHaveAttribute("data-scale", /\d/);
-  return watched;
-}
-
-/** The map's CSS-pixel position of world point p, from the transform the canvas publishes. */
-async function screenOf(page: Page, p: Point): Promise<Point> {
-  const d = await page.locator("#map").evaluate((c: HTMLElement) => ({ ...c.dataset }));
-  const scale = Number(d["scale"]);
-  return [Number(d["originX"]) + p[0] * scale, Number(d["originY"]) - p[1] * scale];
-}
-
-async function pixel(page: Page, p: Point): Promise<number[]> {
-  const [x, y] = await screenOf(page, p);
-  return page.locator("#map").evaluate(
-    (c: HTMLCanvasElement, [px, py]: Point) => {
-      const dpr = window.devicePixelRatio || 1;
-      const ctx = c.getContext("2d");
-      return ctx ? Array.from(ctx.getImageData(Math.round(px * dpr), Math.round(py * dpr), 1, 1).data) : [];
-    },
-    [x, y] as Point,
-  );
-}
-
-async function clickMap(page: Page, p: Point): Promise<void> {
-  const [x, y] = await screenOf(page, p);
-  await page.locator("#map").click({ position: { x, y } });
-}
-
-async function pose(page: Page): Promise<Point> {
-  const x = Number(await page.locator("#pose-x").getAttribute("data-value"));
-  const y = Number(await page.locator("#pose-y").getAttribute("data-value"));
-  return [x, y];
-}
-
-async function obstacles(page: Page): Promise<Point[]> {
-  const r = await page.request.get(`${BASE}/api/map`);
-  return ((await r.json()) as { obstacles: Point[] }).obstacles;
-}
-
-const near = (a: Point, b: Point, tol = 1e-6): boolean => Math.hypot(a[0] - b[0], a[1] - b[1]) <= tol;
-
-async function driveAway(page: Page, to: Point): Promise<void> {
-  await page.fill("#goto-form input[name=x]", String(to[0]));
-  await page.fill("#goto-form input[name=y]", String(to[1]));
-  await page.click("#goto-form button[type=submit]");
-  await expect(page.locator("body")).toHaveAttribute("data-mission", "driving");
-  // moving: the odometry readout changes
-  const start = await pose(page);
-  await expect.poll(async () => Math.hypot(...((await pose(page)).map((v, k) => v - (start[k] ?? 0)) as Point))).toBeGreaterThan(0.05);
-}
-
-async function expectHalted(page: Page): Promise<void> {
-  await expect(page.locator("body")).toHaveAttribute("data-mission", "failed");
-  await expect(page.locator("#mission-detail")).toContainText("stopped by the user");
-  await page.waitForTimeout(400); // the last of the braking
-  const a = await pose(page);
-  await page.waitForTimeout(1000);
-  const b = await pose(page);
-  expect(Math.hypot(a[0] - b[0], a[1] - b[1])).toBeLessThan(0.003);
-  const status = await (await page.request.get(`${BASE}/api/status`)).json();
-  expect(status.status.mode).not.toBe("PATH");
-}
+import {
+  BASE,
+  clickMap,
+  driveAway,
+  expectHalted,
+  gotoAndWait,
+  near,
+  obstacles,
+  open,
+  pixel,
+  pose,
+  pressReset,
+  screenOf,
+  setting,
+  settings,
+  SHOTS,
+  SIM,
+  truePose,
+  type Point,
+} from "./helpers";
 
 test.describe.configure({ mode: "serial" });
 
@@ -163,8 +95,7 @@ test("bad inputs are refused in the page with a message and send nothing", async
   await page.fill("#goto-form input[name=x]", "5");
   await page.fill("#goto-form input[name=y]", "5");
   await page.click("#goto-form button[type=submit]");
-  await expect(page.locator("#goto-msg")).toContainText("off the map");
-  await expect(page.locator("#messages")).toContainText("The goal (5.000, 5.000) is off the map");
+  await expect(page.locator("#goto-msg")).toContainText("The goal (5.000, 5.000) is off the map");
   await expect(page.locator("#mission-state")).toHaveText("idle");
   await page.screenshot({ path: `${SHOTS}/error-message.png` });
   expect(w.pageErrors).toEqual([]);
@@ -211,6 +142,14 @@ test("a click in Go-here mode sends the robot around an obstacle to the point", 
   await expect.poll(async () => Math.hypot((await pose(page))[0] - goal[0], (await pose(page))[1] - goal[1])).toBeLessThan(0.02);
   await expect(page.locator("#mission-detail")).toContainText("arrived");
   await page.screenshot({ path: `${SHOTS}/arrived-desktop.png`, fullPage: true });
+  // README's picture (docs/images/panel.png): the page down to the plots, its toasts dismissed
+  for (const close of await page.locator("#messages .msg-close").all()) await close.click();
+  const plots = await page.locator(".plots-card").boundingBox();
+  const scrolled = await page.evaluate(() => window.scrollY);
+  if (plots) {
+    const height = Math.ceil(plots.y + scrolled + plots.height + 12);
+    await page.screenshot({ path: `${SHOTS}/readme-panel.png`, fullPage: true, clip: { x: 0, y: 0, width: 1280, height } });
+  }
 
   // clean up: obstacle mode, remove the blocker
   await page.locator("label", { hasText: "Obstacles" }).click();
@@ -318,40 +257,6 @@ test("the joystick on a phone drives forward while its knob is held up, and stop
   await context.close();
 });
 
-interface Setting {
-  id: number;
-  name: string;
-  unit: string;
-  min: number;
-  max: number;
-  doc: string;
-  value: number;
-}
-
-async function settings(page: Page): Promise<Setting[]> {
-  return (await (await page.request.get(`${BASE}/api/firmware/settings`)).json()) as Setting[];
-}
-
-async function setting(page: Page, name: string): Promise<number> {
-  const s = (await settings(page)).find((x) => x.name === name);
-  if (!s) throw new Error(`no firmware setting ${name}`);
-  return s.value;
-}
-
-async function gotoAndWait(page: Page, p: Point): Promise<void> {
-  const r = await page.request.post(`${BASE}/api/goto`, { data: { x: p[0], y: p[1] } });
-  expect(r.ok()).toBe(true);
-  await expect
-    .poll(
-      async () => {
-        const m = (await (await page.request.get(`${BASE}/api/mission`)).json()) as { state: string; goal: Point | null };
-        return m.state === "arrived" && m.goal !== null && near(m.goal, p, 1e-3);
-      },
-      { timeout: 20_000 },
-    )
-    .toBe(true);
-}
-
 test("the tuning panel lists every firmware setting, applies, refuses bad values, saves and loads", async ({ page }) => {
   const w = await open(page);
   const all = await settings(page);
@@ -367,7 +272,7 @@ test("the tuning panel lists every firmware setting, applies, refuses bad values
   // bad values: a message, nothing sent, nothing changed
   for (const [text, message] of [["", /empty/], ["abc", /not a number/], ["1e5", /between 0 and 20000/], ["-1", /out of range/]] as const) {
     await row.locator("input").fill(text);
-    await row.locator("button").click();
+    await row.locator("button[type=submit]").click();
     await expect(page.locator("#tune-msg")).toHaveText(message);
     await expect(page.locator("#tune-msg")).toHaveClass(/form-error/);
   }
@@ -383,10 +288,12 @@ test("the tuning panel lists every firmware setting, applies, refuses bad values
       : route.fallback(),
   );
   await row.locator("input").fill("1500");
-  await row.locator("button").click();
+  await row.locator("button[type=submit]").click();
   await expect(page.locator("#tune-msg")).toHaveText("COMMAND_PARAM_SET refused: an argument is out of range.");
   await page.unroute("**/api/firmware/settings");
   expect(await setting(page, "speed_kp")).toBe(kp.value);
+  await page.click("#tune-reload"); // drops the refused edit: Save refuses while one is on screen
+  await expect(row.locator("input")).toHaveValue(String(kp.value));
 
   // save, apply a new value, load from EEPROM: the saved value is back
   await page.click("#tune-save");
@@ -397,7 +304,7 @@ test("the tuning panel lists every firmware setting, applies, refuses bad values
     .poll(async () => ((await (await page.request.get(`${BASE}/api/status`)).json()) as { status: { eeprom_busy: boolean } }).status.eeprom_busy, { timeout: 5_000 })
     .toBe(false);
   await row.locator("input").fill("1200");
-  await row.locator("button").click();
+  await row.locator("button[type=submit]").click();
   await expect(page.locator("#tune-msg")).toContainText("speed_kp = 1200");
   expect(await setting(page, "speed_kp")).toBe(1200);
   await page.click("#tune-load");
@@ -457,25 +364,6 @@ test("the step response drives straight and plots the wheel speeds against the t
   await page.locator("#tuning").screenshot({ path: `${SHOTS}/step-response.png` });
   expect(w.pageErrors).toEqual([]);
 });
-
-interface TruePose {
-  x: number;
-  y: number;
-  theta: number;
-}
-
-async function truePose(): Promise<TruePose> {
-  return (await simControl(SIM, { type: "truth" }))["truth"] as TruePose;
-}
-
-/** The reset button of the simulated Nano, as a fault: nothing the gateway asked for. */
-async function pressReset(page: Page): Promise<void> {
-  const before = ((await (await page.request.get(`${BASE}/api/status`)).json()) as { reset: { noticed: number } }).reset.noticed;
-  await simControl(SIM, { type: "reset" });
-  await expect
-    .poll(async () => ((await (await page.request.get(`${BASE}/api/status`)).json()) as { reset: { noticed: number } }).reset.noticed)
-    .toBe(before + 1);
-}
 
 test("a restart of the controller: a notice says what happened and offers set, reset routine, accept; each works", async ({ page }) => {
   test.setTimeout(90_000);
