@@ -97,7 +97,7 @@ NOT_FINITE = [f"goals[{k}][{k}]: input should be a finite number" for k in (0, 1
         ({**GOAL, "faults": {"warp": 1}}, ["faults: unknown fault 'warp'"]),
         ({**GOAL, "faults": {"enc_slip_l": 1.5}}, ["faults: fault enc_slip_l takes a number from 0 to 0.99"]),
         ('{"goals": [[0.4, 0.0]],}', ["is not JSON: "]),
-        ({**GOAL, "goal": [1, 1]}, ["unknown key 'goal' (a mission has: grid, obstacles, "]),
+        ({**GOAL, "goal": [1, 1]}, ["unknown key 'goal' (a mission has: grid, map, "]),
         ({**GOAL, "grid": {"cols": 10, "size": 3}}, ["unknown key 'size' in grid"]),
         ({"goals": []}, ["no goals: a mission needs at least one goal [x, y]"]),
         ({}, ["no goals: a mission needs at least one goal [x, y]"]),
