@@ -190,7 +190,8 @@ test("a plan of one waypoint says “1 waypoint”", async ({ page }) => {
 test("a failed firmware update says why once, without “failed: failed”", async ({ page }) => {
   await open(page);
   // The simulator's update does not fail on demand: the job's answers are stubbed here, in the
-  // shape GET /api/firmware/update gives (cart2d/link/flashing.py logs "failed: <why>" last).
+  // shape GET /api/firmware/update gives (cart2d/link/flashing.py logs "failed: <why>" last and
+  // puts the why in `error`).
   const why = "avrdude: stk500_recv(): programmer is not responding";
   await page.route("**/api/firmware/update", (route) =>
     route.fulfill({
@@ -199,7 +200,7 @@ test("a failed firmware update says why once, without “failed: failed”", asy
       body: JSON.stringify(
         route.request().method() === "POST"
           ? { state: "running", log: ["checked: 1 byte of program"], elapsed_s: 0 }
-          : { state: "failed", log: ["checked: 1 byte of program", `failed: ${why}`], elapsed_s: 1.5 },
+          : { state: "failed", log: ["checked: 1 byte of program", `failed: ${why}`], error: why, elapsed_s: 1.5 },
       ),
     }),
   );
