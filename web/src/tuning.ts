@@ -19,7 +19,7 @@ function el<K extends keyof HTMLElementTagNameMap>(tag: K, props: Partial<HTMLEl
 
 /** A setting's name with line-break opportunities after its underscores only, so a narrow
  * screen wraps "manual_timeout_s" as "manual_ timeout_s", never inside a word. */
-function breakable(name: string): Node[] {
+export function breakable(name: string): Node[] {
   const parts = name.split(/(?<=_)/);
   return parts.flatMap((part, k) => (k < parts.length - 1 ? [document.createTextNode(part), el("wbr")] : [document.createTextNode(part)]));
 }

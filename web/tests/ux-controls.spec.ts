@@ -124,7 +124,7 @@ test("setting names wrap at an underscore, never inside a word, at a phone's 375
   const context = await browser.newContext({ viewport: { width: 375, height: 812 }, deviceScaleFactor: 2, hasTouch: true });
   const page = await context.newPage();
   await open(page);
-  const names = page.locator(".tune-name");
+  const names = page.locator("#tune-table .tune-name"); // the firmware settings (the simulator faults look alike)
   await expect(names).toHaveCount((await settings(page)).length);
   const report = await names.evaluateAll((els) =>
     els.map((el) => {
