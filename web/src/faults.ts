@@ -66,6 +66,14 @@ export class SimFaults {
 
   /** Shows the form with the simulator's faults now; hides it on a real cart (404). */
   async load(): Promise<void> {
+    try {
+      await this.fetch();
+    } finally {
+      this.section.dataset["loaded"] = "true"; // shown or hidden for good: the layout has settled
+    }
+  }
+
+  private async fetch(): Promise<void> {
     let view: SimFaultsView;
     try {
       view = await api<SimFaultsView>("GET", "/api/sim/faults");

@@ -34,6 +34,9 @@ export async function open(page: Page): Promise<Watched> {
   await expect(page.locator("body")).toHaveAttribute("data-link", "connected");
   await expect(page.locator("#pose-x")).toHaveAttribute("data-value", /\d/);
   await expect(page.locator("#map")).toHaveAttribute("data-scale", /\d/);
+  // the simulator-faults form appears (or stays hidden) once its GET is answered: the page's
+  // layout is final from then on
+  await expect(page.locator("#sim-faults")).toHaveAttribute("data-loaded", "true");
   return watched;
 }
 
