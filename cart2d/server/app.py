@@ -10,7 +10,6 @@ from __future__ import annotations
 import base64
 import binascii
 import hmac
-import ipaddress
 import logging
 from collections.abc import Sequence
 from dataclasses import asdict
@@ -30,6 +29,7 @@ from cart2d.maps.ros import image_bytes
 from cart2d.planning import PlanError
 from cart2d.server import guards
 from cart2d.server.admin import add_admin_routes
+from cart2d.server.guards import is_loopback
 from cart2d.server.live import Viewers
 from cart2d.server.models import (
     MAX_MAP_BODY_BYTES,
@@ -48,15 +48,6 @@ from cart2d.server.panel import MINIMAL_PAGE, PANEL_DIR, PanelFiles
 from cart2d.spec import load_spec
 
 log = logging.getLogger(__name__)
-
-
-def is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 def create_app(

@@ -126,7 +126,7 @@ class HostAllowlist:
         if self.wildcard:
             return names | LOOPBACK_NAMES | machine_names() | machine_addresses()
         names.add(_address(self.bind_host) or self.bind_host)
-        if _is_loopback(self.bind_host):
+        if is_loopback(self.bind_host):
             return names | LOOPBACK_NAMES
         with contextlib.suppress(OSError):
             for *_, sockaddr in socket.getaddrinfo(self.bind_host, None):
@@ -155,7 +155,7 @@ def _normal(host: str) -> str | None:
     return (_address(parsed[0]) or parsed[0]) if parsed else None
 
 
-def _is_loopback(host: str) -> bool:
+def is_loopback(host: str) -> bool:
     if host == "localhost":
         return True
     try:
