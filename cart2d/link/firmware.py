@@ -300,6 +300,17 @@ class PathStream:
         self.sent, self.index = received, index
         if received + room < self.count:
             self.window = received + room  # at index 0 the window starts at point 0
+        return self._go_on(room)
+
+    def resumed(self, index: int, received: int, token: int | None = None) -> PathStream:
+        """A stream of the rest of this path, from the firmware's `index` and `received` on, once
+        a START resumed the path that a STOP ended this stream of; its frames belong to `token`."""
+        stream = PathStream(self.link, self.points, token)
+        stream.sent, stream.index, stream.window = received, index, self.window
+        return stream._go_on(stream._room())
+
+    def _go_on(self, room: int) -> PathStream:
+        """Fills the window's `room` now; the rest, if any, from a thread of its own."""
         frames_seen = self.link.telemetry_count
         self._fill(room)
         if self.sent >= self.count:
@@ -310,22 +321,6 @@ class PathStream:
             )
             self._thread.start()
         return self
-
-    def resumed(self, index: int, received: int, token: int | None = None) -> PathStream:
-        """A stream of the rest of this path, from the firmware's `index` and `received` on, once
-        a START resumed the path that a STOP ended this stream of; its frames belong to `token`."""
-        stream = PathStream(self.link, self.points, token)
-        stream.sent, stream.index, stream.window = received, index, self.window
-        frames_seen = self.link.telemetry_count
-        stream._fill(stream._room())
-        if stream.sent >= stream.count:
-            stream.done.set()
-        elif not stream.done.is_set():
-            stream._thread = threading.Thread(
-                target=stream._run, args=(frames_seen,), name="path stream", daemon=True
-            )
-            stream._thread.start()
-        return stream
 
     def cancel(self) -> None:
         """Stops streaming: no XY_APPEND is sent once this returns (send it before replacing the
