@@ -39,7 +39,7 @@ from cart2d.mission_events import EventPlayer, MapEvent, Pacer, snapped
 from cart2d.params import robot, setting_id
 from cart2d.planning import Grid, PlanError, Point, point_polyline_distance, polyline_length
 from cart2d.simulator import SimOptions, Simulator, SimulatorError
-from cart2d.store import FloorPlan, GatewaySettings, MapSettings, Store
+from cart2d.store import FloorPlan, GatewaySettings, MapSettings, PlanningStep, Store
 
 Coordinate = Annotated[float, Field(allow_inf_nan=False)]
 Finite = Annotated[float, Field(allow_inf_nan=False)]
@@ -62,9 +62,7 @@ class MissionSpec(BaseModel):
         description="a ROS map_server .yaml (relative to the mission file), in place of 'grid'",
     )
     unknown_is_free: bool = Field(False, description="with 'map': plan through unknown cells")
-    planning_step: float | None = Field(
-        None, ge=0.01, le=10.0, allow_inf_nan=False, description="with 'map': the planning grid's step, m"
-    )
+    planning_step: PlanningStep | None = Field(None, description="with 'map': the planning grid's step, m")
     events: list[MapEvent] = Field(
         default_factory=list,
         max_length=1000,

@@ -46,6 +46,8 @@ def _json_integer(value: object) -> object:
 
 # JSON Schema's integer: 3 and 3.0, never true or "3" (the models are strict, this one field kind lax).
 Integer = Annotated[int, Strict(False), BeforeValidator(_json_integer)]
+# A floor plan's planning step, m: the width of the blocks of cells it is planned on.
+PlanningStep = Annotated[float, Field(ge=0.01, le=10.0, allow_inf_nan=False)]
 
 
 def _grid_default(key: str) -> float:
@@ -151,11 +153,8 @@ class MapSettings(BaseModel):
     floor_plan: FloorPlan | None = Field(
         None, description=f"a floor plan of up to {MAX_MAP_CELLS} x {MAX_MAP_CELLS} cells"
     )
-    planning_step_m: float | None = Field(
+    planning_step_m: PlanningStep | None = Field(
         None,
-        ge=0.01,
-        le=10.0,
-        allow_inf_nan=False,
         description="plan a floor plan on blocks of cells at most this wide (default: half the planning "
         "radius); a block is occupied if any of its cells is",
     )

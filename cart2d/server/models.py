@@ -10,7 +10,7 @@ from pydantic import BaseModel, ConfigDict, Field, JsonValue, field_validator
 
 from cart2d.link.protocol import MAX_ARGS
 from cart2d.spec import load_spec
-from cart2d.store import Integer
+from cart2d.store import Integer, PlanningStep
 
 MAX_BODY_BYTES = 256 * 1024  # the largest request but a map's
 # A floor plan: a map upload (a 2000 x 2000 PGM is 4 MB, 5.3 MB in base64) or a settings file
@@ -153,11 +153,8 @@ class MapUploadIn(Strict):
         description="[x, y]: a plain image's lower-left corner, m (the YAML gives a map_server map's)",
     )
     negate: bool = Field(False, description="a plain image: light is occupied, dark free")
-    planning_step_m: float | None = Field(
+    planning_step_m: PlanningStep | None = Field(
         None,
-        ge=0.01,
-        le=10.0,
-        allow_inf_nan=False,
         description="plan on blocks of cells at most this wide (default: half the planning radius); a block "
         "is occupied if any of its cells is, so no obstacle is lost",
     )
