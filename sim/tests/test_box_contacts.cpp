@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "box_at.hpp"
 #include "cart.hpp"
 #include "measuring_wheels.hpp"
 
@@ -12,16 +13,6 @@ namespace cart2d {
 namespace {
 
 constexpr double kH = 0.00025;  // the rig's physics step (s)
-
-Box box_at(double cx, double cy, double sx, double sy, const std::string& id = "") {
-  Box b;
-  b.cx_m = cx;
-  b.cy_m = cy;
-  b.hx_m = sx / 2;
-  b.hy_m = sy / 2;
-  b.id = id;
-  return b;
-}
 
 double deepest(const Cart& cart) {
   double gap = 1e9;

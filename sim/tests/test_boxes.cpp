@@ -7,6 +7,7 @@
 #include <cmath>
 #include <set>
 
+#include "box_at.hpp"
 #include "box_grid.hpp"
 #include "occupancy.hpp"
 #include "rng.hpp"
@@ -14,16 +15,6 @@
 
 namespace cart2d {
 namespace {
-
-Box box_at(double cx, double cy, double sx, double sy, const std::string& id = "") {
-  Box b;
-  b.cx_m = cx;
-  b.cy_m = cy;
-  b.hx_m = sx / 2;
-  b.hy_m = sy / 2;
-  b.id = id;
-  return b;
-}
 
 TEST(BoxDistance, HandComputedCases) {
   const Box b = box_at(1.0, 1.0, 1.0, 0.5);  // x in [0.5, 1.5], y in [0.75, 1.25]
