@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import time
+import urllib.request
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -37,6 +39,44 @@ def sim(tmp_path: Path) -> Iterator[Simulator]:
 def link(sim: Simulator) -> Iterator[Link]:
     with Link(sim.pty, timeout_s=0.2) as open_link:
         yield open_link
+
+
+@pytest.fixture
+def rig(tmp_path: Path) -> Iterator[Any]:
+    """The gateway's app on a simulator (tests/test_server.py, Rig), closed after the test."""
+    from tests.test_server import Rig  # imported here: test_server imports this module
+
+    r = Rig(tmp_path)
+    yield r
+    r.close()
+
+
+def events(sim: Simulator, kind: str, since: int = 0) -> list[dict[str, Any]]:
+    """The simulator's side-channel events of one kind, from the `since`-th event on."""
+    assert sim.side is not None
+    return [e for e in sim.side.events[since:] if e.get("event") == kind]
+
+
+def high_rate_truth(sim: Simulator, hz: float = 1000.0) -> list[dict[str, Any]]:
+    """Every truth message from now on, at `hz` per simulated second."""
+    samples: list[dict[str, Any]] = []
+    assert sim.side is not None
+    sim.side.subscribe(samples.append)
+    sim.control("truth_rate", hz=hz)
+    return samples
+
+
+def wait_serving(port: int, wall_timeout_s: float = 60.0) -> None:
+    """Waits until a gateway on 127.0.0.1:`port` answers /api/status with its firmware."""
+
+    def ready() -> bool:
+        try:
+            with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/status", timeout=2) as answer:
+                return bool(json.load(answer).get("firmware"))
+        except OSError:
+            return False
+
+    wait_for(ready, wall_timeout_s, 0.2)
 
 
 def wait_for(condition: Callable[[], bool], wall_timeout_s: float = 60.0, poll_s: float = 0.02) -> None:

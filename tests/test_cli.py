@@ -18,7 +18,7 @@ import pytest
 
 from cart2d import __version__
 from cart2d.spec import load_spec
-from tests.conftest import wait_for
+from tests.conftest import wait_serving
 
 NOT_HERE = "198.51.100.77"  # TEST-NET-2 (RFC 5737): an address no machine running the tests has
 
@@ -124,15 +124,7 @@ def test_host_and_port_given_apply_to_that_run_only(tmp_path: Path) -> None:
         text=True,
     )
     try:
-
-        def ready() -> bool:
-            try:
-                with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/status", timeout=2) as answer:
-                    return bool(json.load(answer).get("firmware"))
-            except OSError:
-                return False
-
-        wait_for(ready, 60, 0.2)
+        wait_serving(port)
         with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/sim/faults", timeout=5) as answer:
             assert json.load(answer)["faults"]["enc_slip_l"] == 0.05  # --fault applies from the start
         gateway.send_signal(signal.SIGTERM)

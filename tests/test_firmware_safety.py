@@ -19,7 +19,7 @@ from cart2d.link.firmware import read_status
 from cart2d.link.protocol import Decoder, Packet, Reply, Telemetry, decode_reply, encode_request
 from cart2d.simulator import Simulator
 from cart2d.spec import load_spec
-from tests.conftest import start_sim, wait_idle
+from tests.conftest import high_rate_truth, start_sim, wait_idle
 
 SPEC = load_spec()
 BOOT_S = 0.3  # the MCU's start-up (and the reset a Nano does when its port opens)
@@ -119,15 +119,6 @@ def test_no_reply_is_lost_silently_under_a_burst(paused: tuple[Simulator, RawPor
     rx_errors, replies_dropped = int(status.results[7]), int(status.results[14])
     assert replies_dropped == 0
     assert len(answered) == 100 or rx_errors > 0, f"{100 - len(answered)} replies missing, nothing counted"
-
-
-def high_rate_truth(sim: Simulator, hz: float = 1000.0) -> list[dict[str, Any]]:
-    """Every truth message from now on, at `hz` per simulated second."""
-    samples: list[dict[str, Any]] = []
-    assert sim.side is not None
-    sim.side.subscribe(samples.append)
-    sim.control("truth_rate", hz=hz)
-    return samples
 
 
 def test_a_front_switch_stops_the_cart_at_once(tmp_path: Path) -> None:

@@ -7,7 +7,6 @@ import json
 import math
 import shutil
 import subprocess
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -65,13 +64,6 @@ def test_hex_files_are_checked(text: str, fragment: str) -> None:
         return
     with pytest.raises(ValueError, match=fragment):
         check_hex(data)
-
-
-@pytest.fixture
-def rig(tmp_path: Path) -> Iterator[Rig]:
-    r = Rig(tmp_path)
-    yield r
-    r.close()
 
 
 def test_a_bad_file_is_refused_and_nothing_starts(rig: Rig) -> None:

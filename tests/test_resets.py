@@ -10,7 +10,6 @@ import itertools
 import math
 import re
 import threading
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -28,13 +27,6 @@ from tests.test_server import OCTETS, Rig
 
 WAYS_OUT = "set the pose, run the reset routine, or accept the pose the firmware has"
 EXTERNAL_WORDS = "the reset button, or the serial port was reopened (a Nano resets when its port opens)"
-
-
-@pytest.fixture
-def rig(tmp_path: Path) -> Iterator[Rig]:
-    r = Rig(tmp_path)
-    yield r
-    r.close()
 
 
 def status(rig: Rig) -> dict[str, Any]:

@@ -4,10 +4,7 @@ the mission drives again and ends as the path does (arrived), a long path's stre
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 from pathlib import Path
-
-import pytest
 
 from bench.streaming import ARENA_NODES, ARENA_STEP_M, serpentine_mission
 from cart2d.gateway import Gateway
@@ -17,13 +14,6 @@ from cart2d.spec import load_spec
 from cart2d.store import GatewaySettings, MapSettings, Store
 from tests.conftest import start_sim, wait_for
 from tests.test_server import Rig
-
-
-@pytest.fixture
-def rig(tmp_path: Path) -> Iterator[Rig]:
-    r = Rig(tmp_path)
-    yield r
-    r.close()
 
 
 def command(rig: Rig, name: str) -> None:

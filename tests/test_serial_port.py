@@ -12,12 +12,7 @@ import pytest
 
 from cart2d.link import Link, LinkTimeout
 from cart2d.simulator import Simulator, SimulatorError
-from tests.conftest import run_for, start_sim, wait_for
-
-
-def host_events(sim: Simulator, name: str) -> list[dict[str, object]]:
-    assert sim.side is not None
-    return [e for e in sim.side.events if e.get("event") == name]
+from tests.conftest import events, run_for, start_sim, wait_for
 
 
 def uptimes_across_a_reopen(sim: Simulator) -> tuple[float, float, float]:
@@ -43,10 +38,10 @@ def test_opening_the_port_resets_the_mcu(tmp_path: Path) -> None:
         # The MCU restarted after the first answer. (A request written the moment the port
         # opens reaches an MCU still booting and is lost, as on a Nano; the link resends it.)
         assert after < between
-        opens = host_events(sim, "host_open")
+        opens = events(sim, "host_open")
         assert [e["opens"] for e in opens] == [1, 2]
         assert all(e["reset"] for e in opens)
-        wait_for(lambda: len(host_events(sim, "host_close")) == 2, 10)
+        wait_for(lambda: len(events(sim, "host_close")) == 2, 10)
         assert sim.control("stats")["stats"]["uart"]["host_opens"] == 2
     finally:
         sim.stop()
@@ -59,7 +54,7 @@ def test_no_auto_reset_keeps_the_mcu_running_across_opens(tmp_path: Path) -> Non
         before, after, between = uptimes_across_a_reopen(sim)
         # Its uptime went on: with a reset it would be below `between` (before is over 1 s).
         assert after >= before + between - 0.1
-        assert [e["reset"] for e in host_events(sim, "host_open")] == [False, False]
+        assert [e["reset"] for e in events(sim, "host_open")] == [False, False]
     finally:
         sim.stop()
 
@@ -80,7 +75,7 @@ def test_output_while_no_host_listens_is_lost_not_queued(tmp_path: Path) -> None
         # A plain open, not pyserial's, which flushes its input on opening and would hide a queue.
         fd = os.open(sim.pty, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
         try:
-            wait_for(lambda: bool(host_events(sim, "host_open")), 10)
+            wait_for(lambda: bool(events(sim, "host_open")), 10)
             assert read_available(fd) == b""  # nothing from before the open
             sim.run_for(0.1)
             wait_for(lambda: len(read_available(fd)) > 0, 10)  # what the MCU sends now arrives

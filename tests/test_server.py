@@ -10,8 +10,6 @@ import socket
 import subprocess
 import sys
 import time
-import urllib.request
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +23,7 @@ from cart2d.link import Link
 from cart2d.server import MAX_BODY_BYTES, create_app
 from cart2d.simulator import Simulator, SimulatorError
 from cart2d.store import Store
-from tests.conftest import run_for, start_sim, wait_for
+from tests.conftest import run_for, start_sim, wait_for, wait_serving
 
 JSON = {"content-type": "application/json"}
 OCTETS = {"content-type": "application/octet-stream"}  # a firmware upload
@@ -52,13 +50,6 @@ class Rig:
     def mission_state(self) -> str:
         state: str = self.client.get("/api/mission").json()["state"]
         return state
-
-
-@pytest.fixture
-def rig(tmp_path: Path) -> Iterator[Rig]:
-    r = Rig(tmp_path)
-    yield r
-    r.close()
 
 
 def raw(client: TestClient, method: str, url: str, body: str) -> Any:
@@ -332,15 +323,7 @@ def test_sigterm_stops_cart2d_sim_and_its_simulator_before_it_exits(tmp_path: Pa
         stderr=subprocess.DEVNULL,
     )
     try:
-
-        def ready() -> bool:
-            try:
-                with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/status", timeout=2) as answer:
-                    return bool(json.load(answer).get("firmware"))
-            except OSError:
-                return False
-
-        wait_for(ready, 60, 0.2)
+        wait_serving(port)
         gateway.send_signal(signal.SIGTERM)
         assert gateway.wait(30) == 0  # a clean stop, as with Ctrl-C
         # The simulator writes its EEPROM image when it exits: it was stopped, not orphaned.

@@ -4,8 +4,6 @@ gateway's, and restores them; the network address is checked before it is saved.
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -14,13 +12,6 @@ from cart2d.params import setting_id, settings_table
 from tests.test_server import Rig
 
 NOT_HERE = "198.51.100.77"
-
-
-@pytest.fixture
-def rig(tmp_path: Path) -> Iterator[Rig]:
-    r = Rig(tmp_path)
-    yield r
-    r.close()
 
 
 def firmware_values(rig: Rig) -> dict[str, float]:

@@ -6,7 +6,6 @@ what the simulated encoders count."""
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -19,13 +18,6 @@ from cart2d.store import Store
 from tests.conftest import start_sim, wait_for
 from tests.test_cli import cart2d
 from tests.test_server import Rig
-
-
-@pytest.fixture
-def rig(tmp_path: Path) -> Iterator[Rig]:
-    r = Rig(tmp_path)
-    yield r
-    r.close()
 
 
 def test_the_fault_table_is_the_simulators(sim: Simulator) -> None:

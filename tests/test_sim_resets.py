@@ -16,18 +16,13 @@ from cart2d.link.firmware import read_status
 from cart2d.link.protocol import encode_request
 from cart2d.simulator import Simulator
 from cart2d.spec import load_spec
-from tests.conftest import start_sim, wait_for, wait_idle
+from tests.conftest import events, start_sim, wait_for, wait_idle
 
 SPEC = load_spec()
 EEPROM_WRITE_S = 0.0034  # datasheet Table 8-2, robot.toml [sim] eeprom_atomic_write_s
 RESET_TIMEOUT_S = 0.065  # robot.toml [sim] reset_timeout_s
 # STATUS result indices (docs/protocol.md).
 SETTINGS_SOURCE, EEPROM_BUSY = 8, 9
-
-
-def events(sim: Simulator, kind: str, since: int = 0) -> list[dict[str, Any]]:
-    assert sim.side is not None
-    return [e for e in sim.side.events[since:] if e.get("event") == kind]
 
 
 def stats(sim: Simulator) -> dict[str, Any]:

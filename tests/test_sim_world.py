@@ -7,29 +7,15 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
 
 import pytest
 
 from cart2d.link import Link
 from cart2d.link.firmware import read_status
-from cart2d.simulator import Box, Simulator, SimulatorError, WallGrid, World, arena_world, run_lengths
-from tests.conftest import start_sim, wait_idle
+from cart2d.simulator import Box, SimulatorError, WallGrid, World, arena_world, run_lengths
+from tests.conftest import events, high_rate_truth, start_sim, wait_idle
 
 BUMPER_X = 0.17  # robot.toml [body] bumper_x_m
-
-
-def high_rate_truth(sim: Simulator, hz: float = 1000.0) -> list[dict[str, Any]]:
-    samples: list[dict[str, Any]] = []
-    assert sim.side is not None
-    sim.side.subscribe(samples.append)
-    sim.control("truth_rate", hz=hz)
-    return samples
-
-
-def events(sim: Simulator, kind: str) -> list[dict[str, Any]]:
-    assert sim.side is not None
-    return [e for e in sim.side.events if e.get("event") == kind]
 
 
 # -- the messages, without a simulator ---------------------------------------------------------

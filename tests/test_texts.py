@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import random
 import struct
-from collections.abc import Iterator
-from pathlib import Path
 
 import pytest
 
@@ -15,13 +13,6 @@ from cart2d.cli import main
 from cart2d.link.protocol import Decoder, Packet, decode_reply, encode_reply, shortest_float32
 from tests.conftest import run_for
 from tests.test_server import Rig
-
-
-@pytest.fixture
-def rig(tmp_path: Path) -> Iterator[Rig]:
-    r = Rig(tmp_path)
-    yield r
-    r.close()
 
 
 def test_numbers_from_the_firmware_carry_no_float32_noise(rig: Rig) -> None:

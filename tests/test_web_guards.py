@@ -368,13 +368,6 @@ def test_a_network_host_must_be_an_address_or_a_name(rig: Rig, host: str) -> Non
     assert rig.store.load().network.host == before["network"]["host"]
 
 
-@pytest.fixture
-def rig(tmp_path: Path) -> Iterator[Rig]:
-    r = Rig(tmp_path)
-    yield r
-    r.close()
-
-
 def test_the_websocket_refuses_a_foreign_host(rig: Rig) -> None:
     with (
         pytest.raises(WebSocketDenialResponse) as refused,
