@@ -7,7 +7,7 @@ import { api, ApiError } from "./api";
 import { byId, say } from "./dom";
 import { num } from "./format";
 import { parseNumber } from "./parse";
-import { breakable, type PanelContext } from "./tuning";
+import { explainedName, type PanelContext } from "./tuning";
 
 /** One fault as the gateway describes it (cart2d/server/admin.py, _faults_view). */
 export interface SimFault {
@@ -116,17 +116,13 @@ export class SimFaults {
     const row = el("div", { className: "tune-row fault-row" });
     row.dataset["fault"] = f.name;
     const docId = `fault-doc-${f.name}`;
-    const name = el("button", { type: "button", className: "tune-name", title: f.doc });
-    name.append(...breakable(f.name));
-    name.setAttribute("aria-expanded", "false");
-    name.setAttribute("aria-controls", docId);
-    const doc = el("p", { id: docId, className: "tune-doc", hidden: true });
     const unit = f.unit ? ` ${f.unit}` : "";
-    doc.textContent = `${f.doc.charAt(0).toUpperCase()}${f.doc.slice(1)} (${f.name}; ${rangeText(f)}${unit}; off at ${num(f.default)}).`;
-    name.addEventListener("click", () => {
-      doc.hidden = !doc.hidden;
-      name.setAttribute("aria-expanded", String(!doc.hidden));
-    });
+    const [name, doc] = explainedName(
+      f.name,
+      f.doc,
+      docId,
+      `${f.doc.charAt(0).toUpperCase()}${f.doc.slice(1)} (${f.name}; ${rangeText(f)}${unit}; off at ${num(f.default)}).`,
+    );
     const input = el("input", { name: f.name, inputMode: f.whole ? "numeric" : "decimal", autocomplete: "off", value: num(value), title: f.doc });
     input.setAttribute("aria-label", `${f.name}${f.unit ? ` (${f.unit})` : ""}`);
     input.setAttribute("aria-describedby", docId);

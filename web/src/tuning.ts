@@ -19,9 +19,25 @@ function el<K extends keyof HTMLElementTagNameMap>(tag: K, props: Partial<HTMLEl
 
 /** A setting's name with line-break opportunities after its underscores only, so a narrow
  * screen wraps "manual_timeout_s" as "manual_ timeout_s", never inside a word. */
-export function breakable(name: string): Node[] {
+function breakable(name: string): Node[] {
   const parts = name.split(/(?<=_)/);
   return parts.flatMap((part, k) => (k < parts.length - 1 ? [document.createTextNode(part), el("wbr")] : [document.createTextNode(part)]));
+}
+
+/** A name that shows its explanation on a tap or a click (touch screens have no hover), and the
+ * paragraph it shows: a setting's in the tuning table, a fault's in the simulator's form. */
+export function explainedName(label: string, doc: string, docId: string, text: string): [HTMLButtonElement, HTMLElement] {
+  const name = el("button", { type: "button", className: "tune-name", title: doc });
+  name.append(...breakable(label));
+  name.setAttribute("aria-expanded", "false");
+  name.setAttribute("aria-controls", docId);
+  const paragraph = el("p", { id: docId, className: "tune-doc", hidden: true });
+  paragraph.textContent = text;
+  name.addEventListener("click", () => {
+    paragraph.hidden = !paragraph.hidden;
+    name.setAttribute("aria-expanded", String(!paragraph.hidden));
+  });
+  return [name, paragraph];
 }
 
 export class Tuning {
@@ -73,16 +89,12 @@ export class Tuning {
     const form = el("form", { className: "tune-row", noValidate: true });
     form.dataset["setting"] = s.name;
     const docId = `tune-doc-${s.id}`;
-    const name = el("button", { type: "button", className: "tune-name", title: s.doc });
-    name.append(...breakable(s.name));
-    name.setAttribute("aria-expanded", "false");
-    name.setAttribute("aria-controls", docId);
-    const doc = el("p", { id: docId, className: "tune-doc", hidden: true });
-    doc.textContent = `${s.doc.charAt(0).toUpperCase()}${s.doc.slice(1)} (${s.name}, id ${s.id}; default ${num(s.default)} ${s.unit}).`;
-    name.addEventListener("click", () => {
-      doc.hidden = !doc.hidden;
-      name.setAttribute("aria-expanded", String(!doc.hidden));
-    });
+    const [name, doc] = explainedName(
+      s.name,
+      s.doc,
+      docId,
+      `${s.doc.charAt(0).toUpperCase()}${s.doc.slice(1)} (${s.name}, id ${s.id}; default ${num(s.default)} ${s.unit}).`,
+    );
     const input = el("input", {
       id: `tune-${s.id}`,
       name: "value",
