@@ -5,6 +5,9 @@ set -euo pipefail
 packages=(
   gcc-avr avr-libc binutils-avr avrdude   # firmware
   libsimavr-dev simavr libelf-dev         # simulator
+  libturbojpeg0-dev                       # simulator: the camera's JPEG frames
+  arduino-core-avr                        # simulator: Optiboot, the Nano's bootloader (avrdude flashes through it)
+  ser2net                                 # tests: the network serial link (RFC 2217)
   cmake ninja-build pkg-config            # host build
   clang libclang-rt-14-dev                # host tests, libFuzzer, sanitizers
   googletest libgtest-dev                 # unit tests
