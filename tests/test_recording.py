@@ -160,6 +160,7 @@ def test_replay_changes_nothing(mission_recording: tuple[Path, dict[str, Any]]) 
     ):
         answer = client.request(method, path, json=body)
         assert answer.status_code == 409 and "replay" in answer.json()["detail"], path
+    assert client.get("/api/sim/faults").status_code == 404  # the panel hides what a replay lacks
     assert player.state == "waiting" and player.sent == 0
 
 

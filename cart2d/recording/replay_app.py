@@ -53,16 +53,22 @@ def create_replay_app(
     def protocol() -> list[Any]:
         return []
 
+    @app.get("/api/settings", summary="where the replay listens (the panel's network form, hidden)")
+    def settings() -> dict[str, Any]:
+        return {"network": {"host": bind_host, "port": 0}}
+
     @app.get("/api/firmware/settings", summary="no firmware in a replay")
     def firmware_settings() -> list[Any]:
         return []
 
     @app.api_route(
         "/api/{rest:path}",
-        methods=["POST", "PUT", "DELETE", "PATCH"],
-        summary="refused: a replay changes nothing",
+        methods=["GET", "POST", "PUT", "DELETE", "PATCH"],
+        summary="the rest of the gateway's API: not in a replay (a change is refused)",
     )
     def refuse(rest: str, request: Request) -> JSONResponse:
+        if request.method == "GET":
+            return JSONResponse({"detail": f"/api/{rest} is not part of a replay"}, status_code=404)
         return JSONResponse({"detail": read_only}, status_code=409)
 
     @app.websocket("/ws")
