@@ -485,6 +485,7 @@ def main_mission(
     reached = sum(g["reached"] for g in goals)
     if "error" in report:
         print(f"cart2d mission: stopped: {report['error']}", file=sys.stderr)
-    recorded = f", recording in {mcap_path}" if mcap_path is not None and mcap_path.exists() else ""
-    print(f"{reached} of {len(spec.goals)} goals reached; report in {report_path}{recorded}", file=sys.stderr)
+    if mcap_path is not None and mcap_path.exists():
+        print(f"recording in {mcap_path} (cart2d replay plays it back)", file=sys.stderr)
+    print(f"{reached} of {len(spec.goals)} goals reached; report in {report_path}", file=sys.stderr)
     return 0 if "error" not in report and reached == len(spec.goals) else 1

@@ -237,6 +237,6 @@ def test_a_mission_records_beside_its_report_unless_told(
     recordings = sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*.mcap"))
     assert recordings == ([where] if where else [])
     if where:
-        shown = done.stderr.split("recording in ", 1)[1].strip()
+        shown = done.stderr.split("recording in ", 1)[1].split(" (cart2d replay")[0]
         assert (tmp_path / shown).resolve() == (tmp_path / where).resolve()
         assert Read(tmp_path / where).ws("telemetry")
