@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -240,3 +241,22 @@ def test_a_mission_records_beside_its_report_unless_told(
         shown = done.stderr.split("recording in ", 1)[1].split(" (cart2d replay")[0]
         assert (tmp_path / shown).resolve() == (tmp_path / where).resolve()
         assert Read(tmp_path / where).ws("telemetry")
+
+
+def test_a_foxglove_port_in_use_is_one_sentence_before_anything_starts(tmp_path: Path) -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        done = subprocess.run(
+            [sys.executable, "-m", "cart2d.cli", "sim", "--port", str(free_port()), "--foxglove", str(port)],
+            env={**os.environ, "CART2D_HOME": str(tmp_path)},
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+    assert done.returncode == 2
+    assert (
+        done.stderr.strip()
+        == f"cart2d sim: --foxglove {port}: cannot listen on 127.0.0.1 (Address already in use)"
+    )

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import socket
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -57,12 +58,22 @@ def mission_mcap_path(args: argparse.Namespace, mission: Path, report: Path) -> 
 
 
 def record_problem(args: argparse.Namespace) -> str | None:
-    """Why --record DIR cannot be used, in a sentence; None if it can."""
+    """Why --record DIR or --foxglove PORT cannot be used, in a sentence; None if they can.
+    Checked before anything starts (the port could still be taken in between: then the
+    SDK's error stops the command)."""
     folder: Path | None = args.record
-    if folder is None:
-        return None
-    if folder.exists() and not folder.is_dir():
+    if folder is not None and folder.exists() and not folder.is_dir():
         return f"--record {folder}: not a folder"
+    if args.foxglove is not None:
+        try:
+            family = socket.AF_INET6 if ":" in args.foxglove_host else socket.AF_INET
+            with socket.socket(family, socket.SOCK_STREAM) as probe:
+                probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+                probe.bind((args.foxglove_host, args.foxglove))
+        except OSError as exc:
+            return (
+                f"--foxglove {args.foxglove}: cannot listen on {args.foxglove_host} ({exc.strerror or exc})"
+            )
     return None
 
 
