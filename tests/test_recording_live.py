@@ -15,6 +15,7 @@ import numpy as np
 from mcap.reader import make_reader
 from websockets.sync.client import ClientConnection, connect
 
+from cart2d.maps import OccupancyMap
 from cart2d.recording import channels as c
 from cart2d.recording import open_recording
 
@@ -24,9 +25,10 @@ MESSAGE_DATA = 0x01  # the Foxglove WebSocket protocol's binary opcode for a mes
 class StandIn:
     """What the publisher uses of a Gateway: subscribe, map_view, floor_plan."""
 
-    def __init__(self) -> None:
+    def __init__(self, plan: OccupancyMap | None = None) -> None:
         self.listeners: list[Callable[[dict[str, Any]], None]] = []
         self.sim = None
+        self.plan = plan
 
     def subscribe(self, listener: Callable[[dict[str, Any]], None]) -> Callable[[], None]:
         self.listeners.append(listener)
@@ -42,8 +44,8 @@ class StandIn:
             "obstacles": [[0.4, 0.2]],
         }
 
-    def floor_plan(self) -> None:
-        return None
+    def floor_plan(self) -> OccupancyMap | None:
+        return self.plan
 
     def publish(self, message: dict[str, Any]) -> None:
         for listener in self.listeners:
@@ -121,3 +123,22 @@ def test_camera_frames_are_recorded_as_given(tmp_path: Path) -> None:
     for schema, message in frames:
         assert schema is not None and schema.name == "foxglove.CompressedImage"
         assert jpeg in message.data  # the JPEG's bytes whole, in the message's `data` field
+
+
+def test_the_map_is_recorded_as_grids_of_the_nodes_and_the_floor_plan(tmp_path: Path) -> None:
+    cells = np.zeros((3, 4), np.int8)
+    cells[0, 1], cells[2, 3] = 100, -1  # row 0 is the lowest y (nav_msgs/OccupancyGrid)
+    path = tmp_path / "map.mcap"
+    with open_recording(StandIn(OccupancyMap((-0.5, -0.5), 0.25, cells)), path):
+        pass
+    with path.open("rb") as stream:
+        grids = {
+            channel.topic: message.data
+            for _, channel, message in make_reader(stream).iter_messages(
+                topics=[c.TOPIC_MAP_NODES, c.TOPIC_MAP_FLOOR_PLAN]
+            )
+        }
+    nodes = bytearray(5 * 4)
+    nodes[1 * 5 + 2] = 100  # the obstacle at (0.4, 0.2): column 2 of row 1, 0.2 m apart
+    assert bytes(nodes) in grids[c.TOPIC_MAP_NODES]
+    assert cells.tobytes() in grids[c.TOPIC_MAP_FLOOR_PLAN]
