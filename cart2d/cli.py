@@ -265,7 +265,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--speed", type=cli_args.replay_speed, default=1.0, help="recorded seconds per second (default 1)"
     )
     replay.add_argument("--loop", action="store_true", help="start again at the end")
-    _network_args(replay)
+    replay.add_argument("--host", type=cli_args.host, help="bind address (default 127.0.0.1)")
+    replay.add_argument("--port", type=cli_args.port_number, help="HTTP port (default 8080)")
+    replay.add_argument(
+        "--allow-host", action="append", default=[], metavar="NAME", help="also answer to this Host name"
+    )
     replay.set_defaults(run=cmd_replay)
 
     calibrate = sub.add_parser("calibrate", help="odometry calibration (UMBmark): wheel radii and track")
