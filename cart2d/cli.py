@@ -19,6 +19,7 @@ from cart2d.calibrate import add_arguments as add_calibrate_arguments
 from cart2d.calibrate import main_calibrate
 from cart2d.gateway import Gateway
 from cart2d.link import Link, LinkError, ports
+from cart2d.recording import cli as recording_cli
 from cart2d.server import addresses, create_app, is_loopback, serving
 from cart2d.simulator import SimOptions, Simulator, SimulatorError
 from cart2d.store import Store
@@ -116,6 +117,7 @@ def _fault_options(options: list[str]) -> tuple[dict[str, float], list[str]]:
 
 def cmd_sim(args: argparse.Namespace) -> int:
     faults, problems = _fault_options(args.fault)
+    problems += [p for p in [recording_cli.record_problem(args)] if p]
     for problem in problems:
         print(f"cart2d sim: {problem}", file=sys.stderr)
     if problems:
@@ -141,15 +143,16 @@ def cmd_sim(args: argparse.Namespace) -> int:
         link = Link(sim.pty).open()
         gateway = Gateway(link, store, where.settings, sim)
         try:
-            _connect(gateway, 5.0)
-            gateway.start()
-            on = f"; faults: {', '.join(f'{k}={v:g}' for k, v in faults.items())}" if faults else ""
-            print(
-                f"simulator running ({args.speed}x real time{on}), robot serial port {sim.pty}, "
-                f"side channel {sim.control_address}",
-                flush=True,
-            )
-            _serve(gateway, where, args.allow_host)
+            with recording_cli.live_session(gateway, args):
+                _connect(gateway, 5.0)
+                gateway.start()
+                on = f"; faults: {', '.join(f'{k}={v:g}' for k, v in faults.items())}" if faults else ""
+                print(
+                    f"simulator running ({args.speed}x real time{on}), robot serial port {sim.pty}, "
+                    f"side channel {sim.control_address}",
+                    flush=True,
+                )
+                _serve(gateway, where, args.allow_host)
         finally:
             gateway.close()
             link.close()
@@ -173,6 +176,10 @@ def _open_serial(args: argparse.Namespace) -> Link | None:
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
+    problem = recording_cli.record_problem(args)
+    if problem:
+        print(f"cart2d serve: {problem}", file=sys.stderr)
+        return 2
     store = Store()
     where = _listen(store, args)
     if where is None:
@@ -183,9 +190,10 @@ def cmd_serve(args: argparse.Namespace) -> int:
             return 1
         gateway = Gateway(link, store, where.settings)
         try:
-            _connect(gateway, 5.0)
-            gateway.start()
-            _serve(gateway, where, args.allow_host)
+            with recording_cli.live_session(gateway, args):
+                _connect(gateway, 5.0)
+                gateway.start()
+                _serve(gateway, where, args.allow_host)
         finally:
             gateway.close()
             link.close()
@@ -193,9 +201,18 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
 
 def cmd_mission(args: argparse.Namespace) -> int:
+    from cart2d import mission_file
     from cart2d.mission import main_mission  # tqdm and friends only for this command
 
-    return main_mission(args.mission, args.report, args.speed, args.seed)
+    report = args.report or mission_file.default_report_path(args.mission)
+    mcap = recording_cli.mission_mcap_path(args, args.mission, report)
+    return main_mission(args.mission, report, args.speed, args.seed, mcap)
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    from cart2d.recording.replay_cli import main_replay
+
+    return main_replay(args)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -218,12 +235,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="a simulator fault for this run (repeatable; PUT /api/sim/faults changes them later): "
         + ", ".join(f"{f.name} ({f.range_text()})" for f in fault_table.FAULTS),
     )
+    recording_cli.add_live_arguments(sim)
     sim.set_defaults(run=cmd_sim)
 
     serve = sub.add_parser("serve", help="the gateway and panel for a real cart on a serial port")
     serve.add_argument("--serial", required=True, help="the Nano's serial port, e.g. /dev/ttyUSB0")
     serve.add_argument("--baud", type=int, default=115200)
     _network_args(serve)
+    recording_cli.add_live_arguments(serve)
     serve.set_defaults(run=cmd_serve)
 
     mission = sub.add_parser("mission", help="run a mission in the simulator and write a report")
@@ -235,7 +254,23 @@ def build_parser() -> argparse.ArgumentParser:
         "--speed", type=cli_args.speed, default="max", help="simulated seconds per second, or 'max' (default)"
     )
     mission.add_argument("--seed", type=cli_args.seed, default=1)
+    recording_cli.add_mission_arguments(mission)
     mission.set_defaults(run=cmd_mission)
+
+    replay = sub.add_parser("replay", help="play an MCAP recording back into the panel (read-only)")
+    replay.add_argument(
+        "file", type=Path, help="a recording of cart2d mission, sim --record or serve --record"
+    )
+    replay.add_argument(
+        "--speed", type=cli_args.replay_speed, default=1.0, help="recorded seconds per second (default 1)"
+    )
+    replay.add_argument("--loop", action="store_true", help="start again at the end")
+    replay.add_argument("--host", type=cli_args.host, help="bind address (default 127.0.0.1)")
+    replay.add_argument("--port", type=cli_args.port_number, help="HTTP port (default 8080)")
+    replay.add_argument(
+        "--allow-host", action="append", default=[], metavar="NAME", help="also answer to this Host name"
+    )
+    replay.set_defaults(run=cmd_replay)
 
     calibrate = sub.add_parser("calibrate", help="odometry calibration (UMBmark): wheel radii and track")
     add_calibrate_arguments(calibrate)

@@ -54,6 +54,19 @@ def speed(text: str) -> str:
     return text
 
 
+def replay_speed(text: str) -> float:
+    """A positive factor of the recorded pace (`cart2d replay --speed`)."""
+    try:
+        factor = float(text)
+    except ValueError:
+        factor = math.nan
+    if not (math.isfinite(factor) and 0.0 < factor <= 1000.0):
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a replay speed: give recorded seconds per second, above 0 and at most 1000"
+        )
+    return factor
+
+
 def seed(text: str) -> int:
     try:
         value = int(text)

@@ -38,6 +38,7 @@ from cart2d.maps import MapError, load_ros_map
 from cart2d.mission_events import EventPlayer, MapEvent, Pacer, snapped
 from cart2d.params import robot, setting_id
 from cart2d.planning import Grid, PlanError, Point, point_polyline_distance, polyline_length
+from cart2d.recording import open_recording
 from cart2d.simulator import SimOptions, Simulator, SimulatorError
 from cart2d.store import FloorPlan, GatewaySettings, MapSettings, PlanningStep, Store
 
@@ -340,11 +341,12 @@ def run_mission(
     progress: bool = False,
     report: dict[str, Any] | None = None,
     base_dir: Path | None = None,
+    mcap_path: Path | None = None,
 ) -> dict[str, Any]:
     """Runs the mission in a fresh simulator (blank EEPROM); returns the report. `report`, if
     given, is filled as the mission goes (each goal as it ends): what it holds is the report so
     far if the run stops on an error. `base_dir`: where a relative "map" path starts (the
-    mission file's folder)."""
+    mission file's folder). `mcap_path`: where to record the run (cart2d/recording/)."""
     report = {} if report is None else report
     report.update(behaviour=spec.behaviour, goals=[], resets=[])
     map_settings = mission_map(spec, base_dir)
@@ -361,8 +363,10 @@ def run_mission(
         store = Store(Path(tmp) / "gateway")
         settings = GatewaySettings(map=map_settings)
         wall_start = time.monotonic()
-        with Simulator(options) as sim, Link(sim.pty) as link:
+        with Simulator(options) as sim, Link(sim.pty) as link, contextlib.ExitStack() as recording:
             gateway = Gateway(link, store, settings, sim)
+            if mcap_path is not None:  # closed after gateway.close(): the file holds the whole run
+                recording.enter_context(open_recording(gateway, mcap_path, overwrite=True))
             grid = gateway.planner.grid
             points = snapped(grid, [grid.node_xy(i, j) for i, j in map_settings.obstacles])
             sim.change_obstacles(add=points, step=grid.step_m)  # virtual: counted, not felt
@@ -448,7 +452,9 @@ def check_mission(mission_path: Path, report_path: Path) -> tuple[MissionSpec | 
     return (spec if not problems else None), problems
 
 
-def main_mission(mission_path: Path, report_path: Path | None, speed: str, seed: int) -> int:
+def main_mission(
+    mission_path: Path, report_path: Path | None, speed: str, seed: int, mcap_path: Path | None = None
+) -> int:
     """The `cart2d mission` command. Everything is checked first: each problem is a line on
     stderr and the exit status is 2, with nothing run and no report. Once the mission runs, the
     report is written however it ends (an error stops it: exit status 1, the error in the
@@ -462,7 +468,13 @@ def main_mission(mission_path: Path, report_path: Path | None, speed: str, seed:
     report: dict[str, Any] = {}
     try:
         run_mission(
-            spec, speed, seed, progress=sys.stderr.isatty(), report=report, base_dir=mission_path.parent
+            spec,
+            speed,
+            seed,
+            progress=sys.stderr.isatty(),
+            report=report,
+            base_dir=mission_path.parent,
+            mcap_path=mcap_path,
         )
     except (LinkError, CommandRefused, SimulatorError, PlanError, MapError, OSError) as exc:
         report["error"] = str(exc)
@@ -473,5 +485,7 @@ def main_mission(mission_path: Path, report_path: Path | None, speed: str, seed:
     reached = sum(g["reached"] for g in goals)
     if "error" in report:
         print(f"cart2d mission: stopped: {report['error']}", file=sys.stderr)
+    if mcap_path is not None and mcap_path.exists():
+        print(f"recording in {mcap_path} (cart2d replay plays it back)", file=sys.stderr)
     print(f"{reached} of {len(spec.goals)} goals reached; report in {report_path}", file=sys.stderr)
     return 0 if "error" not in report and reached == len(spec.goals) else 1

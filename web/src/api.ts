@@ -102,6 +102,16 @@ export interface StatusView {
   reset: { last: ResetReport | null; noticed: number };
   pose_trust: PoseTrust;
   routine: RoutineView;
+  replay?: ReplayView; // `cart2d replay`: a recording played back, no robot behind it
+}
+
+export interface ReplayView {
+  file: string;
+  state: "waiting" | "playing" | "ended";
+  position_s: number;
+  duration_s: number;
+  speed: number;
+  sent: number;
 }
 
 export interface ProtocolCommand {

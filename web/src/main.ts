@@ -62,6 +62,28 @@ const badges = new FlagBadges($("fw-flags"), $("health"), (text) => notify(text,
 let gatewayUp = false;
 let wsUp = false;
 let lastStatus: StatusView | null = null;
+let replaying = false; // `cart2d replay`: a recording, no robot: nothing here drives or changes anything
+
+/** The replay badge; in a replay the page hides every control (controls.css, data-replay). */
+function showReplay(s: StatusView): void {
+  replaying = s.replay !== undefined;
+  document.body.dataset["replay"] = replaying ? "on" : "off";
+  const badge = $("replay-badge");
+  badge.hidden = !s.replay;
+  if (s.replay) {
+    const r = s.replay;
+    badge.textContent = `replay of ${r.file}: ${r.position_s.toFixed(1)} / ${r.duration_s.toFixed(1)} s (${r.state})`;
+  }
+}
+// Keys drive and stop the cart: in a replay there is none (a capture listener runs before theirs).
+window.addEventListener(
+  "keydown",
+  (e) => {
+    const typing = e.target instanceof HTMLInputElement || e.target instanceof HTMLSelectElement;
+    if (replaying && !typing) e.stopImmediatePropagation();
+  },
+  { capture: true },
+);
 
 /** The link indicator and the freshness of the live values: a link that is up but whose
  * telemetry has stopped (switched off, or a quiet link) shows stale values with their age. */
@@ -103,6 +125,7 @@ async function pollStatus(): Promise<void> {
     const s = await api<StatusView>("GET", "/api/status", undefined, 4000);
     gatewayUp = true;
     lastStatus = s;
+    showReplay(s);
     $("fw-version").textContent = s.firmware ? `${s.firmware.firmware} (protocol ${s.firmware.protocol})` : "–";
     if (s.status) {
       $("fw-mode").textContent = s.status.mode;
@@ -155,6 +178,7 @@ $("map-zoom-out").addEventListener("click", () => liveMap.zoomOut());
 $("map-fit").addEventListener("click", () => liveMap.fit());
 
 async function setPoseFromMap(p: Pose): Promise<void> {
+  if (replaying) return;
   try {
     await api("POST", "/api/pose", { x: round3(p.x), y: round3(p.y), theta: round3(p.theta) });
     liveMap.hidePlan(); // planned from the pose before
@@ -198,6 +222,7 @@ async function loadMap(): Promise<void> {
 }
 
 async function mapClick(world: Point, node: Point | null): Promise<void> {
+  if (replaying) return;
   if (mapMode === "goto") {
     await goTo(Math.round(world[0] * 1000) / 1000, Math.round(world[1] * 1000) / 1000);
     return;
