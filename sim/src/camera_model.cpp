@@ -38,16 +38,23 @@ CameraIntrinsics CameraIntrinsics::from_params() {
 }
 
 CameraModel::CameraModel(const CameraMount& mount, const CameraIntrinsics& intrinsics) : mount_(mount), intr_(intrinsics) {
-  rays_base_.resize(static_cast<size_t>(intr_.width_px) * static_cast<size_t>(intr_.height_px));
-  size_t i = 0;
+  const size_t pixels = static_cast<size_t>(intr_.width_px) * static_cast<size_t>(intr_.height_px);
+  rays_base_.reserve(pixels);
+  subrays_base_.reserve(4 * pixels);
   for (int v = 0; v < intr_.height_px; ++v) {
     for (int u = 0; u < intr_.width_px; ++u) {
-      double x = 0.0, y = 0.0;
-      undistort(u, v, &x, &y);
-      const double n = std::sqrt(x * x + y * y + 1.0);
-      rays_base_[i++] = camera_to_base({x / n, y / n, 1.0 / n});
+      rays_base_.push_back(ray_base(u, v));
+      for (double dv : {-0.25, 0.25})
+        for (double du : {-0.25, 0.25}) subrays_base_.push_back(ray_base(u + du, v + dv));
     }
   }
+}
+
+Vec3 CameraModel::ray_base(double u, double v) const {
+  double x = 0.0, y = 0.0;
+  undistort(u, v, &x, &y);
+  const double n = std::sqrt(x * x + y * y + 1.0);
+  return camera_to_base({x / n, y / n, 1.0 / n});
 }
 
 // The camera's axes in base_link, pitched down by p about base_link y:

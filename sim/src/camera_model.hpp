@@ -62,13 +62,18 @@ class CameraModel {
   // The unit ray of every pixel in base_link axes (row-major, the same for every pose: only a
   // rotation about z remains per frame), made once.
   const std::vector<Vec3>& rays_base() const { return rays_base_; }
+  // Four rays per pixel, at (u ± 1/4, v ± 1/4), for anti-aliasing edges: pixel i's are
+  // [4i, 4i + 4) (top-left, top-right, bottom-left, bottom-right).
+  const std::vector<Vec3>& subrays_base() const { return subrays_base_; }
 
  private:
   Vec3 camera_to_base(const Vec3& c) const;
+  Vec3 ray_base(double u, double v) const;
 
   CameraMount mount_;
   CameraIntrinsics intr_;
   std::vector<Vec3> rays_base_;
+  std::vector<Vec3> subrays_base_;
 };
 
 }  // namespace cart2d

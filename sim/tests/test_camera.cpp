@@ -136,7 +136,7 @@ TEST(CameraRender, FloorNearAndFarAndTheHorizon) {
   World world;
   // Two strips of dark tape on the floor across the view, near (0.6 m) and far (3 m).
   for (double x : {0.6, 3.0}) {
-    Box tape = box_at(x, 0.0, 0.05, 2.0);
+    Box tape = box_at(x, 0.0, x < 1 ? 0.05 : 0.2, 2.0);  // several pixels tall at either distance
     tape.height_m = 1e-4;
     tape.colour_rgb = 0x202020;
     world.add(tape);
@@ -146,8 +146,9 @@ TEST(CameraRender, FloorNearAndFarAndTheHorizon) {
   for (double x : {0.6, 3.0}) {
     double u = 0, v = 0, u_near = 0, v_near = 0, u_far = 0, v_far = 0;
     m.project(Pose{}, {x, 0, 0}, &u, &v);
-    m.project(Pose{}, {x - 0.1, 0, 0}, &u_near, &v_near);
-    m.project(Pose{}, {x + 0.1, 0, 0}, &u_far, &v_far);
+    const double beside = x < 1 ? 0.1 : 0.25;  // past the tape's edge, clear of anti-aliasing
+    m.project(Pose{}, {x - beside, 0, 0}, &u_near, &v_near);
+    m.project(Pose{}, {x + beside, 0, 0}, &u_far, &v_far);
     EXPECT_EQ(pixel(img, m, u, v).r, 0x20) << x;
     EXPECT_TRUE(is_floor(pixel(img, m, u_near, v_near))) << x;
     EXPECT_TRUE(is_floor(pixel(img, m, u_far, v_far))) << x;
