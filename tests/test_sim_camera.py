@@ -1,0 +1,246 @@
+"""The simulated camera against the real simulator binary, through the ESP32-CAM URLs it is served
+at (cart2d/simulation/camera.py): what it shows against robot.toml's camera facts (projected here
+with OpenCV, independently of the simulator's C++), its timestamps in simulated time, the stock
+sketch's one stream client, determinism at any speed, and a checkerboard OpenCV can find."""
+
+from __future__ import annotations
+
+import http.client
+import itertools
+import math
+import re
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from cart2d.params import robot
+from cart2d.simulation.camera import PART_BOUNDARY, SimCameraServer
+from cart2d.simulation.controls import Board
+from cart2d.simulator import Box, Simulator, World, arena_world
+from tests.conftest import start_sim
+
+PORT = 18280  # tests only; the stream on PORT + 1
+
+
+def camera_matrix() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """K, distortion, rvec, tvec of the mounted camera for a cart at the origin heading +x, from
+    robot.toml ([camera] facts, [sim.camera] lens): the OpenCV model the simulator claims to be."""
+    cam, lens = robot()["camera"], robot()["sim"]["camera"]
+    w, h = int(cam["width_px"]), int(cam["height_px"])
+    f = (w / 2) / math.tan(math.radians(float(cam["hfov_deg"])) / 2)
+    k = np.array([[f, 0, (w - 1) / 2], [0, f, (h - 1) / 2], [0, 0, 1]])
+    dist = np.array([float(lens["k1"]), float(lens["k2"]), 0, 0, 0])
+    p = math.radians(float(cam["pitch_deg"]))
+    z_c = np.array([math.cos(p), 0, -math.sin(p)])  # optical axis, base_link
+    x_c = np.array([0.0, -1.0, 0.0])  # image right = base_link -y
+    rot = np.vstack([x_c, np.cross(z_c, x_c), z_c])
+    centre = np.array([float(cam["mount_x_m"]), float(cam["mount_y_m"]), float(cam["height_m"])])
+    rvec, _ = cv2.Rodrigues(rot)
+    return k, dist, rvec, -rot @ centre
+
+
+def project(points: list[tuple[float, float, float]]) -> np.ndarray:
+    k, dist, rvec, tvec = camera_matrix()
+    uv, _ = cv2.projectPoints(np.array(points, dtype=np.float64), rvec, tvec, k, dist)
+    return uv.reshape(-1, 2)
+
+
+def decode(jpeg: bytes) -> np.ndarray:
+    image = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
+    assert image is not None
+    return image
+
+
+def at(image: np.ndarray, uv: np.ndarray, du: float = 0.0, dv: float = 0.0) -> np.ndarray:
+    """BGR at a pixel, averaged over 3 x 3 (the noise and JPEG's ringing)."""
+    u, v = round(float(uv[0] + du)), round(float(uv[1] + dv))
+    assert 1 <= u < image.shape[1] - 1 and 1 <= v < image.shape[0] - 1, (u, v)
+    patch: np.ndarray = image[v - 1 : v + 2, u - 1 : u + 2].reshape(-1, 3).mean(axis=0)
+    return patch
+
+
+def is_red(bgr: np.ndarray) -> bool:
+    return bool(bgr[2] > 120 and bgr[1] < 70 and bgr[0] < 70)
+
+
+def is_grey(bgr: np.ndarray) -> bool:
+    return bool(np.ptp(bgr) < 15 and 140 < bgr.mean() < 200)
+
+
+RED_BOX = Box(1.2, 0.0, 0.2, 0.3, height=0.1, colour="#c03020")
+
+
+def world_with(*boxes: Box) -> World:
+    return World(boxes=boxes, boundary=arena_world(10, 10, 0.2).boundary)
+
+
+@pytest.fixture
+def served(tmp_path: Path) -> Iterator[tuple[Simulator, SimCameraServer]]:
+    sim = start_sim(tmp_path, world=world_with(RED_BOX), start=(0.0, 0.0, 0.0))
+    server = SimCameraServer(lambda: sim.control_address, PORT).start()
+    yield sim, server
+    server.stop()
+    sim.stop()
+
+
+def get(port: int, path: str, timeout_s: float = 10.0) -> http.client.HTTPResponse:
+    connection = http.client.HTTPConnection("127.0.0.1", port, timeout=timeout_s)
+    connection.request("GET", path)
+    return connection.getresponse()
+
+
+def stream_parts(response: http.client.HTTPResponse, count: int) -> list[tuple[dict[str, str], bytes]]:
+    """The next `count` parts of an MJPEG stream: their headers and JPEG bytes. The part headers
+    are split on the declared boundary; HTTP itself is http.client's."""
+    parts: list[tuple[dict[str, str], bytes]] = []
+    buf = b""
+    marker = f"--{PART_BOUNDARY}\r\n".encode()
+    while len(parts) < count:
+        start = buf.find(marker)
+        end = buf.find(b"\r\n\r\n", start) if start >= 0 else -1
+        if end >= 0:
+            lines = buf[start + len(marker) : end].decode().split("\r\n")
+            headers = dict(line.split(": ", 1) for line in lines)
+            size = int(headers["Content-Length"])
+            if len(buf) >= end + 4 + size:
+                parts.append((headers, buf[end + 4 : end + 4 + size]))
+                buf = buf[end + 4 + size :]
+                continue
+        chunk = response.read1(65536)
+        assert chunk, "the stream ended"
+        buf += chunk
+    return parts
+
+
+def test_a_box_shows_at_the_pixels_robot_toml_predicts(served: tuple[Simulator, SimCameraServer]) -> None:
+    answer = get(PORT, "/capture")
+    assert answer.status == 200
+    assert answer.getheader("Content-Type") == "image/jpeg"
+    image = decode(answer.read())
+    cam = robot()["camera"]
+    assert image.shape == (int(cam["height_px"]), int(cam["width_px"]), 3)
+    front = 1.2 - 0.1
+    face, bottom, top, left, right, back = project(
+        [
+            (front, 0, 0.05),
+            (front, 0, 0.0),
+            (front, 0, 0.1),
+            (front, 0.15, 0.05),
+            (front, -0.15, 0.05),
+            (1.3, 0, 0.1),
+        ]
+    )
+    assert is_red(at(image, face))
+    # 3 px inside and outside each edge of the front face; above it, the top face (lit brighter:
+    # the lens is higher than the box), then the floor beyond its far edge.
+    assert is_red(at(image, bottom, dv=-3)) and is_grey(at(image, bottom, dv=3))
+    assert is_red(at(image, top, dv=3)) and is_red(at(image, top, dv=-3))
+    assert at(image, top, dv=-3)[2] > at(image, top, dv=3)[2] + 20
+    assert is_red(at(image, back, dv=3)) and is_grey(at(image, back, dv=-3))
+    assert is_red(at(image, left, du=3)) and is_grey(at(image, left, du=-3))
+    assert is_red(at(image, right, du=-3)) and is_grey(at(image, right, du=3))
+    # The floor beside it, near and far.
+    for point in project([(front, 0.35, 0.0), (0.5, -0.1, 0.0), (2.5, 0.4, 0.0)]):
+        assert is_grey(at(image, point))
+
+
+def test_status_and_control_as_the_stock_sketch(served: tuple[Simulator, SimCameraServer]) -> None:
+    import json
+
+    status = json.loads(get(PORT, "/status").read())
+    assert status["framesize"] == 5 and status["quality"] == 10  # QVGA; libjpeg 80
+    assert get(PORT, "/control?var=framesize&val=8").status == 200  # VGA
+    assert json.loads(get(PORT, "/status").read())["framesize"] == 8
+    assert decode(get(PORT, "/capture").read()).shape == (480, 640, 3)
+    assert get(PORT, "/control?var=nonsense&val=1").status == 500
+    assert get(PORT, "/control?var=framesize&val=99").status == 500
+
+
+def test_stream_stamps_are_simulated_capture_times(served: tuple[Simulator, SimCameraServer]) -> None:
+    sim, _ = served
+    answer = get(PORT + 1, "/stream")
+    assert answer.getheader("Content-Type") == f"multipart/x-mixed-replace;boundary={PART_BOUNDARY}"
+    parts = stream_parts(answer, 12)
+    answer.close()
+    fps = float(robot()["sim"]["camera"]["fps"])
+    stamps = [float(headers["X-Timestamp"]) for headers, _ in parts]
+    assert all(re.fullmatch(r"\d+\.\d{6}", headers["X-Timestamp"]) for headers, _ in parts)
+    assert all(b > a for a, b in itertools.pairwise(stamps))
+    for t in stamps:  # t_k = k / fps, to the microsecond of the header
+        assert abs(t * fps - round(t * fps)) * 1e6 / fps < 1.0
+    # Delivered only once the latency has passed in simulated time.
+    latency_s = float(robot()["sim"]["camera"]["latency_ms"]) / 1000
+    assert sim.truth()["t"] >= stamps[-1] + latency_s
+    for _, jpeg in parts:
+        assert decode(jpeg).shape[:2] == (240, 320)
+
+
+def test_one_stream_client_at_a_time(served: tuple[Simulator, SimCameraServer]) -> None:
+    first = get(PORT + 1, "/stream")
+    stream_parts(first, 2)
+    got: list[tuple[dict[str, str], bytes]] = []
+
+    def watch() -> None:
+        second = get(PORT + 1, "/stream", timeout_s=20.0)
+        got.extend(stream_parts(second, 2))
+        second.close()
+
+    waiting = threading.Thread(target=watch, daemon=True)
+    waiting.start()
+    stream_parts(first, 15)  # a second of frames for the first client...
+    assert not got  # ...and none for the second meanwhile
+    first.close()
+    waiting.join(timeout=20.0)
+    assert len(got) == 2  # its turn once the first has left
+
+
+def frame_at_half_a_second(tmp_path: Path, speed: str) -> tuple[int, bytes]:
+    sim = start_sim(
+        tmp_path / speed, world=world_with(RED_BOX), start=(0.0, 0.0, 0.3), paused=True, speed=speed
+    )
+    try:
+        sim.camera(True)
+        sim.place_target(Board(x=0.45, y=-0.075))
+        sim.run_for(0.5)
+        frame = sim.wait_frame(timeout_s=5.0)
+        return frame.seq, frame.jpeg
+    finally:
+        sim.stop()
+
+
+def test_a_frame_is_the_same_at_any_speed(tmp_path: Path) -> None:
+    (tmp_path / "1").mkdir()
+    (tmp_path / "max").mkdir()
+    slow = frame_at_half_a_second(tmp_path, "1")
+    fast = frame_at_half_a_second(tmp_path, "max")
+    # The last frame out by 0.5 s: k / 15 + 0.06 <= 0.5.
+    assert slow[0] == fast[0] == 6
+    assert slow[1] == fast[1]
+
+
+def test_the_checkerboard_is_found_where_the_model_puts_its_corners(tmp_path: Path) -> None:
+    sim = start_sim(tmp_path, world=world_with(), start=(0.0, 0.0, 0.0), paused=True)
+    try:
+        board = Board(x=0.45, y=-0.075)  # 9 x 6 corners of 3 cm, lying on the floor ahead
+        sim.place_target(board)
+        sim.camera(True, noise_sigma=2.0)
+        sim.run_for(0.2)
+        image = decode(sim.wait_frame(timeout_s=5.0).jpeg)
+    finally:
+        sim.stop()
+    grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+    found, corners = cv2.findChessboardCorners(grey, (board.cols, board.rows))
+    assert found
+    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 0.01)
+    corners = cv2.cornerSubPix(grey, corners, (3, 3), (-1, -1), criteria).reshape(-1, 2)
+    expected = project([board.corner(i, j) for j in range(board.rows) for i in range(board.cols)])
+    # OpenCV may list the corners from either end: match each expected corner to the nearest.
+    # Edges are anti-aliased, so corners land within a fraction of a pixel (one ray a pixel:
+    # 0.32 px RMS, 0.57 px at worst on this foreshortened view).
+    errors = np.linalg.norm(expected[:, None, :] - corners[None, :, :], axis=2).min(axis=1)
+    assert float(np.sqrt(np.mean(errors**2))) < 0.3
+    assert float(errors.max()) < 0.55
