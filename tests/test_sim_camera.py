@@ -8,7 +8,11 @@ from __future__ import annotations
 import http.client
 import itertools
 import math
+import os
 import re
+import signal
+import subprocess
+import sys
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -244,3 +248,29 @@ def test_the_checkerboard_is_found_where_the_model_puts_its_corners(tmp_path: Pa
     errors = np.linalg.norm(expected[:, None, :] - corners[None, :, :], axis=2).min(axis=1)
     assert float(np.sqrt(np.mean(errors**2))) < 0.3
     assert float(errors.max()) < 0.55
+
+
+def test_cart2d_sim_serves_the_camera_and_keeps_its_url(tmp_path: Path) -> None:
+    """`cart2d sim --camera-port P` serves the simulated ESP32-CAM beside the panel."""
+    from tests.conftest import wait_serving
+    from tests.test_cli import free_port
+
+    port, camera_port = free_port(), free_port()
+    run = ["sim", "--port", str(port), "--camera-port", str(camera_port), "--speed", "max"]
+    gateway = subprocess.Popen(
+        [sys.executable, "-m", "cart2d.cli", *run],
+        env={**os.environ, "CART2D_HOME": str(tmp_path)},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
+    try:
+        wait_serving(port)
+        answer = get(camera_port, "/capture")
+        assert answer.status == 200
+        assert decode(answer.read()).shape == (240, 320, 3)
+        gateway.send_signal(signal.SIGTERM)
+        out, _ = gateway.communicate(timeout=30)
+    finally:
+        gateway.kill()
+    assert f"simulated ESP32-CAM on 127.0.0.1:{camera_port}" in out
