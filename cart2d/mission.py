@@ -83,6 +83,9 @@ class MissionSpec(BaseModel):
         max_length=100,
         description="simulated seconds after the start at which the MCU is reset (the reset button)",
     )
+    perception: bool | None = Field(
+        None, description="the simulated camera and perception (default: on when the mission has a world)"
+    )
 
     @model_validator(mode="after")
     def map_or_grid(self) -> MissionSpec:

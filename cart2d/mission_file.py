@@ -70,6 +70,12 @@ def parse(data: bytes, model: type[Model], name: str) -> tuple[Model | None, lis
         return None, [_sentence(error, keys) for error in exc.errors()]
 
 
+def perception_on(perception: bool | None, has_world: bool) -> bool:
+    """A mission's "perception" (the simulated camera and the gateway's perception): as given,
+    else on exactly when the mission has a physical world to see (issue 14)."""
+    return has_world if perception is None else perception
+
+
 def settings_problems(settings: dict[str, float]) -> list[str]:
     """One sentence per firmware setting that does not exist or whose value is out of its range."""
     table = {entry["name"]: entry for entry in settings_table()}

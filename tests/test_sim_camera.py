@@ -274,3 +274,18 @@ def test_cart2d_sim_serves_the_camera_and_keeps_its_url(tmp_path: Path) -> None:
     finally:
         gateway.kill()
     assert f"simulated ESP32-CAM on 127.0.0.1:{camera_port}" in out
+
+
+def test_a_missions_perception_key() -> None:
+    from cart2d.mission import MissionSpec
+    from cart2d.mission_file import parse, perception_on
+
+    spec, problems = parse(b'{"goals": [[0.4, 0]], "perception": false}', MissionSpec, "m.json")
+    assert spec is not None and not problems
+    assert spec.perception is False and not perception_on(spec.perception, has_world=True)
+    spec, _ = parse(b'{"goals": [[0.4, 0]]}', MissionSpec, "m.json")
+    assert spec is not None and spec.perception is None
+    assert perception_on(spec.perception, has_world=True)  # on by default with a world...
+    assert not perception_on(spec.perception, has_world=False)  # ...off without one
+    spec, problems = parse(b'{"goals": [[0.4, 0]], "perception": "maybe"}', MissionSpec, "m.json")
+    assert spec is None and problems and problems[0].startswith("perception:")
