@@ -289,3 +289,14 @@ def test_a_missions_perception_key() -> None:
     assert not perception_on(spec.perception, has_world=False)  # ...off without one
     spec, problems = parse(b'{"goals": [[0.4, 0]], "perception": "maybe"}', MissionSpec, "m.json")
     assert spec is None and problems and problems[0].startswith("perception:")
+
+
+def test_the_camera_comes_back_after_a_simulator_restart(served: tuple[Simulator, SimCameraServer]) -> None:
+    sim, _ = served
+    before = get(PORT, "/capture")
+    assert before.status == 200
+    before.read()
+    sim.restart()  # a new process, a new side-channel address
+    after = get(PORT, "/capture")
+    assert after.status == 200
+    assert decode(after.read()).shape == (240, 320, 3)
