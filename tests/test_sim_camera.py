@@ -300,3 +300,58 @@ def test_the_camera_comes_back_after_a_simulator_restart(served: tuple[Simulator
     after = get(PORT, "/capture")
     assert after.status == 200
     assert decode(after.read()).shape == (240, 320, 3)
+
+
+def test_a_board_from_a_rotation_matrix_has_the_same_corners() -> None:
+    """Board.from_rotation (world = R @ board + t, as cart2d/perception poses its boards) gives the
+    roll, pitch, yaw the simulator takes: the same corners."""
+    rng = np.random.default_rng(3)
+    rotations = [np.array([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])]  # face down on the floor
+    rotations += [cv2.Rodrigues(rng.normal(size=3))[0] for _ in range(20)]
+    rotations.append(cv2.Rodrigues(np.array([0.0, math.pi / 2, 0.0]))[0])  # pitch 90°: gimbal lock
+    for rotation in rotations:
+        t = rng.normal(size=3)
+        board = Board.from_rotation(rotation.tolist(), t.tolist())
+        for i, j in ((0, 0), (8, 0), (0, 5), (3, 4)):
+            expected = rotation @ np.array([i * 0.03, j * 0.03, 0.0]) + t
+            assert np.allclose(board.corner(i, j), expected, atol=1e-9)
+
+
+def detected_corners(image: np.ndarray, cols: int, rows: int) -> np.ndarray:
+    grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+    found, corners = cv2.findChessboardCorners(grey, (cols, rows))
+    assert found
+    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 0.01)
+    refined: np.ndarray = cv2.cornerSubPix(grey, corners, (5, 5), (-1, -1), criteria).reshape(-1, 2)
+    return refined
+
+
+def test_a_board_held_up_facing_the_lens(tmp_path: Path) -> None:
+    """A 7 x 5 board of 2 cm squares square to the optical axis 0.35 m from the lens, posed by a
+    rotation matrix: OpenCV finds its corners where that pose, projected, puts them."""
+    cam = robot()["camera"]
+    p = math.radians(float(cam["pitch_deg"]))
+    axis = np.array([math.cos(p), 0.0, -math.sin(p)])
+    # board x = image right (world -y), board y = image down, normal along the optical axis
+    rotation = np.column_stack([[0.0, -1.0, 0.0], [-math.sin(p), 0.0, -math.cos(p)], axis])
+    cols, rows, square = 7, 5, 0.02
+    centre = (
+        np.array([float(cam["mount_x_m"]), float(cam["mount_y_m"]), float(cam["height_m"])]) + 0.35 * axis
+    )
+    first = centre - rotation @ np.array([(cols - 1) * square / 2, (rows - 1) * square / 2, 0.0])
+    board = Board.from_rotation(rotation.tolist(), first.tolist(), cols, rows, square)
+    sim = start_sim(tmp_path, world=world_with(), start=(0.0, 0.0, 0.0), paused=True)
+    try:
+        sim.place_target(board)
+        sim.camera(True)
+        sim.run_for(0.2)
+        image = decode(sim.wait_frame(timeout_s=5.0).jpeg)
+    finally:
+        sim.stop()
+    corners = detected_corners(image, cols, rows)
+    points = [
+        rotation @ np.array([i * square, j * square, 0.0]) + first for j in range(rows) for i in range(cols)
+    ]
+    expected = project([tuple(point) for point in points])
+    errors = np.linalg.norm(expected[:, None, :] - corners[None, :, :], axis=2).min(axis=1)
+    assert float(errors.max()) < 0.3

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import base64
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -38,6 +39,26 @@ class Board:
     cols: int = 9
     rows: int = 6
     square_m: float = 0.03
+
+    @classmethod
+    def from_rotation(
+        cls,
+        rotation: Sequence[Sequence[float]],
+        translation: Sequence[float],
+        cols: int = 9,
+        rows: int = 6,
+        square_m: float = 0.03,
+    ) -> Board:
+        """The board whose inner corner (i, j) is at rotation @ (i·square, j·square, 0) + translation
+        in the world (a proper rotation matrix, 3 x 3): its roll, pitch, yaw (ZYX angles)."""
+        r = rotation
+        yaw = math.atan2(r[1][0], r[0][0])
+        pitch = math.atan2(-r[2][0], math.hypot(r[0][0], r[1][0]))
+        roll = math.atan2(r[2][1], r[2][2])
+        if math.hypot(r[0][0], r[1][0]) < 1e-9:  # gimbal lock: pitch ±90°, yaw taken as 0
+            yaw, roll = 0.0, math.atan2(-r[1][2], r[1][1])
+        x, y, z = (float(v) for v in translation)
+        return cls(x, y, z, roll, pitch, yaw, cols, rows, square_m)
 
     def message(self) -> dict[str, Any]:
         return {
