@@ -83,6 +83,7 @@ class MissionSpec(BaseModel):
         max_length=100,
         description="simulated seconds after the start at which the MCU is reset (the reset button)",
     )
+    world: mission_file.WorldSpec | None = Field(None, description="physical boxes the map does not show")
     perception: bool | None = Field(
         None, description="the simulated camera and perception (default: on when the mission has a world)"
     )
@@ -366,6 +367,8 @@ def run_mission(
         wall_start = time.monotonic()
         with Simulator(options) as sim, Link(sim.pty) as link:
             gateway = Gateway(link, store, settings, sim)
+            if spec.world is not None:  # after the gateway has made the simulator's walls follow its map
+                sim.add_boxes([b.box() for b in spec.world.boxes])
             grid = gateway.planner.grid
             points = snapped(grid, [grid.node_xy(i, j) for i, j in map_settings.obstacles])
             sim.change_obstacles(add=points, step=grid.step_m)  # virtual: counted, not felt
@@ -402,6 +405,7 @@ def run_mission(
                     report.update(
                         collisions=truth["collisions"],
                         wall_contacts=truth["wall_contacts"],
+                        box_contacts=truth["box_contacts"],
                         sim_time_s=sim_time,
                         real_time_factor=sim_time / max(time.monotonic() - wall_start, 1e-9),
                     )
@@ -438,6 +442,7 @@ def check_mission(mission_path: Path, report_path: Path) -> tuple[MissionSpec | 
     if spec is not None:
         problems += mission_file.settings_problems(spec.settings)
         problems += mission_file.faults_problems(spec.faults)
+        problems += mission_file.world_problems(spec.start, spec.world)
         if spec.map is None:
             g = spec.grid
             grid = Grid(cols=g.cols, rows=g.rows, step_m=g.step)

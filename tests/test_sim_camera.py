@@ -355,3 +355,32 @@ def test_a_board_held_up_facing_the_lens(tmp_path: Path) -> None:
     expected = project([tuple(point) for point in points])
     errors = np.linalg.norm(expected[:, None, :] - corners[None, :, :], axis=2).min(axis=1)
     assert float(errors.max()) < 0.3
+
+
+def test_a_missions_world_boxes_block_the_cart_and_count() -> None:
+    """A box of the mission's world, not on the map: the planner drives straight at it, the cart
+    stops against it (physical), the contact is in the report, the goal beyond is not reached."""
+    from cart2d.mission import MissionSpec, run_mission
+
+    spec = MissionSpec.model_validate(
+        {
+            "start": [0.0, 0.0, 0.0],
+            "goals": [[1.2, 0.0]],
+            "world": {"boxes": [{"x": 0.6, "y": 0.0, "sx": 0.2, "sy": 0.4, "colour": "#c03020"}]},
+            "timeout_s": 15.0,
+        }
+    )
+    report = run_mission(spec)
+    assert report["box_contacts"] >= 1
+    assert report["goals"][0]["reached"] is False
+
+
+def test_a_mission_starting_on_a_box_is_refused() -> None:
+    from cart2d.mission_file import WorldSpec, world_problems
+
+    world = WorldSpec.model_validate(
+        {"boxes": [{"x": 1.0, "y": 0.0, "sx": 0.2, "sy": 0.2}, {"x": 0.2, "y": 0, "sx": 0.1, "sy": 0.1}]}
+    )
+    (problem,) = world_problems((0.0, 0.0, 0.0), world)
+    assert problem.startswith("world.boxes[1] at (0.2, 0)")
+    assert world_problems((0.0, 0.0, 0.0), None) == []
