@@ -11,6 +11,7 @@ import math
 import os
 import re
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -250,18 +251,34 @@ def test_the_checkerboard_is_found_where_the_model_puts_its_corners(tmp_path: Pa
     assert float(errors.max()) < 0.55
 
 
+def free_port_pair(avoid: int) -> int:
+    """A port P with P + 1 free too (the camera's stream), neither of them `avoid`."""
+    while True:
+        with socket.socket() as first, socket.socket() as second:
+            first.bind(("127.0.0.1", 0))
+            port: int = first.getsockname()[1]
+            if avoid in (port, port + 1):
+                continue
+            try:
+                second.bind(("127.0.0.1", port + 1))
+            except OSError:
+                continue
+            return port
+
+
 def test_cart2d_sim_serves_the_camera_and_keeps_its_url(tmp_path: Path) -> None:
     """`cart2d sim --camera-port P` serves the simulated ESP32-CAM beside the panel."""
     from tests.conftest import wait_serving
     from tests.test_cli import free_port
 
-    port, camera_port = free_port(), free_port()
+    port = free_port()
+    camera_port = free_port_pair(avoid=port)
     run = ["sim", "--port", str(port), "--camera-port", str(camera_port), "--speed", "max"]
     gateway = subprocess.Popen(
         [sys.executable, "-m", "cart2d.cli", *run],
         env={**os.environ, "CART2D_HOME": str(tmp_path)},
         stdout=subprocess.PIPE,
-        stderr=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
         text=True,
     )
     try:
@@ -270,10 +287,10 @@ def test_cart2d_sim_serves_the_camera_and_keeps_its_url(tmp_path: Path) -> None:
         assert answer.status == 200
         assert decode(answer.read()).shape == (240, 320, 3)
         gateway.send_signal(signal.SIGTERM)
-        out, _ = gateway.communicate(timeout=30)
+        out, err = gateway.communicate(timeout=30)
     finally:
         gateway.kill()
-    assert f"simulated ESP32-CAM on 127.0.0.1:{camera_port}" in out
+    assert f"simulated ESP32-CAM on 127.0.0.1:{camera_port}" in out, err
 
 
 def test_a_missions_perception_key() -> None:
