@@ -21,6 +21,7 @@ from cart2d.gateway import Gateway
 from cart2d.link import Link, LinkError, ports
 from cart2d.recording import cli as recording_cli
 from cart2d.server import addresses, create_app, is_loopback, serving
+from cart2d.simulation.camera import SimCameraServer
 from cart2d.simulator import SimOptions, Simulator, SimulatorError
 from cart2d.store import Store
 
@@ -140,6 +141,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
         except SimulatorError as exc:
             print(f"cart2d sim: {exc}", file=sys.stderr)
             return 2
+        camera = _start_camera(sim, args)
         link = Link(sim.pty).open()
         gateway = Gateway(link, store, where.settings, sim)
         try:
@@ -152,12 +154,36 @@ def cmd_sim(args: argparse.Namespace) -> int:
                     f"side channel {sim.control_address}",
                     flush=True,
                 )
+                if camera:
+                    # Without the scheme: the panel's is the one address to open in a browser.
+                    where_cam = camera.url.removeprefix("http://")
+                    print(
+                        f"simulated ESP32-CAM on {where_cam} (/capture; stream on port {camera.port + 1})",
+                        flush=True,
+                    )
                 _serve(gateway, where, args.allow_host)
         finally:
             gateway.close()
             link.close()
+            if camera:
+                camera.stop()
             sim.stop()
     return 0
+
+
+def _start_camera(sim: Simulator, args: argparse.Namespace) -> SimCameraServer | None:
+    """The simulated ESP32-CAM's server (None with --no-camera, or once why not is printed: the
+    cart drives without it); its base URL is kept as sim.camera_url, what `serve --camera` takes
+    for a real camera."""
+    if args.no_camera:
+        return None
+    try:
+        camera = SimCameraServer(lambda: sim.control_address, args.camera_port).start()
+    except SimulatorError as exc:
+        print(f"cart2d sim: {exc}; running without it (--camera-port chooses another port)", file=sys.stderr)
+        return None
+    sim.camera_url = camera.url
+    return camera
 
 
 def _open_serial(args: argparse.Namespace) -> Link | None:
@@ -236,6 +262,14 @@ def build_parser() -> argparse.ArgumentParser:
         + ", ".join(f"{f.name} ({f.range_text()})" for f in fault_table.FAULTS),
     )
     recording_cli.add_live_arguments(sim)
+    sim.add_argument(
+        "--camera-port",
+        type=cli_args.port_number,
+        default=8180,
+        help="the simulated ESP32-CAM's port (/capture, /status, /control); its stream on the next one "
+        "(default 8180)",
+    )
+    sim.add_argument("--no-camera", action="store_true", help="run without the simulated camera")
     sim.set_defaults(run=cmd_sim)
 
     serve = sub.add_parser("serve", help="the gateway and panel for a real cart on a serial port")

@@ -84,6 +84,10 @@ class MissionSpec(BaseModel):
         max_length=100,
         description="simulated seconds after the start at which the MCU is reset (the reset button)",
     )
+    world: mission_file.WorldSpec | None = Field(None, description="physical boxes the map does not show")
+    perception: bool | None = Field(
+        None, description="the simulated camera and perception (default: on when the mission has a world)"
+    )
 
     @model_validator(mode="after")
     def map_or_grid(self) -> MissionSpec:
@@ -367,6 +371,8 @@ def run_mission(
             gateway = Gateway(link, store, settings, sim)
             if mcap_path is not None:  # closed after gateway.close(): the file holds the whole run
                 recording.enter_context(open_recording(gateway, mcap_path, overwrite=True))
+            if spec.world is not None:  # after the gateway has made the simulator's walls follow its map
+                sim.add_boxes([b.box() for b in spec.world.boxes])
             grid = gateway.planner.grid
             points = snapped(grid, [grid.node_xy(i, j) for i, j in map_settings.obstacles])
             sim.change_obstacles(add=points, step=grid.step_m)  # virtual: counted, not felt
@@ -403,6 +409,7 @@ def run_mission(
                     report.update(
                         collisions=truth["collisions"],
                         wall_contacts=truth["wall_contacts"],
+                        box_contacts=truth["box_contacts"],
                         sim_time_s=sim_time,
                         real_time_factor=sim_time / max(time.monotonic() - wall_start, 1e-9),
                     )
@@ -439,6 +446,7 @@ def check_mission(mission_path: Path, report_path: Path) -> tuple[MissionSpec | 
     if spec is not None:
         problems += mission_file.settings_problems(spec.settings)
         problems += mission_file.faults_problems(spec.faults)
+        problems += mission_file.world_problems(spec.start, spec.world)
         if spec.map is None:
             g = spec.grid
             grid = Grid(cols=g.cols, rows=g.rows, step_m=g.step)

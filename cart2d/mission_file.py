@@ -14,11 +14,12 @@ import tempfile
 from pathlib import Path
 from typing import Any, TypeVar
 
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from cart2d import faults as fault_table
 from cart2d.params import footprint_radius_m, robot, settings_table
 from cart2d.planning import Grid, PlanError
+from cart2d.simulator import Box
 
 Model = TypeVar("Model", bound=BaseModel)
 
@@ -68,6 +69,52 @@ def parse(data: bytes, model: type[Model], name: str) -> tuple[Model | None, lis
     except ValidationError as exc:
         keys = list(model.model_fields)
         return None, [_sentence(error, keys) for error in exc.errors()]
+
+
+class BoxSpec(BaseModel):
+    """A physical box of a mission's world: centre and size (m), axis-aligned; height and colour
+    for the camera."""
+
+    model_config = ConfigDict(extra="forbid")
+    x: float = Field(allow_inf_nan=False)
+    y: float = Field(allow_inf_nan=False)
+    sx: float = Field(gt=0.0, le=100.0, allow_inf_nan=False)
+    sy: float = Field(gt=0.0, le=100.0, allow_inf_nan=False)
+    height: float = Field(0.3, gt=0.0, le=10.0, allow_inf_nan=False)
+    colour: str = Field("#b8742f", pattern=r"^#[0-9a-fA-F]{6}$")
+    id: str | None = Field(None, min_length=1, max_length=100)
+
+    def box(self) -> Box:
+        return Box(self.x, self.y, self.sx, self.sy, self.height, self.colour, self.id)
+
+
+class WorldSpec(BaseModel):
+    """A mission's physical world beyond the map's walls (issue 14): boxes the cart cannot pass and
+    the camera sees, not on the map unless also listed in "obstacles"."""
+
+    model_config = ConfigDict(extra="forbid")
+    boxes: list[BoxSpec] = Field(default_factory=list, max_length=10_000)
+
+
+def world_problems(start: tuple[float, float, float], world: WorldSpec | None) -> list[str]:
+    """The start must leave the cart's footprint clear of every box."""
+    if world is None:
+        return []
+    r, (x, y, _) = footprint_radius_m(), start
+    problems = []
+    for k, b in enumerate(world.boxes):
+        dx, dy = max(abs(x - b.x) - b.sx / 2, 0.0), max(abs(y - b.y) - b.sy / 2, 0.0)
+        if math.hypot(dx, dy) < r:
+            problems.append(
+                f"world.boxes[{k}] at ({b.x:g}, {b.y:g}) is under the cart's footprint at the start"
+            )
+    return problems
+
+
+def perception_on(perception: bool | None, has_world: bool) -> bool:
+    """A mission's "perception" (the simulated camera and the gateway's perception): as given,
+    else on exactly when the mission has a physical world to see (issue 14)."""
+    return has_world if perception is None else perception
 
 
 def settings_problems(settings: dict[str, float]) -> list[str]:

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from cart2d.params import robot
+from cart2d.simulation.controls import CameraControls
 from cart2d.spec import repo_file
 
 
@@ -186,6 +187,7 @@ class SideChannel:
         self._acks: dict[int, dict[str, Any]] = {}
         self.truth: dict[str, Any] | None = None
         self.events: list[dict[str, Any]] = []
+        self.frame: dict[str, Any] | None = None  # the camera's newest (cart2d/simulation/controls.py)
         self._listeners: list[Callable[[dict[str, Any]], None]] = []
         self._closed = False
         self._reader = threading.Thread(target=self._read, name="sim side channel", daemon=True)
@@ -224,6 +226,10 @@ class SideChannel:
     def listeners(self) -> list[Callable[[dict[str, Any]], None]]:
         return list(self._listeners)
 
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
     def close(self) -> None:
         self._sock.close()
 
@@ -259,13 +265,15 @@ class SideChannel:
             self.truth = message
         elif kind == "event":
             self.events.append(message)
+        elif kind == "frame":
+            self.frame = message
 
 
 ExitListener = Callable[["subprocess.Popen[str]", int], None]
 
 
-class Simulator:
-    """A running cart2d-sim process."""
+class Simulator(CameraControls):
+    """A running cart2d-sim process (camera and target: cart2d/simulation/controls.py)."""
 
     def __init__(self, options: SimOptions | None = None) -> None:
         self.options = options or SimOptions()

@@ -55,14 +55,23 @@ def check(config: dict) -> None:
             raise ValueError(f"setting {s['name']}: default outside [min, max]")
 
 
+def emit_table(name: str, table: dict) -> list[str]:
+    """A namespace of constants; a sub-table ([sim.camera]) is a namespace inside it."""
+    out = [f"namespace {name} {{"]
+    for key, value in table.items():
+        if isinstance(value, dict):
+            out += emit_table(key, value)
+            continue
+        ctype, literal = cpp_literal(value)
+        out.append(f"constexpr {ctype} {key} = {literal};")
+    out.append(f"}}  // namespace {name}\n")
+    return out
+
+
 def emit_tables(config: dict) -> list[str]:
     out: list[str] = []
-    for table in ("encoders", "traction", "body", "control", "motor", "caster", "sim"):
-        out.append(f"namespace {table} {{")
-        for key, value in config[table].items():
-            ctype, literal = cpp_literal(value)
-            out.append(f"constexpr {ctype} {key} = {literal};")
-        out.append(f"}}  // namespace {table}\n")
+    for table in ("encoders", "traction", "body", "control", "motor", "caster", "camera", "sim"):
+        out += emit_table(table, config[table])
     return out
 
 

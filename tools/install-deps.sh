@@ -5,7 +5,7 @@ set -euo pipefail
 packages=(
   gcc-avr avr-libc binutils-avr avrdude   # firmware
   libsimavr-dev simavr libelf-dev         # simulator
-  libturbojpeg0-dev                       # simulator: the camera's JPEG frames
+  libturbojpeg0-dev libssl-dev            # simulator: the camera's JPEG frames, base64 (OpenSSL) for its frame lines
   arduino-core-avr                        # simulator: Optiboot, the Nano's bootloader (avrdude flashes through it)
   ser2net                                 # tests: the network serial link (RFC 2217)
   cmake ninja-build pkg-config            # host build

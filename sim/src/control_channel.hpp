@@ -24,6 +24,7 @@ class ControlChannel {
     uint64_t next_truth_cycle = 0;
     uint64_t truth_dropped = 0;  // truth lines skipped because the client fell behind
     bool dead = false;
+  bool camera = false;  // receives the simulated camera's frames
   };
 
   ControlChannel() = default;

@@ -66,6 +66,7 @@ bool Simulator::init(std::string* error) {
       return false;
     }
   }
+  camera_ = std::make_unique<SimCamera>(rig_.mcu().frequency_hz(), opts_.seed);
   rig_.set_step_hook([this](uint64_t end) { on_physics_step(end); });
   return true;
 }
@@ -94,6 +95,7 @@ void Simulator::on_physics_step(uint64_t end_cycle) {
     c.next_truth_cycle += period > 0 ? period : 1;
     if (c.next_truth_cycle <= end_cycle) c.next_truth_cycle = end_cycle + period;  // fell behind: skip
   }
+  camera_step(end_cycle);
 }
 
 // With --exit-with-parent, stdin is a pipe the launcher holds open: end of file (or a hang-up)

@@ -5,6 +5,7 @@
 #include <cstdint>
 
 #include <csignal>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,7 @@
 #include "options.hpp"
 #include "pacer.hpp"
 #include "rig.hpp"
+#include "sim_camera.hpp"
 #include "world_change.hpp"
 
 namespace cart2d {
@@ -58,6 +60,11 @@ class Simulator {
   // truth.cpp
   std::string truth_json() const;
 
+  // camera_commands.cpp
+  std::string cmd_camera(int client, const json::Value& msg, std::string* extra);
+  std::string cmd_target(const json::Value& msg);
+  void camera_step(uint64_t end_cycle);
+
   void on_physics_step(uint64_t end_cycle);
   // The host opening or closing the serial port; an open pulses DTR, which resets a Nano.
   void serve_host_port();
@@ -79,7 +86,8 @@ class Simulator {
     std::string type;
     WorldChange change;
   };
-  std::vector<ScheduledChange> scheduled_;  // in order of cycle, then of arrival
+  std::vector<ScheduledChange> scheduled_;
+  std::unique_ptr<SimCamera> camera_;  // made once the MCU's clock is known  // in order of cycle, then of arrival
   bool mcu_dead_reported_ = false;
   bool auto_reset_ = true;  // --no-auto-reset, or the "link" message
   std::string firmware_path_;

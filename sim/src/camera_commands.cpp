@@ -1,0 +1,52 @@
+// The side channel's camera messages: `camera` (frames on or off for this client, settings) and
+// `target` (place or remove the checkerboard); frames go out as {"type":"frame",...} lines once
+// their latency has passed in simulated time (sim/README.md, "The camera").
+#include "log.hpp"
+#include "simulator.hpp"
+
+namespace cart2d {
+
+// {"type":"camera","on":bool, settings...}: the ack carries "camera" with the settings in force.
+std::string Simulator::cmd_camera(int client, const json::Value& msg, std::string* extra) {
+  const json::Value* on = msg.find("on");
+  if (on && !on->is_bool()) return "on must be true or false";
+  if (std::string error = camera_->configure(msg, rig_.cycle()); !error.empty()) return error;
+  if (on) {
+    if (ControlChannel::Client* c = control_.find(client)) c->camera = on->boolean;
+  }
+  bool any = false;
+  for (const auto& c : control_.clients()) any = any || (c.camera && !c.dead);
+  camera_->set_on(any, rig_.cycle());  // rendering costs: only while someone watches
+  *extra = "\"camera\":" + camera_->settings().json() + ",\"on\":" + (any ? "true" : "false");
+  return "";
+}
+
+std::string Simulator::cmd_target(const json::Value& msg) {
+  const json::Value* board = msg.find("board");
+  if (!board) return "target needs board (an object, or null to remove it)";
+  return camera_->set_target(*board);
+}
+
+void Simulator::camera_step(uint64_t end_cycle) {
+  if (!camera_->on()) return;
+  bool any = false;
+  for (const auto& c : control_.clients()) any = any || (c.camera && !c.dead);
+  if (!any) {  // the last watcher left
+    camera_->set_on(false, end_cycle);
+    return;
+  }
+  std::vector<CameraFrame> ready;
+  camera_->step(end_cycle, rig_.world(), rig_.cart().pose(), &ready);
+  for (const CameraFrame& f : ready) {
+    const std::string line = json::Object()
+                                 .add("type", "frame")
+                                 .add("seq", static_cast<unsigned long long>(f.seq))
+                                 .add("t", f.t_s)
+                                 .add("jpeg", base64_encode(f.jpeg))
+                                 .str();
+    for (auto& c : control_.clients())
+      if (c.camera && !c.dead) control_.send(c.id, line, true);  // droppable: a slow reader skips frames
+  }
+}
+
+}  // namespace cart2d

@@ -1,0 +1,60 @@
+// What the mounted camera sees: one ray per pixel (CameraModel's table, so the lens distortion is
+// exact), cast from the TRUE pose against the floor, the world's rectangles standing on it (walls
+// and boxes, each with its height and colour) and a checkerboard target; then exposure and noise.
+// Nothing here depends on the wall clock: a seed and a frame number give the same picture.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "camera_model.hpp"
+#include "world.hpp"
+
+namespace cart2d {
+
+// A printed checkerboard of cols × rows INNER corners and square side square_m, with a white margin
+// one square wide around its (cols + 1) × (rows + 1) squares. Its pose is that of its first inner
+// corner: (x, y, z) in the world, and the rotation R = Rz(yaw)·Ry(pitch)·Rx(roll) (ROS's fixed-axis
+// roll-pitch-yaw) taking the board's axes to the world's: inner corner (i, j) lies at
+// (x, y, z) + R·(i·square, j·square, 0). All angles zero: the board lies face up on a plane at
+// height z, its columns along world x and its rows along world y. The square whose corner is
+// (−square, −square) on the board, next to the first inner corner, is black.
+struct Checkerboard {
+  int cols = 9, rows = 6;
+  double square_m = 0.03;
+  double x_m = 0.0, y_m = 0.0, z_m = 0.0;
+  double roll_rad = 0.0, pitch_rad = 0.0, yaw_rad = 0.0;
+  // Inner corner (i, j) (i along the columns, 0 <= i < cols) in the world.
+  Vec3 corner(double i, double j) const;
+  // The board's x and y axes and its normal in the world.
+  void axes(Vec3* ex, Vec3* ey, Vec3* n) const;
+};
+
+struct Rgb {
+  uint8_t r = 0, g = 0, b = 0;
+};
+
+class CameraRenderer {
+ public:
+  static constexpr uint32_t kFloorColour = 0xa8a8a8;      // light grey, with a faint texture
+  static constexpr int kFloorTextureLevels = 6;           // ± this, on 2 cm floor tiles
+  static constexpr double kFloorTileM = 0.02;
+  static constexpr uint32_t kBackgroundColour = 0x4f5d6b;  // beyond an endless floor's horizon
+  static constexpr uint32_t kBoardDark = 0x1e1e1e, kBoardLight = 0xebebeb;
+  static constexpr double kMaxRangeM = 30.0;              // boxes farther than this are not drawn
+
+  explicit CameraRenderer(const CameraModel& model) : model_(model) {}
+  const CameraModel& model() const { return model_; }
+
+  // The linear picture (before exposure and noise), RGB row-major.
+  void render_clean(const World& world, const Pose& pose, const Checkerboard* board, std::vector<Rgb>* out) const;
+  // The picture the sensor gives for frame `frame`: brightness times exposure, plus Gaussian noise
+  // of noise_sigma levels drawn from the seeded stream of that frame, clamped to 0..255; RGB bytes.
+  void render(const World& world, const Pose& pose, const Checkerboard* board, double exposure, double noise_sigma,
+              uint64_t seed, uint64_t frame, std::vector<uint8_t>* rgb) const;
+
+ private:
+  const CameraModel& model_;
+};
+
+}  // namespace cart2d
