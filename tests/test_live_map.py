@@ -23,7 +23,7 @@ from cart2d.mission import MissionSpec, run_mission
 from cart2d.params import robot
 from cart2d.planning import point_square_distance
 from cart2d.server import create_app
-from cart2d.simulator import Simulator, SimulatorError
+from cart2d.simulator import Box, Simulator, SimulatorError
 from cart2d.store import GatewaySettings, MapSettings, Store
 from tests.conftest import start_sim, wait_for
 from tests.test_server import BASE_URL, JSON
@@ -141,6 +141,15 @@ def test_the_simulated_walls_follow_a_wider_grid(wide: GatewayRig) -> None:
     wide.gateway.go_to(3.6, 0.0)
     assert wide.wait_end()["state"] == "arrived"
     assert wide.sim.truth()["x"] == pytest.approx(3.6, abs=0.01)
+
+
+def test_new_obstacles_in_imported_settings_keep_the_boxes_standing_in_the_world(wide: GatewayRig) -> None:
+    # Once, any new map in the settings re-sent the walls and swept away the world's boxes.
+    wide.sim.add_boxes([Box(2.0, 1.0, 0.2, 0.2, id="crate")])
+    m = wide.gateway.settings.map.model_copy(update={"obstacles": [(5, 5)]})
+    wide.gateway.update_settings(wide.gateway.settings.model_copy(update={"map": m}))
+    assert wide.gateway.map_view()["obstacles"] == [[1.0, 1.0]]
+    assert [b.get("id") for b in wide.sim.world_state()["boxes"]] == ["crate"]
 
 
 def test_a_replacement_path_mid_drive_keeps_the_speed_within_the_acceleration_limits(

@@ -74,6 +74,11 @@ SIM_START_TRIES = 3
 Listener = Callable[[dict[str, Any]], None]
 
 
+def _walls_of(m: MapSettings) -> tuple[object, ...]:
+    """What of a map decides the simulated world's walls (world_for): not its obstacles."""
+    return (m.floor_plan, m.cols, m.rows, m.step_m, m.origin_m)
+
+
 class Gateway:
     def __init__(
         self, link: Link, store: Store, settings: GatewaySettings, sim: Simulator | None = None
@@ -283,10 +288,14 @@ class Gateway:
             planner = planner_for(settings.map)  # validates the map before anything changes
             self.store.save(settings)
             new_map = settings.map != self.settings.map
+            # Only new walls replace the simulated world: an obstacle drawn on the map must not
+            # sweep away the boxes standing in it (a mission's world, its events).
+            new_walls = new_map and _walls_of(settings.map) != _walls_of(self.settings.map)
             self.settings = settings
             self.planner = planner
-            if new_map:
+            if new_walls:
                 self._sync_world()
+            if new_map:
                 self._map_changed(why)
 
     def _sync_world(self) -> None:
