@@ -1,13 +1,16 @@
 """Debian's ser2net (4.x, YAML configuration) in front of a serial port, on 127.0.0.1 only: the
-network link of docs/network-link.md, whose recipe is this module's config()."""
+network link of docs/network-link.md, whose recipe is this module's config(). And a TCP relay
+that delays every byte, for a network with latency (Wi-Fi: tens to hundreds of ms)."""
 
 from __future__ import annotations
 
 import shutil
 import socket
 import subprocess
+import threading
 import time
 from pathlib import Path
+from queue import Queue
 
 SER2NET = "/usr/sbin/ser2net"
 
@@ -90,3 +93,63 @@ class Ser2net:
 
     def stop(self) -> None:
         self.kill()
+
+
+class DelayRelay:
+    """Listens on 127.0.0.1 and relays each connection to `upstream_port`, every chunk held for
+    `delay_s` in each direction (the order kept)."""
+
+    def __init__(self, upstream_port: int, delay_s: float) -> None:
+        self.upstream_port = upstream_port
+        self.delay_s = delay_s
+        self.server = socket.create_server(("127.0.0.1", 0))
+        self.port: int = self.server.getsockname()[1]
+        self._closing = threading.Event()
+        self._sockets: list[socket.socket] = [self.server]
+        threading.Thread(target=self._accept, daemon=True).start()
+
+    def _accept(self) -> None:
+        while not self._closing.is_set():
+            try:
+                client, _ = self.server.accept()
+                upstream = socket.create_connection(("127.0.0.1", self.upstream_port))
+            except OSError:
+                return
+            for sock in (client, upstream):
+                sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            self._sockets += [client, upstream]
+            for source, sink in ((client, upstream), (upstream, client)):
+                queue: Queue[tuple[float, bytes]] = Queue()
+                threading.Thread(target=self._receive, args=(source, queue), daemon=True).start()
+                threading.Thread(target=self._send, args=(sink, queue), daemon=True).start()
+
+    def _receive(self, source: socket.socket, queue: Queue[tuple[float, bytes]]) -> None:
+        while True:
+            try:
+                data = source.recv(4096)
+            except OSError:
+                data = b""
+            queue.put((time.monotonic() + self.delay_s, data))
+            if not data:
+                return
+
+    def _send(self, sink: socket.socket, queue: Queue[tuple[float, bytes]]) -> None:
+        while True:
+            due, data = queue.get()
+            time.sleep(max(0.0, due - time.monotonic()))
+            try:
+                if not data:
+                    sink.shutdown(socket.SHUT_WR)
+                    return
+                sink.sendall(data)
+            except OSError:
+                return
+
+    @property
+    def url(self) -> str:
+        return f"socket://127.0.0.1:{self.port}"
+
+    def close(self) -> None:
+        self._closing.set()
+        for sock in self._sockets:
+            sock.close()

@@ -24,7 +24,7 @@ from cart2d.link.transport import STALL_S
 from cart2d.simulator import Simulator
 from cart2d.store import Store
 from tests.conftest import start_sim, wait_for
-from tests.ser2net import Ser2net, free_port
+from tests.ser2net import DelayRelay, Ser2net, free_port
 from tests.test_cli import fake_ports_and_serve, one_sentence
 
 GOAL = (1.2, 0.6)
@@ -169,3 +169,26 @@ def test_serve_with_a_url_nobody_listens_on_says_so_in_one_sentence(tmp_path: Pa
     line = one_sentence(done.stderr)
     assert "nothing accepts connections at 127.0.0.1:" in line and "serial bridge" in line
     assert "/dev/ttyUSB7" not in line  # a device list says nothing about a network bridge
+
+
+def test_a_slow_network_needs_no_retransmission_and_executes_each_command_once(tmp_path: Path) -> None:
+    """150 ms each way (a poor Wi-Fi): the per-try wait over a network covers the round trip, so
+    nothing is sent twice; the retransmission window still closes 0.5 s before the firmware
+    forgets a request (docs/protocol.md)."""
+    tty = tmp_path / "robot-tty"
+    sim = start_sim(tmp_path, pty_link=tty, speed="1", auto_reset=False)
+    bridge = Ser2net(tmp_path, str(tty), rfc2217=False)
+    relay = DelayRelay(bridge.port, 0.15)
+    try:
+        with Link(relay.url).open(wait_s=10) as link:
+            link.call("HEARTBEAT")
+            link.retransmissions = 0
+            for k in range(5):
+                assert link.call("TOL_SET", 0.01 + 0.001 * k)[0] == pytest.approx(0.01 + 0.001 * k)
+                link.call("STATUS")
+            assert link.retransmissions == 0
+            assert link.lost == 0
+    finally:
+        relay.close()
+        bridge.stop()
+        sim.stop()
