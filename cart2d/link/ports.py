@@ -1,7 +1,7 @@
 """The cart's serial port: a device path or any pyserial URL (docs/network-link.md), opened
 with serial_for_url: `socket://host:port` (raw TCP, e.g. ESPHome's stream_server or ser2net's
 tcp accepter), `rfc2217://host:port` (Telnet COM port control, e.g. ser2net's telnet(rfc2217)
-accepter or esp-link). For a sentence when a device asked for is not there (`cart2d serve
+accepter). For a sentence when a device asked for is not there (`cart2d serve
 --serial`): pyserial's list_ports, which reads what the kernel lists of USB and on-board serial
 devices (on Linux, /sys/class/tty)."""
 
