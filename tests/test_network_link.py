@@ -80,7 +80,9 @@ def kill_and_restore_mid_mission(rig: NetRig) -> None:
     wait_for(lambda: rig.sim.truth()["v"] > 0.2, 30)
     rig.bridge.kill()
     wait_for(lambda: not rig.link.connected.is_set(), 10)
-    assert rig.gateway.status_view()["link"]["state"] == "reconnecting"
+    wait_for(lambda: "refused" in rig.link.open_error, 10)
+    link = rig.gateway.status_view()["link"]
+    assert link["state"] == "reconnecting" and "refused" in link["error"], link
     rig.bridge.start()
     wait_for(rig.link.connected.is_set, 15)
 

@@ -222,6 +222,13 @@ class Link:
             self._released.clear()
             self.connected.wait(wait_s)
 
+    def down_reason(self) -> str:
+        """Why the link is down, in words: how the port was lost and why it does not open."""
+        why = [f"lost: {self.lost_reason}"] if self.lost_reason else []
+        if self.open_error:
+            why.append(f"reopening: {self.open_error}")
+        return "; ".join(why) or f"{self.port} is not open yet"
+
     def subscribe(self, listener: TelemetryListener) -> None:
         self._listeners.append(listener)
 
@@ -377,6 +384,7 @@ class Link:
                     delay_s = min(2 * delay_s, REOPEN_MAX_DELAY_S)
                 continue
             delay_s = REOPEN_DELAY_S
+            self.open_error = ""
             log.info("link open on %s", self.port)
             self.opens += 1
             self.settings_may_change()  # opening a Nano's port resets it
