@@ -12,6 +12,8 @@ import time
 from pathlib import Path
 from queue import Queue
 
+import psutil
+
 SER2NET = "/usr/sbin/ser2net"
 
 
@@ -80,10 +82,12 @@ class Ser2net:
             time.sleep(0.02)
 
     def _listening(self) -> bool:
-        # A bare connect would take the port: ser2net opens the device for it (a DTR reset).
-        # ss lists the listening socket without connecting.
-        listing = subprocess.run(["ss", "-Hltn", f"sport = :{self.port}"], capture_output=True, text=True)
-        return f"127.0.0.1:{self.port}" in listing.stdout
+        # A probe connection would take the port: ser2net opens the device for it (a DTR reset).
+        # The kernel's list of listening sockets says it without connecting.
+        return any(
+            c.status == psutil.CONN_LISTEN and c.laddr and c.laddr.port == self.port
+            for c in psutil.net_connections(kind="tcp4")
+        )
 
     def kill(self) -> None:
         """As a bridge that loses power: SIGKILL, its connections reset."""
