@@ -28,6 +28,7 @@ SECTIONS = (
     "safety",
     "drivetrain",
     "serial",
+    "network_link",
     "control",
     "system",
 )

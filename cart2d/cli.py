@@ -193,9 +193,15 @@ def _open_serial(args: argparse.Namespace) -> Link | None:
     link = Link(args.serial, args.baud)
     if problem is None:
         try:
-            return link.open(wait_s=3.0)
+            return link.open(wait_s=6.0 if ports.is_url(args.serial) else 3.0)  # a connect may take 5 s
         except LinkError as exc:
             link.close()
+            if ports.is_url(args.serial):
+                print(
+                    f"cart2d serve: {ports.url_problem(args.serial, link.open_error or str(exc))}",
+                    file=sys.stderr,
+                )
+                return None
             problem = str(exc)
     print(f"cart2d serve: {problem}; {ports.ports_sentence()}", file=sys.stderr)
     return None
@@ -273,7 +279,12 @@ def build_parser() -> argparse.ArgumentParser:
     sim.set_defaults(run=cmd_sim)
 
     serve = sub.add_parser("serve", help="the gateway and panel for a real cart on a serial port")
-    serve.add_argument("--serial", required=True, help="the Nano's serial port, e.g. /dev/ttyUSB0")
+    serve.add_argument(
+        "--serial",
+        required=True,
+        help="the Nano's serial port, e.g. /dev/ttyUSB0, or a network bridge: socket://HOST:PORT, "
+        "rfc2217://HOST:PORT (docs/network-link.md)",
+    )
     serve.add_argument("--baud", type=int, default=115200)
     _network_args(serve)
     recording_cli.add_live_arguments(serve)

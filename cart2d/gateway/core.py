@@ -892,6 +892,8 @@ class Gateway:
                 view["pose"] = dict(zip(("x", "y", "theta"), self.link.call("POSE"), strict=True))
             except (LinkError, CommandRefused) as exc:
                 view["link"]["error"] = str(exc)
+        else:
+            view["link"]["error"] = self.link.down_reason()
         with self._lock:
             view["reset"] = {
                 "last": asdict(self.last_reset) if self.last_reset else None,

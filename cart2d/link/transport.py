@@ -6,8 +6,10 @@ which the firmware answers from memory instead of executing it twice; it remembe
 for 2 s, so a request is retransmitted only within RETRANSMIT_WINDOW_S of its first
 transmission. A reader thread decodes everything the firmware sends, and drops a partial
 packet that waited too long (protocol.py, Decoder). If the port disappears (USB
-unplugged, simulator restarted) the link reopens it in the background; requests in the
-meantime fail with LinkDown.
+unplugged, simulator restarted, a network bridge's connection dropped) the link reopens it in
+the background; requests in the meantime fail with LinkDown. The port may be a pyserial URL
+(ports.py): a network connection that stays silent while a request waits is dropped and
+reopened too (STALL_S), and a bridge that refuses connections is retried with back-off.
 
 A STOP is the last word the motors hear (cart2d/link/commands.py says which commands are
 motion). Requests wait for the link in order of priority, then arrival, and STOP comes first: it
@@ -34,7 +36,7 @@ from enum import IntEnum
 
 import serial
 
-from cart2d.link import commands
+from cart2d.link import commands, ports
 from cart2d.link.protocol import (
     Decoder,
     Packet,
@@ -54,6 +56,18 @@ log = logging.getLogger(__name__)
 # between covers the line, a USB adapter's latency and the firmware's busiest tick).
 RETRANSMIT_WINDOW_S = 1.5
 READ_TIMEOUT_S = 0.05  # how long the reader waits for a byte before it checks the decoder's time-outs
+# A network link that has not sent one byte for STALL_S since a request went unanswered is
+# stalled (a bridge that lost its Wi-Fi, a peer gone without closing): dropped and reopened. The
+# firmware sends telemetry (25 Hz) and answers within milliseconds; a Nano's bootloader after a
+# reset keeps the line silent for at most ~1.6 s (the old ATmegaBOOT; Optiboot ~1 s).
+STALL_S = 3.0
+TIMEOUT_S = 0.25  # a reply's wait before the request is retransmitted (a direct line: ~8 ms round trip)
+# Over a network the round trip grows by the network's (tens to hundreds of ms over Wi-Fi): waiting
+# longer spares retransmissions. The retransmission window still holds while one way takes less
+# than the 0.5 s between RETRANSMIT_WINDOW_S and the firmware's 2 s.
+NETWORK_TIMEOUT_S = 0.5
+REOPEN_DELAY_S = 0.2  # between attempts to reopen a device path (an open is cheap and local)
+REOPEN_MAX_DELAY_S = 3.2  # a network bridge is retried after 0.2, 0.4 ... then every 3.2 s
 
 
 class LinkError(RuntimeError):
@@ -125,9 +139,13 @@ class Turnstile:
 
 
 class Link:
-    def __init__(self, port: str, baud: int = 115200, timeout_s: float = 0.25, retries: int = 4) -> None:
+    def __init__(
+        self, port: str, baud: int = 115200, timeout_s: float | None = None, retries: int = 4
+    ) -> None:
         self.port = port
         self.baud = baud
+        if timeout_s is None:
+            timeout_s = NETWORK_TIMEOUT_S if ports.is_url(port) else TIMEOUT_S
         self.timeout_s = timeout_s
         self.retries = retries
         self._serial: serial.Serial | None = None
@@ -156,6 +174,9 @@ class Link:
         self.connected = threading.Event()
         self.opens = 0  # times the port was opened (a Nano resets at each)
         self.open_error = ""  # why the port could not be opened, the last time it could not
+        self.lost = 0  # times an open port was lost (closed under the link, stalled)
+        self.lost_reason = ""  # why, the last time
+        self._unanswered_since: float | None = None  # a request went unanswered, no byte since
 
     # -- lifecycle -----------------------------------------------------------------------
     def open(self, wait_s: float = 5.0) -> Link:
@@ -200,6 +221,13 @@ class Link:
         finally:
             self._released.clear()
             self.connected.wait(wait_s)
+
+    def down_reason(self) -> str:
+        """Why the link is down, in words: how the port was lost and why it does not open."""
+        why = [f"lost: {self.lost_reason}"] if self.lost_reason else []
+        if self.open_error:
+            why.append(f"reopening: {self.open_error}")
+        return "; ".join(why) or f"{self.port} is not open yet"
 
     def subscribe(self, listener: TelemetryListener) -> None:
         self._listeners.append(listener)
@@ -333,48 +361,71 @@ class Link:
                     break
                 self._reply_lock.wait(left)
             reply, self._reply, self._pending_seq = self._reply, None, None
+            if reply is None and self._unanswered_since is None:
+                self._unanswered_since = deadline - timeout_s
         return reply
 
     # -- reader thread -------------------------------------------------------------------
     def _run(self) -> None:
+        delay_s = REOPEN_DELAY_S
         while not self._closing.is_set():
             if self._released.is_set():
                 time.sleep(0.05)
                 continue
             try:
-                self._serial = serial.Serial(self.port, self.baud, timeout=READ_TIMEOUT_S)
+                self._serial = ports.open_port(self.port, self.baud, READ_TIMEOUT_S)
                 self._serial.reset_input_buffer()  # bytes queued while nobody listened
             except (serial.SerialException, OSError) as exc:
+                if str(exc) != self.open_error:
+                    log.info("cannot open %s: %s", self.port, exc)
                 self.open_error = str(exc)
-                time.sleep(0.2)
+                self._closing.wait(delay_s)
+                if ports.is_url(self.port):  # a bridge rebooting or out of reach: back off
+                    delay_s = min(2 * delay_s, REOPEN_MAX_DELAY_S)
                 continue
+            delay_s = REOPEN_DELAY_S
+            self.open_error = ""
             log.info("link open on %s", self.port)
             self.opens += 1
             self.settings_may_change()  # opening a Nano's port resets it
+            with self._reply_lock:
+                self._unanswered_since = None
             self.connected.set()
-            self._read_until_gone(self._serial)
+            why = self._read_until_gone(self._serial)
             self.connected.clear()
             with self._reply_lock:
                 self._reply_lock.notify_all()
-            self._serial.close()
+            with contextlib.suppress(serial.SerialException, OSError):
+                self._serial.close()
             if not self._closing.is_set() and not self._released.is_set():
-                log.warning("link to %s lost; reopening", self.port)
-                time.sleep(0.2)
+                self.lost += 1
+                self.lost_reason = why
+                log.warning("link to %s lost (%s); reopening", self.port, why)
+                self._closing.wait(REOPEN_DELAY_S)
 
-    def _read_until_gone(self, port: serial.Serial) -> None:
+    def _read_until_gone(self, port: serial.Serial) -> str:
+        """Decodes what the port sends until it is gone, closing or released; why it ended."""
         decoder = Decoder(self.baud)
+        stalls = ports.is_url(self.port)
         while not self._closing.is_set() and not self._released.is_set():
             try:
                 data = port.read(max(1, port.in_waiting))  # b"" after READ_TIMEOUT_S of silence
             except (serial.SerialException, OSError, TypeError) as exc:
                 if not self._closing.is_set():
                     log.warning("reading %s failed: %s", self.port, exc)
-                return
+                return str(exc) or type(exc).__name__
+            now = time.monotonic()
+            with self._reply_lock:
+                if data:
+                    self._unanswered_since = None
+                elif stalls and self._unanswered_since is not None and now - self._unanswered_since > STALL_S:
+                    return f"nothing came for {STALL_S:g} s although a request waited: the connection stalled"
             # Fed even when empty: a partial packet expires while nothing arrives as well.
-            for item in decoder.feed(data, time.monotonic()):
+            for item in decoder.feed(data, now):
                 self._handle(item)
             self.decode_errors = decoder.errors
             self.partials_dropped = decoder.expired
+        return "closed"
 
     def _handle(self, item: Packet | Telemetry) -> None:
         if isinstance(item, Telemetry):

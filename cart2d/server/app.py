@@ -27,7 +27,7 @@ from cart2d.link import CommandRefused, LinkError, MotionCancelled
 from cart2d.maps import MapError, Thresholds, map_from_image, map_from_ros
 from cart2d.maps.ros import image_bytes
 from cart2d.planning import PlanError
-from cart2d.server import guards
+from cart2d.server import api_docs, guards
 from cart2d.server.admin import add_admin_routes
 from cart2d.server.guards import is_loopback
 from cart2d.server.live import Viewers
@@ -62,7 +62,15 @@ def create_app(
     needs_token = not is_loopback(bind_host)
     if needs_token and not token:
         raise ValueError("a token is required when the gateway is not bound to loopback")
-    app = FastAPI(title="cart2d gateway", version="0.1.0", description=__doc__, responses=errors(413))
+    app = FastAPI(
+        title="cart2d gateway",
+        version="0.1.0",
+        description=__doc__,
+        responses=errors(413),
+        docs_url=None,  # api_docs serves them from a packaged copy, not a CDN
+        redoc_url=None,
+    )
+    api_docs.install(app)
 
     def token_ok(supplied: str | None) -> bool:
         # compared as bytes: compare_digest refuses str with non-ASCII characters (a TypeError, a 500)

@@ -107,6 +107,7 @@ function renderLink(): void {
   }
   linkDot.className = `dot dot-${state}`;
   linkState.textContent = text;
+  linkState.title = lastStatus?.link.state === "reconnecting" ? (lastStatus.link.error ?? "") : "";
   document.body.dataset["link"] = state === "stale" ? "connected" : state;
   document.body.dataset["telemetry"] = stale ? "stale" : "live";
   const ageText = clock.words();
