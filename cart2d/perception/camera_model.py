@@ -160,7 +160,7 @@ class GroundProjection:
         if h.shape != (3, 3) or not np.all(np.isfinite(h)) or abs(np.linalg.det(h)) < 1e-12:
             raise ValueError("the ground homography must be a finite, invertible 3 x 3 matrix")
         self.floor_to_pixel = np.asarray(h / np.linalg.norm(h), dtype=np.float64)
-        self.pixel_to_floor = np.linalg.inv(self.floor_to_pixel)
+        self.pixel_to_floor = np.asarray(np.linalg.inv(self.floor_to_pixel), dtype=np.float64)
 
     @classmethod
     def ideal(cls, mount: Mount, intrinsics: Intrinsics) -> GroundProjection:
