@@ -116,6 +116,15 @@ class Intrinsics:
         )
         return np.asarray(out, dtype=np.float64).reshape(-1, 2)
 
+    def distort(self, ideal_uv: npt.ArrayLike) -> FloatArray:
+        """The inverse of undistort: pixels of the ideal pinhole camera -> pixels of the raw image."""
+        pts = np.asarray(ideal_uv, dtype=np.float64).reshape(-1, 2)
+        rays = np.column_stack(
+            [(pts[:, 0] - self.cx) / self.fx, (pts[:, 1] - self.cy) / self.fy, np.ones(len(pts))]
+        )
+        uv, _ = cv2.projectPoints(rays, np.zeros(3), np.zeros(3), self.matrix(), self.dist_array())
+        return np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+
     def as_dict(self) -> dict[str, Any]:
         return {
             "width": self.width,

@@ -98,11 +98,12 @@ class SyntheticCamera:
         mount: Mount,
         noise_sigma: float = 2.0,
         seed: int = 0,
+        floor_texture: float = 0.04,
         supersample: int = 4,
         margin_px: int = 48,
     ) -> None:
         self.lens, self.mount = true_lens, mount
-        self.noise_sigma = noise_sigma
+        self.noise_sigma, self.floor_texture = noise_sigma, floor_texture
         self.rng = np.random.default_rng(seed)
         self.s, self.margin = supersample, margin_px
         self.canvas_size = (
@@ -159,6 +160,8 @@ class SyntheticCamera:
             ]
         )
         self._fill(canvas, floor, pose, floor_bgr)
+        if self.floor_texture > 0.0:
+            self._texture(canvas)
         centre = -pose[0].T @ pose[1]
         on_floor = [b for b in boards if np.allclose(b.corners_world()[:, 2], 0.0)]
         for placed in on_floor:
@@ -183,6 +186,14 @@ class SyntheticCamera:
             noise = self.rng.normal(0.0, self.noise_sigma, raw.shape)
             raw = np.clip(raw + noise, 0, 255).astype(np.uint8)
         return raw
+
+    def _texture(self, canvas: npt.NDArray[np.uint8]) -> None:
+        """Mild blotches of brightness (a floor is never one flat grey): smooth noise, drawn small
+        and enlarged with cv2.resize."""
+        h, w = canvas.shape[:2]
+        blotches = self.rng.normal(0.0, 1.0, (max(2, h // 64), max(2, w // 64))).astype(np.float32)
+        gain = 1.0 + self.floor_texture * cv2.resize(blotches, (w, h), interpolation=cv2.INTER_CUBIC)
+        canvas[:] = np.clip(canvas * gain[..., None], 0, 255).astype(np.uint8)
 
     def _world_to_camera(self, cart_pose: tuple[float, float, float]) -> tuple[FloatArray, FloatArray]:
         x, y, theta = cart_pose
