@@ -3,7 +3,9 @@ lens with and without distortion) must give hits at the box's foot, an empty flo
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 from cart2d.perception.calibration import CameraCalibration
@@ -75,6 +77,31 @@ def test_an_empty_floor_has_no_hits_and_free_rays_to_max_range(distorted: bool) 
         # picture sooner, and none goes beyond
         assert reach.max() <= CONFIG.max_range_m + 1e-9
         assert np.sort(reach)[-100:].min() > CONFIG.max_range_m - 0.02
+
+
+def jpeg(image: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
+    """Through the camera's JPEG (quality 80, 4:2:0 chroma): ringing round edges, blotchy colour."""
+    data = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 80])[1]
+    return np.asarray(cv2.imdecode(data, cv2.IMREAD_COLOR), dtype=np.uint8)
+
+
+def test_through_jpeg_a_drive_sees_the_box_and_nothing_else() -> None:
+    detector, camera = detector_and_camera(True, seed=11)
+    box = Box(1.5, 0.1, 0.25, 0.3, 0.25, (40, 60, 170))
+    for k in range(40):  # towards the box, swaying
+        x, theta = 0.02 * k, 0.25 * np.sin(k / 6)
+        empty = detector.detect(jpeg(camera.render((x, 0.0, theta))))
+        assert len(empty.hits) == 0
+        seen = detector.detect(jpeg(camera.render((x, 0.0, theta), boxes=[box])))
+        assert len(seen.hits) > 0
+        c, s = np.cos(theta), np.sin(theta)
+        world = seen.hits @ np.array([[c, -s], [s, c]]).T + [x, 0.0]
+        # JPEG's chroma subsampling and ringing bleed the box's colour onto the floor below it by
+        # up to 3 rows (the box looks nearer), never above; one row spans d^2 / (h f) of floor at d
+        ahead_m = np.linalg.norm(seen.hits - seen.origin, axis=1)
+        row_m = ahead_m**2 / (MOUNT.height_m * DISTORTED.fy)
+        assert np.all(outside_footprint_m(world, box) < 0.01 + 3 * row_m)
+        assert np.all(inside_footprint_m(world, box) < 0.01 + row_m)
 
 
 def test_a_box_beyond_max_range_is_no_hit_and_the_rays_stop_at_max_range() -> None:

@@ -10,7 +10,8 @@ and a plain image column crossing such an edge would take a point high on the bo
 placing a hit behind the box. Along a scan line through that point, the lowest non-floor pixel
 of an edge is its foot. The scan lines are sampled from the raw image with cv2.remap.
 
-- The floor's appearance is an HSV histogram learnt from a patch of floor just in front of the
+- The floor's appearance is a colour histogram (CIE L*a*b*, where a grey floor's colour is
+  stable; the hue of HSV is noise on grey) learnt from a patch of floor just in front of the
   cart (assumed clear when the detector starts), compared with every pixel by back-projection
   (cv2.calcBackProject), smoothed, thresholded and cleaned with morphology. It is refreshed
   slowly from the patch's pixels that look like floor, never from pixels near an obstacle.
@@ -31,11 +32,13 @@ from cart2d.perception.calibration import CameraCalibration
 from cart2d.perception.camera_model import FloatArray, Mount
 
 BoolImage = npt.NDArray[np.bool_]
-# hue (OpenCV's 0..180 in steps of 10), saturation and value (steps of 16): one bin number per
-# pixel, so that calcHist / calcBackProject work on one 16-bit channel (a 3-D histogram does not
-# survive the trip through the Python binding, which reads a 3-D array as a 2-D one of 16 channels)
-HUE_STEP, SAT_STEP, VAL_STEP = 10, 16, 16
-BINS = (180 // HUE_STEP) * (256 // SAT_STEP) * (256 // VAL_STEP)
+# Lightness in steps of 32, a* and b* in steps of 8 (OpenCV's 8-bit Lab: 0..255 each, grey at
+# a* = b* = 128): one bin number per pixel, so that calcHist / calcBackProject work on one 16-bit
+# channel (a 3-D histogram does not survive the trip through the Python binding, which reads a
+# 3-D array as a 2-D one of many channels).
+L_STEP, A_STEP, B_STEP = 32, 16, 16
+BIN_SHAPE = (256 // L_STEP, 256 // A_STEP, 256 // B_STEP)
+BINS = BIN_SHAPE[0] * BIN_SHAPE[1] * BIN_SHAPE[2]
 
 
 @dataclass(frozen=True)
@@ -48,7 +51,7 @@ class DetectorConfig:
     learn_rate: float = 0.05  # weight of each frame's patch in the floor histogram
     min_patch_floor: float = 0.6  # learn only while this much of the patch looks like floor
     blur_px: int = 5  # median filter of the back-projection: 3 or 5
-    open_px: int = 3  # opening removes specks of non-floor ...
+    open_px: int = 5  # opening removes specks of non-floor (and JPEG ringing by edges)...
     close_px: int = 7  # ... closing fills holes inside an obstacle
     guard_px: int = 9  # learning keeps this far from any non-floor pixel
     solid_samples: int = 5  # an obstacle spans at least this many samples up a scan line
@@ -75,26 +78,25 @@ class Detection:
 
 
 def colour_bins(bgr: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint16]:
-    """Each pixel's HSV histogram bin."""
-    hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
-    h = hsv[..., 0].astype(np.uint16) // HUE_STEP
-    s = hsv[..., 1].astype(np.uint16) // SAT_STEP
-    v = hsv[..., 2].astype(np.uint16) // VAL_STEP
-    return np.asarray((h * (256 // SAT_STEP) + s) * (256 // VAL_STEP) + v, dtype=np.uint16)
+    """Each pixel's colour histogram bin."""
+    lab = cv2.cvtColor(bgr, cv2.COLOR_BGR2LAB)
+    lightness = lab[..., 0].astype(np.uint16) // L_STEP
+    a = lab[..., 1].astype(np.uint16) // A_STEP
+    b = lab[..., 2].astype(np.uint16) // B_STEP
+    return np.asarray((lightness * BIN_SHAPE[1] + a) * BIN_SHAPE[2] + b, dtype=np.uint16)
 
 
 def _widened(hist: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
-    """Each bin also counts as its neighbours' (hue round the circle, saturation and value a
-    step up or down): a patch of floor never shows all the shades the rest of the floor has."""
-    cube = hist.reshape(180 // HUE_STEP, 256 // SAT_STEP, 256 // VAL_STEP)
+    """Each bin also counts as its neighbours' (a step up or down in each channel): a patch of
+    floor never shows all the shades the rest of the floor has."""
+    cube = hist.reshape(BIN_SHAPE)
     wide = cube.copy()
     for axis in (0, 1, 2):
         for step in (-1, 1):
             shifted = np.roll(cube, step, axis=axis)
-            if axis > 0:  # saturation and value do not wrap round
-                edge = [slice(None)] * 3
-                edge[axis] = slice(0, 1) if step == 1 else slice(-1, None)
-                shifted[tuple(edge)] = 0
+            edge = [slice(None)] * 3
+            edge[axis] = slice(0, 1) if step == 1 else slice(-1, None)
+            shifted[tuple(edge)] = 0  # no wrapping round
             wide = np.maximum(wide, shifted)
     return np.asarray(wide.reshape(-1, 1), dtype=np.float32)
 
