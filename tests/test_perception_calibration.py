@@ -88,6 +88,17 @@ def test_the_floor_board_is_placed_whichever_corner_opencv_lists_first() -> None
         assert point == pytest.approx((1.0, 0.2), abs=0.01)
 
 
+def test_the_boards_are_placed_in_the_world_of_a_cart_anywhere() -> None:
+    # the poses the simulator is given: the cart elsewhere and turned, the ground still base_link
+    cart = (1.2, -0.7, 2.0)
+    truth, views, floor = synthetic_views(BOARD, ON_FLOOR, 9, MOUNT, seed=3, cart=cart)
+    result = calibrate(views, floor, BOARD, ON_FLOOR, MOUNT, say=lambda _: None)
+    assert result.views == 9
+    ahead = np.array([[MOUNT.x_m + 1.0, y] for y in (-0.25, 0.0, 0.25)])
+    seen, _ = result.pixels_to_ground(true_pixels(truth, MOUNT, ahead))
+    assert np.linalg.norm(seen - ahead, axis=1).max() < 0.02
+
+
 def test_too_few_views_is_an_error() -> None:
     _, views, floor = synthetic_views(BOARD, ON_FLOOR, 3, MOUNT)
     with pytest.raises(ValueError, match="at least 5"):

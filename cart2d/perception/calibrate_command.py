@@ -38,6 +38,8 @@ from cart2d.perception.calibration import (
 from cart2d.perception.camera_model import FloatArray, Intrinsics, Mount
 
 Image = npt.NDArray[np.uint8]
+Pose = tuple[float, float, float]  # the cart's x, y (m) and heading (rad) in the world
+Placement = tuple[FloatArray, FloatArray]  # (R, t): world point = R @ board point + t
 # The synthetic lens: the stock lens a few per cent off its data sheet, with the barrel distortion
 # the simulated OV2640 has (the contract's [sim.camera] k1, k2).
 SYNTHETIC_K1, SYNTHETIC_K2 = -0.12, 0.03
@@ -59,11 +61,13 @@ class HeldPose:
     hint: str
 
     def in_camera(self, board: Board, lens: Intrinsics) -> tuple[FloatArray, FloatArray]:
-        """(R, t): camera-frame point = R @ board point + t."""
+        """(R, t): camera-frame point = R @ board point + t. Untilted, the board faces the lens
+        (its z axis towards it), its columns to the picture's left and its rows downwards."""
         rx, ry = math.radians(self.tilt_x_deg), math.radians(self.tilt_y_deg)
         rot_x = np.array([[1, 0, 0], [0, math.cos(rx), -math.sin(rx)], [0, math.sin(rx), math.cos(rx)]])
         rot_y = np.array([[math.cos(ry), 0, math.sin(ry)], [0, 1, 0], [-math.sin(ry), 0, math.cos(ry)]])
-        r = rot_y @ rot_x
+        facing = np.diag([-1.0, 1.0, -1.0])
+        r = rot_y @ rot_x @ facing
         ray = np.array([(self.u - lens.cx) / lens.fx, (self.v - lens.cy) / lens.fy, 1.0])
         middle = self.distance_m * ray / np.linalg.norm(ray)
         board_middle = np.array([(board.cols - 1) / 2, (board.rows - 1) / 2, 0.0]) * board.square_m
@@ -131,14 +135,33 @@ def held_in_base(
     return r_cb.T @ r_cam, r_cb.T @ (t_cam - t_cb)
 
 
+def in_world(placement_in_base: Placement, cart: Pose) -> Placement:
+    r, t = placement_in_base
+    c, s = math.cos(cart[2]), math.sin(cart[2])
+    base_to_world = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return base_to_world @ r, base_to_world @ t + np.array([cart[0], cart[1], 0.0])
+
+
+def board_placements(
+    board: Board, ground: GroundBoard, n: int, mount: Mount, cart: Pose = (0.0, 0.0, 0.0)
+) -> tuple[list[Placement], Placement]:
+    """Where a calibration without a person puts the board, in the world of a cart at `cart`:
+    the held views of `view_plan` (for the nominal lens) and the board on the floor. The
+    simulator takes them as they are: Simulator.place_target(Board.from_rotation(R, t, ...))."""
+    nominal = Intrinsics.nominal(mount)
+    held = [
+        in_world(held_in_base(pose, board, nominal, mount), cart) for pose in view_plan(n, nominal, board)
+    ]
+    return held, in_world(ground.pose_in_base(), cart)
+
+
 def synthetic_views(
-    board: Board, ground: GroundBoard, n: int, mount: Mount, seed: int = 0
+    board: Board, ground: GroundBoard, n: int, mount: Mount, seed: int = 0, cart: Pose = (0.0, 0.0, 0.0)
 ) -> tuple[Intrinsics, Iterator[Image], Image]:
-    """The lens that `--synthetic` pretends to have, its views of `view_plan`, and its view of the
-    board on the floor. The one place that knows how views are made without a person: the
-    simulator's variant places the board at the same poses (Simulator.place_target, in the world
-    frame of the cart's pose) and fetches URL/capture instead of rendering."""
-    from cart2d.perception.synthetic import PlacedBoard, SyntheticCamera, floor_board
+    """The lens that `--synthetic` pretends to have, its views of the board at `board_placements`
+    and its view of the board on the floor. The simulator's camera is used the same way: the
+    board placed (Simulator.place_target) at each placement, a frame taken (Simulator.wait_frame)."""
+    from cart2d.perception.synthetic import PlacedBoard, SyntheticCamera
 
     nominal = Intrinsics.nominal(mount)
     truth = Intrinsics(
@@ -151,17 +174,13 @@ def synthetic_views(
         (SYNTHETIC_K1, SYNTHETIC_K2, 0.0, 0.0, 0.0),
     )
     camera = SyntheticCamera(truth, mount, seed=seed)
+    held, on_floor = board_placements(board, ground, n, mount, cart)
 
     def views() -> Iterator[Image]:
-        for pose in view_plan(n, nominal, board):
-            r, t = held_in_base(pose, board, nominal, mount)
-            yield camera.render(boards=[PlacedBoard(board, r, t)])
+        for r, t in held:
+            yield camera.render(cart, boards=[PlacedBoard(board, r, t)])
 
-    return (
-        truth,
-        views(),
-        camera.render(boards=[floor_board(ground.board, ground.centre_x_m, ground.centre_y_m)]),
-    )
+    return truth, views(), camera.render(cart, boards=[PlacedBoard(ground.board, *on_floor)])
 
 
 def capture(url: str) -> Image:

@@ -60,6 +60,14 @@ class GroundBoard:
     centre_x_m: float
     centre_y_m: float = 0.0
 
+    def pose_in_base(self) -> tuple[FloatArray, FloatArray]:
+        """(R, t): base_link point = R @ board point + t, the board face up (its z axis up), its
+        columns running to the cart's right (-y) and its rows away from the cart (+x)."""
+        rotation = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+        b = self.board
+        middle = np.array([(b.cols - 1) * b.square_m / 2, (b.rows - 1) * b.square_m / 2, 0.0])
+        return rotation, np.array([self.centre_x_m, self.centre_y_m, 0.0]) - rotation @ middle
+
     def floor_grid(self) -> FloatArray:
         """Corner positions on the floor, rows x cols x 2: row index towards the cart (-x), column
         index to the cart's right (-y), as the camera would list them looking at the board."""

@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from cart2d.perception.calibration import Board
+from cart2d.perception.calibration import Board, GroundBoard
 from cart2d.perception.camera_model import FloatArray, Intrinsics, Mount
 
 Colour = tuple[int, int, int]  # BGR
@@ -67,12 +67,9 @@ class PlacedBoard:
 
 
 def floor_board(board: Board, centre_x_m: float, centre_y_m: float) -> PlacedBoard:
-    """`board` lying flat on the floor, square to the cart, its `cols` side across (along y),
-    its middle at (centre_x_m, centre_y_m): the calibration's ground board (GroundBoard)."""
-    # board x (along cols) -> base_link -y, board y (along rows) -> -x, board z -> down
-    rotation = np.array([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
-    middle = np.array([(board.cols - 1) * board.square_m / 2, (board.rows - 1) * board.square_m / 2, 0.0])
-    return PlacedBoard(board, rotation, np.array([centre_x_m, centre_y_m, 0.0]) - rotation @ middle)
+    """`board` lying on the floor as the calibration's GroundBoard says (the cart at the origin)."""
+    rotation, translation = GroundBoard(board, centre_x_m, centre_y_m).pose_in_base()
+    return PlacedBoard(board, rotation, translation)
 
 
 def _clip_to_front(points_cam: FloatArray) -> FloatArray:
