@@ -196,6 +196,18 @@ class ObstacleDetector:
         cols = np.arange(width)
         self.far_xy = np.where(has[:, None], centre_xy[np.maximum(self.far_row, 0), cols], np.nan)
 
+    def field_of_view(self, every: int = 16) -> FloatArray:
+        """The floor the detector looks at, as a polygon in base_link (K x 2): the nearest floor
+        each scan line sees, left to right, then where it ends (max range or the picture's edge),
+        right to left; one line in `every`, and the outermost ones."""
+        usable = np.nonzero((self.far_row >= 0) & (self.bottom_row >= 0))[0]
+        if len(usable) == 0:
+            return np.zeros((0, 2))
+        lines = np.unique(np.concatenate([usable[::every], usable[-1:]]))
+        near = self.edge_xy[self.bottom_row[lines], lines]
+        far = self.far_xy[lines]
+        return np.asarray(np.concatenate([near, far[::-1]]), dtype=np.float64)
+
     def _histogram(self, bins: npt.NDArray[np.uint16], mask: BoolImage) -> npt.NDArray[np.float32]:
         hist = np.asarray(cv2.calcHist([bins], [0], mask.astype(np.uint8), [BINS], [0, BINS]), np.float32)
         wide = _widened(hist)
