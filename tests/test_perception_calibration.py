@@ -4,6 +4,7 @@ a local HTTP server standing in for the ESP32-CAM's /capture."""
 
 from __future__ import annotations
 
+import contextlib
 import http.server
 import logging
 import threading
@@ -12,6 +13,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 from cart2d import cli
@@ -134,13 +136,11 @@ def test_the_command_calibrates_and_saves(tmp_path: Path, capsys: pytest.Capture
     assert load_calibration(out, MOUNT).calibrated
 
 
-@pytest.fixture
-def fake_esp32_cam() -> Iterator[tuple[str, list[int]]]:
-    """/capture answers the next of a series of JPEGs, like the stock CameraWebServer's."""
-    _, views, floor = synthetic_views(BOARD, ON_FLOOR, 6, MOUNT, seed=9)
-    jpegs = [
-        cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 90])[1].tobytes() for image in [*views, floor]
-    ]
+@contextlib.contextmanager
+def esp32_cam(images: list[npt.NDArray[np.uint8]]) -> Iterator[tuple[str, list[int]]]:
+    """/capture answers the next of `images` as a JPEG, like the stock CameraWebServer's; the
+    lengths of the JPEGs served so far."""
+    jpegs = [cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 90])[1].tobytes() for image in images]
     served: list[int] = []
 
     class Handler(http.server.BaseHTTPRequestHandler):
@@ -167,6 +167,22 @@ def fake_esp32_cam() -> Iterator[tuple[str, list[int]]]:
     finally:
         server.shutdown()
         server.server_close()
+
+
+@pytest.fixture
+def fake_esp32_cam() -> Iterator[tuple[str, list[int]]]:
+    _, views, floor = synthetic_views(BOARD, ON_FLOOR, 6, MOUNT, seed=9)
+    with esp32_cam([*views, floor]) as camera:
+        yield camera
+
+
+def test_a_camera_at_another_framesize_is_refused_with_the_fix() -> None:
+    _, views, _ = synthetic_views(BOARD, ON_FLOOR, 1, MOUNT)
+    vga = cv2.resize(next(views), (640, 480))
+    with esp32_cam([vga]) as (url, _):
+        views_of_camera, _ = camera_views(url, BOARD, ON_FLOOR, 6, MOUNT, lambda _: "")
+        with pytest.raises(ValueError, match=r"640 x 480 .* framesize to 320 x 240"):
+            next(views_of_camera)
 
 
 def test_a_real_camera_is_read_from_capture_between_prompts(fake_esp32_cam: tuple[str, list[int]]) -> None:

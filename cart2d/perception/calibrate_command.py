@@ -193,6 +193,16 @@ def capture(url: str) -> Image:
     return np.asarray(image, dtype=np.uint8)
 
 
+def sized(image: Image, mount: Mount) -> Image:
+    """`image` if it has the size perception runs at ([camera] width_px x height_px); else ValueError."""
+    if (image.shape[1], image.shape[0]) != (mount.width_px, mount.height_px):
+        raise ValueError(
+            f"the camera sends {image.shape[1]} x {image.shape[0]} pictures; set its framesize to "
+            f"{mount.width_px} x {mount.height_px} ([camera] in config/robot.toml), e.g. in its web page"
+        )
+    return image
+
+
 def camera_views(
     url: str, board: Board, ground: GroundBoard, n: int, mount: Mount, ask: Callable[[str], str] = input
 ) -> tuple[Iterator[Image], Callable[[], Image]]:
@@ -205,7 +215,7 @@ def camera_views(
                 f"view {k + 1}/{n}: hold the {board.cols + 1} x {board.rows + 1} square board {pose.hint}, "
                 "all of it in the picture, still; then press Enter "
             )
-            yield capture(url)
+            yield sized(capture(url), mount)
 
     def floor_view() -> Image:
         ask(
@@ -213,7 +223,7 @@ def camera_views(
             f"ahead of the wheel axis and {ground.centre_y_m:.3f} m left of the centre line, square to "
             "the cart; then press Enter "
         )
-        return capture(url)
+        return sized(capture(url), mount)
 
     return views(), floor_view
 
