@@ -178,7 +178,7 @@ def fake_esp32_cam() -> Iterator[tuple[str, list[int]]]:
 
 def test_a_camera_at_another_framesize_is_refused_with_the_fix() -> None:
     _, views, _ = synthetic_views(BOARD, ON_FLOOR, 1, MOUNT)
-    vga = cv2.resize(next(views), (640, 480))
+    vga = np.asarray(cv2.resize(next(views), (640, 480)), dtype=np.uint8)
     with esp32_cam([vga]) as (url, _):
         views_of_camera, _ = camera_views(url, BOARD, ON_FLOOR, 6, MOUNT, lambda _: "")
         with pytest.raises(ValueError, match=r"640 x 480 .* framesize to 320 x 240"):
