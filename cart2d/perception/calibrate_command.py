@@ -91,13 +91,15 @@ def view_plan(n: int, lens: Intrinsics, board: Board) -> list[HeldPose]:
         (-1.0, 0.0, "left middle"),
         (1.0, 0.0, "right middle"),
     ]
+    # rotations about the camera's x (right) and y (down) axes: a positive one about x takes the
+    # board's lower edge away from the lens, a positive one about y brings its right side nearer
     tilts = [
         (0, 0, "facing the camera"),
-        (35, 0, "top away"),
-        (-35, 0, "top towards you"),
-        (0, 35, "right side away"),
-        (0, -35, "left side away"),
-        (25, 25, "top right corner away"),
+        (35, 0, "its lower edge away"),
+        (-35, 0, "its top edge away"),
+        (0, 35, "its left side away"),
+        (0, -35, "its right side away"),
+        (25, 25, "its lower left corner away"),
     ]
     # the printed board is (cols + 1) x (rows + 1) squares and a margin of about a square each side
     board_w_m, board_h_m = (board.cols + 3) * board.square_m, (board.rows + 3) * board.square_m
