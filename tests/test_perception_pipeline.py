@@ -41,7 +41,10 @@ def test_a_box_seen_from_a_pose_is_mapped_where_it_is() -> None:
     for _ in range(4):
         data = cv2.imencode(".jpg", camera.render(pose, boxes=[box]), [cv2.IMWRITE_JPEG_QUALITY, 80])[1]
         frame = p.process_jpeg(data.tobytes(), pose)
-    assert frame.overlay.shape == (240, 320, 3)
+    canvas = camera.render(pose, boxes=[box])
+    before = canvas.copy()
+    frame.draw(canvas)  # in place, as the camera feed's Overlay.draw
+    assert (canvas != before).any()
     assert np.abs(frame.hits[:, 1] - (box.y - box.sy / 2)).max() < 0.06  # the near face, y = 1.45
     assert Polygon(frame.fov).contains_point((1.5, 1.0))  # the field of view turned with the cart
     cells = np.array([c[:2] for c in p.cells()])

@@ -285,11 +285,18 @@ class ObstacleDetector:
         )
 
 
-def draw_overlay(bgr: npt.NDArray[np.uint8], detection: Detection) -> npt.NDArray[np.uint8]:
-    """The image with the floor tinted green and each column's hit marked red (what the panel shows)."""
-    tint = np.zeros_like(bgr)
+def draw_detection(canvas: npt.NDArray[np.uint8], detection: Detection) -> None:
+    """Draws on `canvas` (the frame the detection is of, BGR), in place: the floor tinted green,
+    each scan line's hit marked red."""
+    tint = np.zeros_like(canvas)
     tint[detection.floor_mask] = (0, 160, 0)
-    out = np.asarray(cv2.addWeighted(bgr, 1.0, tint, 0.35, 0.0), dtype=np.uint8)
+    cv2.addWeighted(canvas, 1.0, tint, 0.35, 0.0, dst=canvas)
     for u, v in detection.lowest_px[detection.is_hit]:
-        cv2.circle(out, (round(u), round(v)), 1, (0, 0, 255), -1)
+        cv2.circle(canvas, (round(u), round(v)), 1, (0, 0, 255), -1)
+
+
+def draw_overlay(bgr: npt.NDArray[np.uint8], detection: Detection) -> npt.NDArray[np.uint8]:
+    """A copy of the frame with the detection drawn (draw_detection)."""
+    out = bgr.copy()
+    draw_detection(out, detection)
     return out

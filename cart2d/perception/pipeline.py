@@ -1,9 +1,10 @@
 """Perception for the gateway, one frame at a time: a JPEG from the camera and the cart's pose
 at its capture -> obstacle hits and the camera's field of view in map coordinates, the occupancy
-grid updated, and the picture with the detection drawn on it (what the panel shows).
+grid updated, and what to draw on the picture the panel shows.
 
-The gateway's camera feed calls `process` from its frame hook; the perceived cells
-(`cells()`, p >= 0.5) go to Gateway.set_perceived and the hits and field of view to /ws.
+The gateway's camera feed calls `process` from its frame hook (returning
+Overlay(draw=perceived.draw)); the perceived cells (`cells()`, p > 0.5) go to
+Gateway.set_perceived and the hits and field of view to /ws.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import numpy.typing as npt
 
 from cart2d.perception.calibration import CameraCalibration, load_calibration
 from cart2d.perception.camera_model import FloatArray, Mount
-from cart2d.perception.detection import Detection, DetectorConfig, ObstacleDetector, draw_overlay
+from cart2d.perception.detection import Detection, DetectorConfig, ObstacleDetector, draw_detection
 from cart2d.perception.occupancy import LogOddsGrid, Pose
 
 
@@ -27,8 +28,11 @@ class Perceived:
 
     hits: FloatArray  # N x 2
     fov: FloatArray  # the field of view's polygon, K x 2
-    overlay: npt.NDArray[np.uint8]  # the picture with the floor and the hits drawn
     detection: Detection  # in base_link
+
+    def draw(self, canvas: npt.NDArray[np.uint8]) -> None:
+        """Draws the detection on (a copy of) its frame, in place: the camera feed's Overlay.draw."""
+        draw_detection(canvas, self.detection)
 
 
 def to_map(points: FloatArray, pose: Pose) -> FloatArray:
@@ -55,9 +59,7 @@ class Perception:
         """A decoded frame and the cart's pose (x, y, theta in the map) when it was captured."""
         detection = self.detector.detect(bgr)
         self.grid.integrate(pose, detection)
-        return Perceived(
-            to_map(detection.hits, pose), to_map(self.fov_base, pose), draw_overlay(bgr, detection), detection
-        )
+        return Perceived(to_map(detection.hits, pose), to_map(self.fov_base, pose), detection)
 
     def process_jpeg(self, jpeg: bytes, pose: Pose) -> Perceived:
         """ValueError if `jpeg` is not a JPEG of the calibration's size."""
