@@ -74,9 +74,8 @@ class LogOddsGrid:
             self._free_cells(origin, ends, ends_on_hit, detection.min_range_m), hit_cells
         )
         flat = self.log_odds.reshape(-1)
-        flat[free_cells] += self.free_log_odds
-        flat[hit_cells] += self.hit_log_odds
-        np.clip(self.log_odds, self.min_log_odds, self.max_log_odds, out=self.log_odds)
+        for touched, change in ((free_cells, self.free_log_odds), (hit_cells, self.hit_log_odds)):
+            flat[touched] = np.clip(flat[touched] + change, self.min_log_odds, self.max_log_odds)
 
     def _free_cells(
         self, origin: FloatArray, ends: FloatArray, ends_on_hit: npt.NDArray[np.bool_], min_range_m: float
