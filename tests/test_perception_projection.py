@@ -102,3 +102,10 @@ def test_undistortion_inverts_the_lens_model() -> None:
     ideal = rays[:, :2] * [lens.fx, lens.fy] + [lens.cx, lens.cy]
     np.testing.assert_allclose(lens.undistort(distorted.reshape(-1, 2)), ideal, atol=1e-4)
     assert np.abs(distorted.reshape(-1, 2) - ideal).max() > 2.0  # the lens really bends them
+
+
+def test_a_degenerate_homography_is_refused() -> None:
+    with pytest.raises(ValueError, match="invertible"):
+        GroundProjection(np.array([[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 0.0, 1.0]]))
+    with pytest.raises(ValueError, match="finite"):
+        GroundProjection(np.full((3, 3), np.nan))

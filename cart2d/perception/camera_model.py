@@ -166,9 +166,12 @@ class GroundProjection:
 
     def __post_init__(self) -> None:
         h = np.asarray(self.floor_to_pixel, dtype=np.float64)
-        if h.shape != (3, 3) or not np.all(np.isfinite(h)) or abs(np.linalg.det(h)) < 1e-12:
-            raise ValueError("the ground homography must be a finite, invertible 3 x 3 matrix")
-        self.floor_to_pixel = np.asarray(h / np.linalg.norm(h), dtype=np.float64)
+        if h.shape != (3, 3) or not np.all(np.isfinite(h)) or np.linalg.norm(h) == 0.0:
+            raise ValueError("the ground homography must be a finite 3 x 3 matrix")
+        h = h / np.linalg.norm(h)
+        if abs(np.linalg.det(h)) < 1e-12:
+            raise ValueError("the ground homography must be invertible")
+        self.floor_to_pixel = np.asarray(h, dtype=np.float64)
         self.pixel_to_floor = np.asarray(np.linalg.inv(self.floor_to_pixel), dtype=np.float64)
 
     @classmethod
