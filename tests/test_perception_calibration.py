@@ -198,3 +198,34 @@ def test_a_real_camera_is_read_from_capture_between_prompts(fake_esp32_cam: tupl
     assert len(served) == 7 and len(prompts) == 7  # one capture after each Enter
     assert "press Enter" in prompts[0] and "floor" in prompts[-1]
     assert result.calibrated and result.ground_rms_m is not None and result.ground_rms_m < 0.005
+
+
+def test_the_command_against_a_camera_prompts_and_saves(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _, views, floor = synthetic_views(BOARD, ON_FLOOR, 6, MOUNT, seed=4)
+    prompts: list[str] = []
+
+    def enter(prompt: str = "") -> str:
+        prompts.append(prompt)
+        return ""
+
+    monkeypatch.setattr("builtins.input", enter)
+    out = tmp_path / "camera.json"
+    with esp32_cam([*views, floor]) as (url, served):
+        code = cli.main(["camera", "calibrate", "--camera", url, "--views", "6", "--out", str(out)])
+    assert code == 0 and len(served) == len(prompts) == 7
+    assert "saved to" in capsys.readouterr().out
+    assert load_calibration(out, MOUNT).calibrated
+
+
+def test_the_command_says_why_when_the_camera_is_not_there(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setattr("builtins.input", lambda prompt="": "")
+    with esp32_cam([]) as (url, _):
+        pass  # the server is gone: its port refuses
+    out = tmp_path / "camera.json"
+    assert cli.main(["camera", "calibrate", "--camera", url, "--views", "5", "--out", str(out)]) == 1
+    assert "cart2d camera calibrate:" in capsys.readouterr().err
+    assert not out.exists()

@@ -320,7 +320,7 @@ def main_camera_calibrate(args: argparse.Namespace, say: Callable[[str], None] =
                 f"cy {truth.cy:.1f} px, k1 {truth.dist[0]:.3f} k2 {truth.dist[1]:.3f}"
             )
         else:
-            views, floor_view = camera_views(args.camera, board, ground, args.views, mount)
+            views, floor_view = camera_views(args.camera, board, ground, args.views, mount, input)
             result = calibrate(views, floor_view, board, ground, mount, say)
     except (ValueError, OSError) as exc:
         print(f"cart2d camera calibrate: {exc}", file=sys.stderr)
