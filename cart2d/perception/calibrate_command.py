@@ -107,8 +107,8 @@ def view_plan(n: int, lens: Intrinsics, board: Board) -> list[HeldPose]:
     for k in range(n):
         fu, fv, where = spots[k % len(spots)]
         tx, ty, tilt = tilts[k % len(tilts)]
-        # far enough for the board to take 60 to 80 % of the picture's width
-        fill = 0.8 - 0.1 * ((k // len(spots)) % 3)
+        # far enough for the board to take 40 to 60 % of the picture's width: room to reach its corners
+        fill = 0.6 - 0.1 * ((k // len(spots)) % 3)
         distance = lens.fx * board_w_m / (fill * lens.width)
         half_w, half_h = lens.fx * board_w_m / distance / 2, lens.fy * board_h_m / distance / 2
         room_u, room_v = (
