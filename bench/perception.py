@@ -17,8 +17,10 @@ distortion) that the gateway uses before a calibration.
 
 **Cost.** The whole pipeline for one QVGA frame, on one core (cv2.setNumThreads(1)): JPEG decode
 (cv2.imdecode, quality 80 as the camera sends), ObstacleDetector.detect (floor back-projection,
-morphology, scan lines, projection) and LogOddsGrid.integrate (5 cm cells), wall clock on this
-machine, over a drive towards four boxes; with the hits' distance to the boxes' footprints.
+morphology, scan lines, projection) and LogOddsGrid.integrate (5 cm cells), over a drive
+towards four boxes; with the hits' distance to the boxes' footprints. The cost is the thread's
+CPU time (time.thread_time), what a frame takes of one core however busy the machine is; the wall
+clock, which also counts the time other processes held the core, is given beside it.
 
 `python -m bench.perception [--quick]`.
 """
@@ -130,16 +132,18 @@ def pipeline(truth: Intrinsics, calibration: CameraCalibration, mount: Mount, fr
     try:
         detector = ObstacleDetector(calibration, mount)
         grid = LogOddsGrid((-1.0, -2.0), 0.05, 80, 80)
-        decode_ms, detect_ms, integrate_ms, total_ms = [], [], [], []
+        decode_ms, detect_ms, integrate_ms, total_ms, wall_ms = [], [], [], [], []
         hit_error_m: list[float] = []
         for pose, jpeg in zip(poses, jpegs, strict=True):
-            t0 = time.perf_counter()
+            wall = time.perf_counter()
+            t0 = time.thread_time()
             image = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
-            t1 = time.perf_counter()
+            t1 = time.thread_time()
             detection = detector.detect(np.asarray(image, dtype=np.uint8))
-            t2 = time.perf_counter()
+            t2 = time.thread_time()
             grid.integrate(pose, detection)
-            t3 = time.perf_counter()
+            t3 = time.thread_time()
+            wall_ms.append(1e3 * (time.perf_counter() - wall))
             decode_ms.append(1e3 * (t1 - t0))
             detect_ms.append(1e3 * (t2 - t1))
             integrate_ms.append(1e3 * (t3 - t2))
@@ -160,6 +164,8 @@ def pipeline(truth: Intrinsics, calibration: CameraCalibration, mount: Mount, fr
         "integrate_ms": spread(integrate_ms).as_dict(),
         "total_ms": spread(total_ms).as_dict(),
         "total_ms_p95": percentile(total_ms, 95),
+        "wall_ms": spread(wall_ms).as_dict(),
+        "wall_ms_p95": percentile(wall_ms, 95),
         "total_ms_all": total_ms,
         "hits": len(hit_error_m),
         "hit_error_m_median": float(np.median(hit_error_m)) if hit_error_m else None,
@@ -191,7 +197,7 @@ def plot(out: Path, runs: list[dict[str, Any]], cost: dict[str, Any]) -> None:
     left.legend()
     right.hist(cost["total_ms_all"], bins=40, color="tab:green")
     right.axvline(FRAME_TARGET_MS, color="tab:red", lw=1, label="target")
-    right.set_xlabel("ms per QVGA frame (decode + detect + integrate, one core)")
+    right.set_xlabel("CPU ms per QVGA frame (decode + detect + integrate, one core)")
     right.set_ylabel("frames")
     right.set_title("Pipeline cost")
     right.legend()
@@ -217,7 +223,7 @@ def run(out: Path, quick: bool) -> Section:
             f"ground-projection error at 1 m <= {100 * GROUND_TARGET_M:.0f} cm (worst seed)",
             worst_1m <= GROUND_TARGET_M,
         ),
-        (f"median ms per QVGA frame <= {FRAME_TARGET_MS:.0f}", median_ms <= FRAME_TARGET_MS),
+        (f"median CPU ms per QVGA frame <= {FRAME_TARGET_MS:.0f}", median_ms <= FRAME_TARGET_MS),
     ]
     calibration_rows = [
         [
@@ -265,7 +271,8 @@ def run(out: Path, quick: bool) -> Section:
         + f"\nPipeline over {cost['frames']} frames (JPEG median {cost['jpeg_bytes_median'] / 1000:.1f} kB), "
         f"ms median (range): decode {ms('decode_ms')}, detect {ms('detect_ms')}, "
         f"integrate {ms('integrate_ms')}, "
-        f"**total {ms('total_ms')}**, p95 {cost['total_ms_p95']:.2f}. "
+        f"**total {ms('total_ms')}**, p95 {cost['total_ms_p95']:.2f} (CPU time); wall clock "
+        f"{ms('wall_ms')}, p95 {cost['wall_ms_p95']:.2f}. "
         f"{cost['hits']} hits, their distance to the nearest box's footprint: median "
         f"{100 * (cost['hit_error_m_median'] or 0):.1f} cm, "
         f"p95 {100 * (cost['hit_error_m_p95'] or 0):.1f} cm, "
