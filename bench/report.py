@@ -25,6 +25,7 @@ SECTIONS = (
     "firmware",
     "streaming",
     "live_map",
+    "perception",
     "safety",
     "drivetrain",
     "serial",

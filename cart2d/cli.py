@@ -1,5 +1,6 @@
 """The `cart2d` command line: `sim` (simulator + gateway), `serve` (a real robot on a serial
-port), `mission` (a headless mission run with a report), `calibrate` (odometry, UMBmark)."""
+port), `mission` (a headless mission run with a report), `calibrate` (odometry, UMBmark),
+`camera calibrate` (the camera's lens and ground homography)."""
 
 from __future__ import annotations
 
@@ -19,6 +20,8 @@ from cart2d.calibrate import add_arguments as add_calibrate_arguments
 from cart2d.calibrate import main_calibrate
 from cart2d.gateway import Gateway
 from cart2d.link import Link, LinkError, ports
+from cart2d.perception.calibrate_command import add_arguments as add_camera_calibrate_arguments
+from cart2d.perception.calibrate_command import main_camera_calibrate
 from cart2d.recording import cli as recording_cli
 from cart2d.server import addresses, create_app, is_loopback, serving
 from cart2d.simulation.camera import SimCameraServer
@@ -320,6 +323,14 @@ def build_parser() -> argparse.ArgumentParser:
     calibrate = sub.add_parser("calibrate", help="odometry calibration (UMBmark): wheel radii and track")
     add_calibrate_arguments(calibrate)
     calibrate.set_defaults(run=main_calibrate)
+
+    camera = sub.add_parser("camera", help="the cart's camera: calibrate")
+    camera_sub = camera.add_subparsers(dest="camera_command", required=True)
+    camera_calibrate = camera_sub.add_parser(
+        "calibrate", help="the camera's lens and ground homography from checkerboard views"
+    )
+    add_camera_calibrate_arguments(camera_calibrate)
+    camera_calibrate.set_defaults(run=main_camera_calibrate)
     return parser
 
 

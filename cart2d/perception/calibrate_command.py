@@ -1,0 +1,334 @@
+"""`cart2d camera calibrate`: the camera's lens and its ground homography from checkerboard
+views, saved next to the gateway's settings (cart2d/perception/calibration.py does the maths).
+
+A real camera (`--camera URL`, the ESP32-CAM's base URL) is read one JPEG at a time from
+URL/capture while the user holds the board where the prompt says and presses Enter. `--synthetic`
+calibrates OpenCV-rendered views of a lens with known distortion (cart2d/perception/synthetic.py),
+a dry run of the whole procedure whose truth is known. The simulator's camera, once it can place
+the board itself (Simulator.place_target), goes through `synthetic_views`' one job: a view of each
+pose of `view_plan` and of the board on the floor.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import urllib.request
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+from cart2d.perception.calibration import (
+    MIN_VIEWS,
+    Board,
+    CameraCalibration,
+    GroundBoard,
+    calibrate_lens,
+    calibration_path,
+    find_corners,
+    fit_ground,
+    load_calibration,
+    save_calibration,
+)
+from cart2d.perception.camera_model import FloatArray, Intrinsics, Mount
+
+Image = npt.NDArray[np.uint8]
+Pose = tuple[float, float, float]  # the cart's x, y (m) and heading (rad) in the world
+Placement = tuple[FloatArray, FloatArray]  # (R, t): world point = R @ board point + t
+# The synthetic lens: the stock lens a few per cent off its data sheet, with the barrel distortion
+# the simulated OV2640 has (the contract's [sim.camera] k1, k2).
+SYNTHETIC_K1, SYNTHETIC_K2 = -0.12, 0.03
+CAPTURE_TIMEOUT_S = 5.0
+EDGE_PX = 4  # the held board's margin kept inside the picture
+
+
+@dataclass(frozen=True)
+class HeldPose:
+    """A view of the board held in front of the camera: its middle on the ray of pixel (u, v) of
+    the nominal lens, `distance_m` away, tilted about the camera's x and y axes; `hint` says it in
+    words for a person holding it."""
+
+    u: float
+    v: float
+    distance_m: float
+    tilt_x_deg: float
+    tilt_y_deg: float
+    hint: str
+
+    def in_camera(self, board: Board, lens: Intrinsics) -> tuple[FloatArray, FloatArray]:
+        """(R, t): camera-frame point = R @ board point + t. Untilted, the board faces the lens
+        (its z axis towards it), its columns to the picture's left and its rows downwards."""
+        rx, ry = math.radians(self.tilt_x_deg), math.radians(self.tilt_y_deg)
+        rot_x = np.array([[1, 0, 0], [0, math.cos(rx), -math.sin(rx)], [0, math.sin(rx), math.cos(rx)]])
+        rot_y = np.array([[math.cos(ry), 0, math.sin(ry)], [0, 1, 0], [-math.sin(ry), 0, math.cos(ry)]])
+        facing = np.diag([-1.0, 1.0, -1.0])
+        r = rot_y @ rot_x @ facing
+        ray = np.array([(self.u - lens.cx) / lens.fx, (self.v - lens.cy) / lens.fy, 1.0])
+        middle = self.distance_m * ray / np.linalg.norm(ray)
+        board_middle = np.array([(board.cols - 1) / 2, (board.rows - 1) / 2, 0.0]) * board.square_m
+        return r, middle - r @ board_middle
+
+
+def view_plan(n: int, lens: Intrinsics, board: Board) -> list[HeldPose]:
+    """`n` views that fill the image and tilt the board both ways (what Zhang's method needs to
+    separate the focal length from the distance, and the distortion from both), each far enough
+    for the whole board (with its white margin) to stay in the picture."""
+    # where the board's middle goes, as a fraction of the room it has to each side: the middle
+    # and the edges of the picture, where the distortion is largest
+    spots = [
+        (0.0, 0.0, "in the middle"),
+        (-1.0, -1.0, "top left"),
+        (1.0, -1.0, "top right"),
+        (-1.0, 1.0, "bottom left"),
+        (1.0, 1.0, "bottom right"),
+        (0.0, -1.0, "top middle"),
+        (0.0, 1.0, "bottom middle"),
+        (-1.0, 0.0, "left middle"),
+        (1.0, 0.0, "right middle"),
+    ]
+    # rotations about the camera's x (right) and y (down) axes: a positive one about x takes the
+    # board's lower edge away from the lens, a positive one about y brings its right side nearer
+    tilts = [
+        (0, 0, "facing the camera"),
+        (35, 0, "its lower edge away"),
+        (-35, 0, "its top edge away"),
+        (0, 35, "its left side away"),
+        (0, -35, "its right side away"),
+        (25, 25, "its lower left corner away"),
+    ]
+    # the printed board is (cols + 1) x (rows + 1) squares and a margin of about a square each side
+    board_w_m, board_h_m = (board.cols + 3) * board.square_m, (board.rows + 3) * board.square_m
+    poses = []
+    for k in range(n):
+        fu, fv, where = spots[k % len(spots)]
+        tx, ty, tilt = tilts[k % len(tilts)]
+        # far enough for the board to take 40 to 60 % of the picture's width: room to reach its corners
+        fill = 0.6 - 0.1 * ((k // len(spots)) % 3)
+        distance = lens.fx * board_w_m / (fill * lens.width)
+        half_w, half_h = lens.fx * board_w_m / distance / 2, lens.fy * board_h_m / distance / 2
+        room_u, room_v = (
+            max(0.0, lens.width / 2 - half_w - EDGE_PX),
+            max(0.0, lens.height / 2 - half_h - EDGE_PX),
+        )
+        poses.append(
+            HeldPose(
+                lens.cx + fu * room_u,
+                lens.cy + fv * room_v,
+                distance,
+                tx,
+                ty,
+                f"{where}, {tilt}, about {distance:.2f} m away",
+            )
+        )
+    return poses
+
+
+def held_in_base(
+    pose: HeldPose, board: Board, lens: Intrinsics, mount: Mount
+) -> tuple[FloatArray, FloatArray]:
+    """A held pose in base_link: base point = R @ board point + t."""
+    r_cam, t_cam = pose.in_camera(board, lens)
+    r_cb, t_cb = mount.extrinsics()
+    return r_cb.T @ r_cam, r_cb.T @ (t_cam - t_cb)
+
+
+def in_world(placement_in_base: Placement, cart: Pose) -> Placement:
+    r, t = placement_in_base
+    c, s = math.cos(cart[2]), math.sin(cart[2])
+    base_to_world = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return base_to_world @ r, base_to_world @ t + np.array([cart[0], cart[1], 0.0])
+
+
+def board_placements(
+    board: Board, ground: GroundBoard, n: int, mount: Mount, cart: Pose = (0.0, 0.0, 0.0)
+) -> tuple[list[Placement], Placement]:
+    """Where a calibration without a person puts the board, in the world of a cart at `cart`:
+    the held views of `view_plan` (for the nominal lens) and the board on the floor. The
+    simulator takes them as they are: Simulator.place_target(Board.from_rotation(R, t, ...))."""
+    nominal = Intrinsics.nominal(mount)
+    held = [
+        in_world(held_in_base(pose, board, nominal, mount), cart) for pose in view_plan(n, nominal, board)
+    ]
+    return held, in_world(ground.pose_in_base(), cart)
+
+
+def synthetic_views(
+    board: Board, ground: GroundBoard, n: int, mount: Mount, seed: int = 0, cart: Pose = (0.0, 0.0, 0.0)
+) -> tuple[Intrinsics, Iterator[Image], Image]:
+    """The lens that `--synthetic` pretends to have, its views of the board at `board_placements`
+    and its view of the board on the floor. The simulator's camera is used the same way: the
+    board placed (Simulator.place_target) at each placement, a frame taken (Simulator.wait_frame)."""
+    from cart2d.perception.synthetic import PlacedBoard, SyntheticCamera
+
+    nominal = Intrinsics.nominal(mount)
+    truth = Intrinsics(
+        nominal.width,
+        nominal.height,
+        nominal.fx * 1.03,
+        nominal.fy * 1.03,
+        nominal.cx + 3.0,
+        nominal.cy - 2.0,
+        (SYNTHETIC_K1, SYNTHETIC_K2, 0.0, 0.0, 0.0),
+    )
+    camera = SyntheticCamera(truth, mount, seed=seed)
+    held, on_floor = board_placements(board, ground, n, mount, cart)
+
+    def views() -> Iterator[Image]:
+        for r, t in held:
+            yield camera.render(cart, boards=[PlacedBoard(board, r, t)])
+
+    return truth, views(), camera.render(cart, boards=[PlacedBoard(ground.board, *on_floor)])
+
+
+def capture(url: str) -> Image:
+    """One JPEG from the ESP32-CAM's URL/capture, decoded."""
+    with urllib.request.urlopen(url.rstrip("/") + "/capture", timeout=CAPTURE_TIMEOUT_S) as reply:
+        data = reply.read()
+    image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
+    if image is None:
+        raise ValueError(f"{url}/capture did not send a JPEG")
+    return np.asarray(image, dtype=np.uint8)
+
+
+def sized(image: Image, mount: Mount) -> Image:
+    """`image` if it has the size perception runs at ([camera] width_px x height_px); else ValueError."""
+    if (image.shape[1], image.shape[0]) != (mount.width_px, mount.height_px):
+        raise ValueError(
+            f"the camera sends {image.shape[1]} x {image.shape[0]} pictures; set its framesize to "
+            f"{mount.width_px} x {mount.height_px} ([camera] in config/robot.toml), e.g. in its web page"
+        )
+    return image
+
+
+def camera_views(
+    url: str, board: Board, ground: GroundBoard, n: int, mount: Mount, ask: Callable[[str], str] = input
+) -> tuple[Iterator[Image], Callable[[], Image]]:
+    """Views of a real camera: the user holds the board as each prompt says and presses Enter."""
+    nominal = Intrinsics.nominal(mount)
+
+    def views() -> Iterator[Image]:
+        for k, pose in enumerate(view_plan(n, nominal, board)):
+            ask(
+                f"view {k + 1}/{n}: hold the {board.cols + 1} x {board.rows + 1} square board {pose.hint}, "
+                "all of it in the picture, still; then press Enter "
+            )
+            yield sized(capture(url), mount)
+
+    def floor_view() -> Image:
+        ask(
+            f"lay the board flat on the floor, its long side across, its middle {ground.centre_x_m:.3f} m "
+            f"ahead of the wheel axis and {ground.centre_y_m:.3f} m left of the centre line, square to "
+            "the cart; then press Enter "
+        )
+        return sized(capture(url), mount)
+
+    return views(), floor_view
+
+
+def calibrate(
+    views: Iterator[Image],
+    floor_view: Image | Callable[[], Image],
+    board: Board,
+    ground: GroundBoard,
+    mount: Mount,
+    say: Callable[[str], None] = print,
+) -> CameraCalibration:
+    """The lens from every view the board is found in, then the ground homography. ValueError
+    when there are too few views or the floor board is not seen."""
+    corners = []
+    size: tuple[int, int] | None = None
+    for k, image in enumerate(views):
+        size = (image.shape[1], image.shape[0])
+        found = find_corners(image, board)
+        say(f"view {k + 1}: {'board found' if found is not None else 'board NOT found, view skipped'}")
+        if found is not None:
+            corners.append(found)
+    if size is None or len(corners) < MIN_VIEWS:
+        raise ValueError(f"the board was found in {len(corners)} views: at least {MIN_VIEWS} are needed")
+    lens = calibrate_lens(corners, board, *size)
+    say(
+        f"lens: fx {lens.intrinsics.fx:.1f} fy {lens.intrinsics.fy:.1f} cx {lens.intrinsics.cx:.1f} "
+        f"cy {lens.intrinsics.cy:.1f} px, k1 {lens.intrinsics.dist[0]:.3f} k2 {lens.intrinsics.dist[1]:.3f}; "
+        f"RMS reprojection error {lens.rms_px:.3f} px over {lens.views} views"
+    )
+    image = floor_view() if callable(floor_view) else floor_view
+    found = find_corners(image, ground.board)
+    if found is None:
+        raise ValueError("the board on the floor was not found in the picture")
+    fit = fit_ground(found, lens.intrinsics, ground, mount)
+    say(
+        f"ground: the board's corners land {1000 * fit.rms_m:.1f} mm RMS ({1000 * fit.max_m:.1f} mm "
+        f"at worst) from where they lie; {fit.outliers} corner(s) left out"
+    )
+    return CameraCalibration.of(lens, fit)
+
+
+def _board(text: str) -> tuple[int, int]:
+    try:
+        cols, rows = (int(n) for n in text.lower().split("x"))
+    except ValueError:
+        cols = rows = 0
+    if not (3 <= cols <= 30 and 3 <= rows <= 30 and cols != rows):
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: give the inner corners as COLSxROWS, such as 9x6 (not square)"
+        )
+    return cols, rows
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    where = parser.add_mutually_exclusive_group(required=True)
+    where.add_argument("--camera", metavar="URL", help="the ESP32-CAM's base URL, e.g. http://192.168.4.2")
+    where.add_argument("--synthetic", action="store_true", help="a dry run on rendered views of a known lens")
+    parser.add_argument("--board", type=_board, default=(9, 6), help="inner corners, COLSxROWS (default 9x6)")
+    parser.add_argument("--square-m", type=float, default=0.03, help="square side, m (default 0.03)")
+    parser.add_argument(
+        "--views", type=int, default=12, help=f"views of the held board (default 12, at least {MIN_VIEWS})"
+    )
+    parser.add_argument(
+        "--floor-x-m",
+        type=float,
+        default=0.55,
+        help="the floor board's middle, ahead of the wheel axis, m (default 0.55)",
+    )
+    parser.add_argument(
+        "--floor-y-m", type=float, default=0.0, help="... and left of the centre line, m (default 0)"
+    )
+    parser.add_argument("--out", type=Path, help=f"where to save (default: {calibration_path()})")
+
+
+def main_camera_calibrate(args: argparse.Namespace, say: Callable[[str], None] = print) -> int:
+    if args.views < MIN_VIEWS or not 0.01 <= args.square_m <= 0.2:
+        print(
+            f"cart2d camera calibrate: --views at least {MIN_VIEWS}, --square-m from 0.01 to 0.2",
+            file=sys.stderr,
+        )
+        return 2
+    mount = Mount.from_robot()
+    board = Board(args.board[0], args.board[1], args.square_m)
+    ground = GroundBoard(board, args.floor_x_m, args.floor_y_m)
+    try:
+        if args.synthetic:
+            truth, views, floor = synthetic_views(board, ground, args.views, mount)
+            result = calibrate(views, floor, board, ground, mount, say)
+            say(
+                f"the synthetic lens was fx {truth.fx:.1f} fy {truth.fy:.1f} cx {truth.cx:.1f} "
+                f"cy {truth.cy:.1f} px, k1 {truth.dist[0]:.3f} k2 {truth.dist[1]:.3f}"
+            )
+        else:
+            views, floor_view = camera_views(args.camera, board, ground, args.views, mount, input)
+            result = calibrate(views, floor_view, board, ground, mount, say)
+    except (ValueError, OSError) as exc:
+        print(f"cart2d camera calibrate: {exc}", file=sys.stderr)
+        return 1
+    path = save_calibration(result, args.out)
+    reloaded = load_calibration(path, mount)
+    if not reloaded.calibrated:
+        print(f"cart2d camera calibrate: {path} could not be read back", file=sys.stderr)
+        return 1
+    say(f"saved to {path}; the gateway loads it at start")
+    return 0
