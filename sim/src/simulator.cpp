@@ -31,6 +31,7 @@ bool Simulator::init(std::string* error) {
 
   RigConfig rc;
   rc.firmware = opts_.firmware;
+  rc.bootloader = opts_.bootloader;
   rc.seed = opts_.seed;
   rc.start = opts_.start;
   rc.arena_margin_m = opts_.arena_margin_m;
