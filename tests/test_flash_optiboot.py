@@ -16,7 +16,7 @@ from typing import Any
 import pytest
 
 from cart2d.link import Link
-from cart2d.link.firmware import read_version
+from cart2d.link.firmware import read_status, read_version
 from cart2d.link.flashing import avrdude_command
 from cart2d.link.transport import LinkTimeout
 from cart2d.simulator import Simulator, default_bootloader, default_firmware
@@ -103,6 +103,45 @@ def test_avrdude_flashes_the_simulated_nano_through_optiboot(nano: Simulator, ot
     assert done.returncode == 0 and f"{size} bytes of flash verified" in done.stderr, done.stderr
     done, _, _ = run_avrdude(nano, f"flash:v:{HEX}:i")
     assert done.returncode != 0 and "verification mismatch" in done.stderr, done.stderr
+
+
+def reset_cause(sim: Simulator, after: Any = None) -> list[str]:
+    """STATUS's reset_cause from a port opened now (after calling `after(link)` once the
+    firmware answers), read without reopening the port."""
+    deadline = time.monotonic() + 10.0
+    with Link(sim.pty, timeout_s=0.2) as link:
+        while True:
+            try:
+                status = read_status(link)
+                break
+            except LinkTimeout:
+                if time.monotonic() > deadline:
+                    raise
+        if after is None:
+            return list(status.reset_cause)
+        after(link)
+        while True:
+            try:
+                later = read_status(link)
+                if later.restarted_since(status):
+                    return list(later.reset_cause)
+            except LinkTimeout:
+                pass
+            if time.monotonic() > deadline:
+                raise AssertionError("the firmware did not restart")
+
+
+def test_behind_optiboot_the_firmware_tells_the_reset_causes_it_can(nano: Simulator) -> None:
+    """Optiboot 4.4 clears MCUSR and passes nothing on (r2 holds what it held): the firmware
+    tells a power-on from a reset that kept the RAM, and a REBOOT by its marker."""
+    nano.reset("power", off_s=0.5)
+    nano.control("link", auto_reset=False)  # this open must not reset it again
+    assert reset_cause(nano) == ["POWER_ON"]
+    nano.control("link", auto_reset=True)
+    # Opening the port resets the MCU (DTR): Optiboot waits, its watchdog starts the firmware.
+    assert sorted(reset_cause(nano)) == ["EXTERNAL", "WATCHDOG"]
+    nano.control("link", auto_reset=False)
+    assert sorted(reset_cause(nano, after=lambda link: link.call("REBOOT"))) == ["REBOOT", "WATCHDOG"]
 
 
 @pytest.fixture
