@@ -6,7 +6,9 @@ timeouts and its wait after opening the port are wall-clock times, as with a rea
 
 from __future__ import annotations
 
+import contextlib
 import shutil
+import socket
 import subprocess
 import time
 from collections.abc import Iterator
@@ -21,7 +23,7 @@ from cart2d.link.flashing import avrdude_command
 from cart2d.link.transport import LinkTimeout
 from cart2d.simulator import Simulator, default_bootloader, default_firmware
 from cart2d.spec import repo_file
-from tests.conftest import start_sim, wait_for
+from tests.conftest import events, start_sim, wait_for
 from tests.test_firmware_update import half_duty_hex  # noqa: F401 (a fixture)
 from tests.test_server import OCTETS, Rig
 
@@ -103,6 +105,52 @@ def test_avrdude_flashes_the_simulated_nano_through_optiboot(nano: Simulator, ot
     assert done.returncode == 0 and f"{size} bytes of flash verified" in done.stderr, done.stderr
     done, _, _ = run_avrdude(nano, f"flash:v:{HEX}:i")
     assert done.returncode != 0 and "verification mismatch" in done.stderr, done.stderr
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port: int = probe.getsockname()[1]
+        return port
+
+
+def test_avrdude_over_a_network_link_resets_the_nano_by_ser2net_opening_its_port(
+    nano: Simulator, other_build: Path, tmp_path: Path
+) -> None:
+    """avrdude -P net:HOST:PORT is raw TCP: no DTR travels (its ioctls fail as on a pty). What
+    resets the Nano is ser2net opening the serial device when the connection comes (Linux raises
+    DTR on open; the simulator resets on open), and closing it afterwards, so the next connection
+    resets it again. docs/firmware.md, "Flashing over a network link"."""
+    ser2net = shutil.which("ser2net")
+    if ser2net is None:
+        pytest.fail("ser2net is needed (Debian package ser2net: make deps)")
+    port = free_port()
+    config = tmp_path / "ser2net.yaml"
+    config.write_text(
+        "connection: &nano\n"
+        f"  accepter: tcp(nodelay),127.0.0.1,{port}\n"
+        f"  connector: serialdev,{nano.pty},115200n81,local\n"
+        "  options:\n"
+        "    chardelay: false\n"
+    )
+    bridge = subprocess.Popen([ser2net, "-n", "-c", str(config), "-P", str(tmp_path / "pid")])
+    try:
+        opens = len(events(nano, "host_open"))
+        cmd = avrdude_command(avrdude(), f"net:127.0.0.1:{port}", 115200, other_build)
+        for _ in range(50):  # until ser2net listens
+            with contextlib.suppress(OSError), socket.create_connection(("127.0.0.1", port), timeout=0.1):
+                break
+            time.sleep(0.1)
+        wait_for(lambda: len(events(nano, "host_open")) > opens, 10)  # the probe's connection opened it
+        wait_for(lambda: len(events(nano, "host_close")) >= 1, 10)
+        opens = len(events(nano, "host_open"))
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False)
+        assert done.returncode == 0 and "bytes of flash verified" in done.stderr, done.stderr
+        assert [e["reset"] for e in events(nano, "host_open")[opens:]] == [True]  # one open, one reset
+    finally:
+        bridge.terminate()
+        bridge.wait(10)
+    assert firmware_version(nano) == f"0.1.{PATCH}"
 
 
 def reset_cause(sim: Simulator, after: Any = None) -> list[str]:
