@@ -216,6 +216,15 @@ def avrdude_command(avrdude: str, port: str, baud: int, path: Path) -> list[str]
     """`make flash`'s command: STK500v1 to Optiboot, -D (Optiboot erases each page as it writes
     it), write then verify. On a pseudo-terminal (the simulator's) avrdude's DTR/RTS ioctls fail
     with a warning and it goes on: the simulator resets the MCU when the port opens instead, as
-    the Nano's auto-reset capacitor does when DTR falls."""
-    flash = f"flash:w:{path}:i"
+    the Nano's auto-reset capacitor does when DTR falls. An upload is Intel HEX (`:i`); the
+    firmware a simulator was started on, which a rollback may write back, can be the ELF (`:e`)."""
+    flash = f"flash:w:{path}:{'e' if is_elf(path) else 'i'}"
     return [avrdude, "-p", "m328p", "-c", "arduino", "-P", port, "-b", str(baud), "-D", "-U", flash]
+
+
+def is_elf(path: Path) -> bool:
+    try:
+        with path.open("rb") as f:
+            return f.read(4) == b"\x7fELF"
+    except OSError:
+        return False
