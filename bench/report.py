@@ -28,6 +28,7 @@ SECTIONS = (
     "safety",
     "drivetrain",
     "serial",
+    "flashing",
     "control",
     "system",
 )
