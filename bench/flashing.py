@@ -24,7 +24,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from bench.common import Section, section_main, table
-from cart2d.link.flashing import avrdude_command
+from cart2d.link.flashing import avrdude_command, run_avrdude
 from cart2d.simulator import SimOptions, Simulator, default_bootloader, default_firmware
 
 HEX = default_firmware().with_suffix(".hex")
@@ -53,9 +53,7 @@ def flash_once(sim: Simulator, port: str) -> dict[str, float]:
     if avrdude is None:
         raise SystemExit("avrdude is not installed (make deps)")
     t0, wall0 = float(sim.truth()["t"]), time.monotonic()
-    done = subprocess.run(
-        avrdude_command(avrdude, port, 115200, HEX), capture_output=True, text=True, timeout=300, check=False
-    )
+    done = run_avrdude(avrdude_command(avrdude, port, 115200, HEX), print)
     if done.returncode != 0 or "bytes of flash verified" not in done.stderr:
         raise RuntimeError(f"avrdude failed ({done.returncode}): {done.stderr[-500:]}")
     return {
