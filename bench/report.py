@@ -30,6 +30,7 @@ SECTIONS = (
     "drivetrain",
     "serial",
     "network_link",
+    "flashing",
     "control",
     "system",
 )

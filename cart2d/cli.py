@@ -25,7 +25,7 @@ from cart2d.perception.calibrate_command import main_camera_calibrate
 from cart2d.recording import cli as recording_cli
 from cart2d.server import addresses, create_app, is_loopback, serving
 from cart2d.simulation.camera import SimCameraServer
-from cart2d.simulator import SimOptions, Simulator, SimulatorError
+from cart2d.simulator import SimOptions, Simulator, SimulatorError, default_bootloader
 from cart2d.store import Store
 
 log = logging.getLogger("cart2d")
@@ -138,6 +138,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
             eeprom=store.directory / "sim-eeprom.bin",
             pty_link=store.directory / "sim-tty",
             faults=faults,
+            bootloader=default_bootloader() if args.optiboot else None,
         )
         try:
             sim = Simulator(options).start()
@@ -262,6 +263,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--speed", type=cli_args.speed, default="1", help="simulated seconds per second, or 'max' (default 1)"
     )
     sim.add_argument("--seed", type=cli_args.seed, default=1, help="seed of the simulator's random faults")
+    sim.add_argument(
+        "--optiboot",
+        action="store_true",
+        help="run Optiboot in the simulated Nano's boot section (built by make sim): resets start it, and "
+        "firmware updates go through avrdude as on the real cart",
+    )
     sim.add_argument(
         "--fault",
         action="append",

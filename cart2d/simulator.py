@@ -44,6 +44,12 @@ def default_firmware() -> Path:
     return Path(os.environ.get("CART2D_FIRMWARE", repo_file("build", "firmware", "cart2d-nano.elf")))
 
 
+def default_bootloader() -> Path:
+    """Optiboot as `make sim` builds it from Debian's source (sim/CMakeLists.txt)."""
+    built = repo_file("build", "sim", "optiboot", "optiboot_atmega328.hex")
+    return Path(os.environ.get("CART2D_BOOTLOADER", built))
+
+
 @dataclass(frozen=True)
 class Box:
     """An axis-aligned box standing on the floor: centre and size (m); height and colour are for
@@ -173,6 +179,8 @@ class SimOptions:
     # Faults (sim/README.md, "Fault keys"; cart2d/faults.py checks them), set before the firmware
     # runs and again at every restart.
     faults: dict[str, float] = field(default_factory=dict)
+    # Optiboot in the boot section (--bootloader): resets start it, avrdude flashes through the pty.
+    bootloader: Path | None = None
 
 
 class SideChannel:
@@ -317,6 +325,8 @@ class Simulator(CameraControls):
             cmd += ["--ftdi-latency-timer", str(o.ftdi_latency_timer_ms)]
         if not o.auto_reset:
             cmd.append("--no-auto-reset")
+        if o.bootloader is not None:
+            cmd += ["--bootloader", str(o.bootloader)]
         # Its own session: a Ctrl-C in the terminal reaches us, and we stop it in order. Its stdin
         # is a pipe we hold open: when this process ends, however, the simulator sees the end
         # of file and stops (--exit-with-parent).

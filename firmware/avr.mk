@@ -15,7 +15,7 @@ AVR_CXXFLAGS := -mmcu=$(AVR_MCU) -DF_CPU=$(AVR_F_CPU) -std=gnu++14 -Os -g \
                 -Wall -Wextra -Werror -fno-exceptions -fno-rtti -fno-threadsafe-statics \
                 -ffunction-sections -fdata-sections -flto -mcall-prologues -mrelax -fno-split-wide-types -fno-move-loop-invariants -mstrict-X \
                 '-DCORE_FLASH=__attribute__((__progmem__))' \
-                -Ifirmware -Ifirmware/core -I$(AVR_GEN) -MMD -MP
+                -Ifirmware -Ifirmware/core -I$(AVR_GEN) -MMD -MP $(AVR_EXTRA_FLAGS)
 AVR_LDFLAGS  := -mmcu=$(AVR_MCU) -Os -flto -mrelax -Wl,--gc-sections -Wl,-Map,$(AVR_BUILD)/cart2d-nano.map
 
 $(AVR_GEN)/robot_params.hpp: config/robot.toml tools/gen_params.py cart2d/spec.py

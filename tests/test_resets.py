@@ -67,6 +67,7 @@ def press_reset_and_wait(rig: Rig) -> dict[str, Any]:
             "the controller was powered up; the controller's supply dipped (brown-out)",
         ),
         ([], "no cause recorded (a jump to address 0, or a bootloader that kept the flags)"),
+        (["EXTERNAL", "WATCHDOG"], firmware.BEHIND_BOOTLOADER_WORDS),
     ],
 )
 def test_every_reset_cause_has_its_words(cause: list[str], words: str) -> None:

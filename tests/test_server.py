@@ -32,8 +32,11 @@ WS_BASE = "ws://127.0.0.1:8080"
 
 
 class Rig:
-    def __init__(self, tmp_path: Path, bind_host: str = "127.0.0.1", token: str | None = None) -> None:
-        self.sim = start_sim(tmp_path, pty_link=tmp_path / "robot-tty")  # a name that survives restarts
+    def __init__(
+        self, tmp_path: Path, bind_host: str = "127.0.0.1", token: str | None = None, **sim_options: Any
+    ) -> None:
+        # pty_link: a name that survives restarts
+        self.sim = start_sim(tmp_path, pty_link=tmp_path / "robot-tty", **sim_options)
         self.link = Link(self.sim.pty, timeout_s=0.2).open()
         self.store = Store(tmp_path / "gateway")
         self.gateway = Gateway(self.link, self.store, self.store.load(), self.sim)

@@ -87,9 +87,21 @@ RESET_CAUSE_WORDS = {
 }
 
 
+# Behind the Nano's Optiboot 4.4 the firmware finds MCUSR cleared and tells only what the RAM
+# says: a reset that kept it is EXTERNAL and WATCHDOG at once (docs/protocol.md, Reset causes).
+BEHIND_BOOTLOADER_WORDS = (
+    "a reset that kept the RAM: the reset button, the serial port reopened (a Nano resets when its "
+    "port opens), or the watchdog after a hang (behind the Optiboot bootloader the firmware cannot "
+    "tell them apart)"
+)
+
+
 def reset_cause_words(causes: Sequence[str]) -> str:
     if "REBOOT" in causes:
         causes = [c for c in causes if c != "WATCHDOG"]
+    elif "EXTERNAL" in causes and "WATCHDOG" in causes:
+        rest = [RESET_CAUSE_WORDS.get(c, c) for c in causes if c not in ("EXTERNAL", "WATCHDOG")]
+        return "; ".join([BEHIND_BOOTLOADER_WORDS, *rest])
     words = [RESET_CAUSE_WORDS.get(cause, cause) for cause in causes]
     return "; ".join(words) or "no cause recorded (a jump to address 0, or a bootloader that kept the flags)"
 

@@ -1,6 +1,8 @@
 """Firmware updates: an uploaded Intel HEX file, checked (cart2d/link/firmware_files.py), then
-flashed with avrdude on a real port (the link lends it the port) or loaded by restarting the
-simulator. Runs as a background job whose state and log the panel polls.
+flashed with avrdude through the Nano's bootloader (the link lends it the port): the real cart's,
+or the simulator's when it runs Optiboot (SimOptions.bootloader), one code path for both. A
+simulator without a bootloader is restarted on the file instead. Runs as a background job whose
+state and log the panel polls.
 
 The robot is never left on a program that does not speak the protocol: after flashing, the new
 firmware must answer VERSION (and be compatible) within CHECK_S; if it does not, or a stop comes
@@ -15,7 +17,7 @@ import shutil
 import subprocess
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,6 +29,7 @@ from cart2d.simulator import Simulator, default_firmware
 # How long a new firmware has to answer: a simulator answers within half a second of its start;
 # a Nano after avrdude resets again when the link reopens its port and waits in its bootloader.
 CHECK_S = {"simulator": 3.0, "avrdude": 8.0}
+AVRDUDE_TIMEOUT_S = 120.0
 HURRIED_CHECK_S = 1.0  # after a stop: the last chance to answer before the rollback
 
 # Checks that the robot runs a compatible firmware: (wait_s, hurried) -> None or an exception.
@@ -161,32 +164,83 @@ class Flasher:
             raise RuntimeError("the new firmware was rejected; the previous firmware runs again") from exc
 
     def _way(self) -> str:
-        return "simulator" if self.sim is not None else "avrdude"
+        return "simulator" if self.sim is not None and self.sim.options.bootloader is None else "avrdude"
 
     def _flash(self, path: Path, job: UpdateJob) -> None:
-        if self.sim is not None:
+        if self._way() == "simulator":
             job.log.append(f"restarting the simulator with {path.name}")
             self.current = path
-            self.sim.restart(path)
+            self.sim.restart(path)  # type: ignore[union-attr]
         else:
             self.current = None  # unknown until avrdude has written it
             self._avrdude(path, job)
             self.current = path
+            if self.sim is not None:
+                # The flash is in the simulated chip now; a restart of the simulator (a power
+                # cycle) must come back with it, as a Nano's flash does.
+                self.sim.options.firmware = path
 
     def _check(self, job: UpdateJob, wait_s: float) -> None:
         if self.check is not None:
             job.log.append("checking that it answers")
             self.check(wait_s, self._hurry.is_set)
 
+    @contextlib.contextmanager
+    def _real_time(self) -> Iterator[None]:
+        """A simulator runs in real time while avrdude talks to it: avrdude's waits are wall-clock
+        times, and Optiboot's wait for the programmer (1 s after a reset) is simulated time."""
+        if self.sim is None or self.sim.options.speed == "1":
+            yield
+            return
+        self.sim.control("speed", factor=1)
+        try:
+            yield
+        finally:
+            speed = self.sim.options.speed
+            self.sim.control("speed", factor=speed if speed == "max" else float(speed))
+
     def _avrdude(self, path: Path, job: UpdateJob) -> None:
         avrdude = shutil.which("avrdude")
         if avrdude is None:
             raise RuntimeError("avrdude is not installed (Debian package avrdude)")
-        cmd = [avrdude, "-p", "m328p", "-c", "arduino", "-P", self.link.port, "-b", str(self.baud), "-D"]
-        cmd += ["-U", f"flash:w:{path}:i"]
+        cmd = avrdude_command(avrdude, self.link.port, self.baud, path)
         job.log.append(" ".join(cmd))
-        with self.link.released():
-            done = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+        with self.link.released(), self._real_time():
+            done = run_avrdude(cmd, job.log.append)
         job.log += [line for line in done.stderr.splitlines() if line.strip()][-20:]
         if done.returncode != 0:
             raise RuntimeError(f"avrdude exited with {done.returncode}")
+
+
+def avrdude_command(avrdude: str, port: str, baud: int, path: Path) -> list[str]:
+    """`make flash`'s command: STK500v1 to Optiboot, -D (Optiboot erases each page as it writes
+    it), write then verify. On a pseudo-terminal (the simulator's) avrdude's DTR/RTS ioctls fail
+    with a warning and it goes on: the simulator resets the MCU when the port opens instead, as
+    the Nano's auto-reset capacitor does when DTR falls. An upload is Intel HEX (`:i`); the
+    firmware a simulator was started on, which a rollback may write back, can be the ELF (`:e`)."""
+    flash = f"flash:w:{path}:{'e' if is_elf(path) else 'i'}"
+    return [avrdude, "-p", "m328p", "-c", "arduino", "-P", port, "-b", str(baud), "-D", "-U", flash]
+
+
+def is_elf(path: Path) -> bool:
+    try:
+        with path.open("rb") as f:
+            return f.read(4) == b"\x7fELF"
+    except OSError:
+        return False
+
+
+def run_avrdude(cmd: list[str], note: Callable[[str], object]) -> subprocess.CompletedProcess[str]:
+    """Runs avrdude, and once more if it never got in sync with the bootloader (nothing written):
+    its first GET_SYNCs race Optiboot's start after the reset (wall-clock drains of 250 ms against
+    the LED flashes), which a Nano loses now and then and a simulator that falls behind real time
+    (a loaded machine) more often."""
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=AVRDUDE_TIMEOUT_S, check=False)
+    if (
+        done.returncode != 0
+        and "initialization failed" in done.stderr
+        and "bytes of flash" not in done.stderr
+    ):
+        note("avrdude could not get in sync with the bootloader: once more")
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=AVRDUDE_TIMEOUT_S, check=False)
+    return done

@@ -10,7 +10,6 @@ namespace system {
 
 // In .noinit: neither zeroed nor initialised by the C runtime, so they keep what the boot code
 // below wrote, and `retained_state` what the last run left in it.
-static uint8_t optiboot_flags __attribute__((section(".noinit")));
 static uint8_t boot_flags __attribute__((section(".noinit")));
 static core::RetainedState retained_state __attribute__((section(".noinit")));
 
@@ -46,21 +45,18 @@ void reboot() {
 }  // namespace board
 
 using board::system::boot_flags;
-using board::system::optiboot_flags;
-
-// Optiboot (the Nano's "new bootloader") puts MCUSR in r2 before it clears it and starts us
-// (optiboot.c, appStart). .init0 runs first, before the C runtime touches any register.
-extern "C" void save_optiboot_flags() __attribute__((naked, used, section(".init0")));
-extern "C" void save_optiboot_flags() { __asm__ __volatile__("sts %0, r2\n" : "=m"(optiboot_flags)); }
 
 // A watchdog reset leaves the watchdog running with its shortest timeout: stop it before
 // anything else, or the firmware would reset forever (avr-libc's wdt.h recommendation). The
-// flags are kept first: without a bootloader MCUSR still holds them; after Optiboot it reads 0
-// and r2 has them. (A bootloader that neither keeps MCUSR nor passes r2 leaves no cause.)
+// flags are kept first. Without a bootloader MCUSR holds them. The Nano's Optiboot (4.4, the
+// optiboot_atmega328.hex of the Arduino IDE and of Debian's arduino-core-avr) reads MCUSR into
+// r24, clears it and jumps here through `clr r30; clr r31; ijmp` (optiboot.c, main and
+// appStart): nothing passes the flags on (r2 holds whatever it held; only later Optiboot
+// versions load it), so MCUSR reads 0 and the RAM has to tell (core/retained.cpp).
 extern "C" void disable_watchdog_at_boot() __attribute__((naked, used, section(".init3")));
 extern "C" void disable_watchdog_at_boot() {
-  const uint8_t mcusr = MCUSR;
+  const uint8_t mcusr = MCUSR & 0x0F;
   MCUSR = 0;
   wdt_disable();
-  boot_flags = (mcusr ? mcusr : optiboot_flags) & 0x0F;
+  boot_flags = mcusr ? mcusr : core::kMcusrClearedByBootloader;
 }

@@ -12,9 +12,9 @@ namespace system {
 // Interrupts are checked and sleep entered atomically, so a wake-up cannot be missed.
 void sleep_unless(bool (*work_pending)());
 
-// The chip's reset flags at this boot (MCUSR bits 0..3: PORF, EXTRF, BORF, WDRF). Optiboot
-// clears MCUSR before starting the application and hands the flags over in r2: either way
-// they are here.
+// The chip's reset flags at this boot (MCUSR bits 0..3: PORF, EXTRF, BORF, WDRF), or, when
+// MCUSR reads 0 because Optiboot cleared it, core::kMcusrClearedByBootloader (core/retained.hpp
+// then tells what it can from the RAM).
 uint8_t reset_flags();
 // RAM that the C runtime does not clear: it survives external and watchdog resets.
 core::RetainedState& retained();

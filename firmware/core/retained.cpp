@@ -19,9 +19,22 @@ static bool plausible(const float* p) {
   return is_moderate(p[0]) && is_moderate(p[1]) && is_moderate(p[2]) && fabsf(p[2]) <= kPi + 1e-3f;
 }
 
+static bool count_intact(const RetainedState& state) {
+  return state.boot_count_check == static_cast<uint16_t>(~state.boot_count);
+}
+
+// The cause behind a bootloader that cleared MCUSR (kMcusrClearedByBootloader): what the RAM can tell.
+static uint8_t cause_behind_bootloader(const RetainedState& state) {
+  if (!count_intact(state)) return proto::RESET_POWER_ON;
+  if (state.reboot_marker == kRebootMarker) return proto::RESET_WATCHDOG;  // REBOOT is added below
+  return proto::RESET_EXTERNAL | proto::RESET_WATCHDOG;
+}
+
 BootInfo boot(RetainedState& state, uint8_t reset_flags) {
   BootInfo info;
   info.reset_cause = reset_flags & kChipCauses;
+  if (info.reset_cause == 0 && (reset_flags & kMcusrClearedByBootloader))
+    info.reset_cause = cause_behind_bootloader(state);
   // No flag at all (a jump to address 0, or a bootloader that kept them) proves nothing about
   // the RAM: treat it as lost.
   const bool ram_kept = info.reset_cause != 0 && !(info.reset_cause & kRamLost);
@@ -29,7 +42,7 @@ BootInfo boot(RetainedState& state, uint8_t reset_flags) {
     info.reset_cause |= proto::RESET_REBOOT;
   state.reboot_marker = 0;
 
-  const bool count_valid = ram_kept && state.boot_count_check == static_cast<uint16_t>(~state.boot_count);
+  const bool count_valid = ram_kept && count_intact(state);
   info.boot_count = count_valid && state.boot_count != 0xFFFF ? state.boot_count + 1 : 1;
   state.boot_count = info.boot_count;
   state.boot_count_check = static_cast<uint16_t>(~info.boot_count);

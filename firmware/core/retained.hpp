@@ -22,6 +22,14 @@ struct RetainedState {
   uint8_t reboot_marker;  // kRebootMarker: the coming watchdog reset was asked for (REBOOT)
 };
 
+// reset_flags when MCUSR read 0 at start-up: Optiboot cleared it (see board/system.cpp). Then
+// a lost RAM (no valid boot count) means POWER_ON (a brown-out looks the same), and a kept one
+// EXTERNAL | WATCHDOG: behind Optiboot the reset button or a host opening the port reaches the
+// application only through Optiboot's own watchdog timeout (its wait for a programmer), and a
+// hang through the firmware's watchdog: the chip shows WDRF for both. REBOOT is still told by
+// its marker (WATCHDOG | REBOOT).
+constexpr uint8_t kMcusrClearedByBootloader = 0x80;
+
 struct BootInfo {
   uint8_t reset_cause = 0;  // proto::ResetCause bits
   uint16_t boot_count = 1;  // boots since the RAM was last lost
@@ -32,7 +40,8 @@ struct BootInfo {
 static_assert(__has_trivial_constructor(RetainedState), "RetainedState must survive the C runtime's start-up");
 
 // Called once at start-up with the reset flags the chip reported (MCUSR: PORF, EXTRF, BORF,
-// WDRF in bits 0..3, the same bits as proto::ResetCause). Updates `state` for this boot.
+// WDRF in bits 0..3, the same bits as proto::ResetCause), or kMcusrClearedByBootloader.
+// Updates `state` for this boot.
 BootInfo boot(RetainedState& state, uint8_t reset_flags);
 // The pose to restore after the next reset; every control tick.
 void retain_pose(RetainedState& state, const Pose& pose);

@@ -69,6 +69,25 @@ TEST(Retained, BrownOutAndUnknownCausesLoseTheRam) {
   }
 }
 
+// Behind Optiboot 4.4 MCUSR reads 0 (it cleared it and passed nothing on): the RAM tells what it can.
+TEST(Retained, BehindOptibootTheRamTellsPowerOnFromAResetThatKeptIt) {
+  RetainedState s = random_ram(6);
+  BootInfo info = core::boot(s, core::kMcusrClearedByBootloader);  // power-on: random RAM
+  EXPECT_EQ(proto::RESET_POWER_ON, info.reset_cause);
+  EXPECT_EQ(1, info.boot_count);
+  core::retain_pose(s, Pose{0.5f, 0.25f, 0.1f});
+  info = core::boot(s, core::kMcusrClearedByBootloader);  // the button, a port opening or a hang
+  EXPECT_EQ(proto::RESET_EXTERNAL | proto::RESET_WATCHDOG, info.reset_cause);
+  EXPECT_EQ(2, info.boot_count);
+  EXPECT_TRUE(info.pose_restored);
+  core::mark_reboot(s);
+  info = core::boot(s, core::kMcusrClearedByBootloader);
+  EXPECT_EQ(proto::RESET_WATCHDOG | proto::RESET_REBOOT, info.reset_cause);
+  EXPECT_EQ(3, info.boot_count);
+  // Flags the chip gave are taken as they are.
+  EXPECT_EQ(proto::RESET_WATCHDOG, core::boot(s, proto::RESET_WATCHDOG).reset_cause);
+}
+
 TEST(Retained, APoseTornByTheResetIsNotRestored) {
   RetainedState s = random_ram(5);
   core::boot(s, proto::RESET_POWER_ON);

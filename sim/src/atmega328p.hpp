@@ -55,6 +55,16 @@ constexpr uint8_t kVectorEeReady = 22;
 
 constexpr uint32_t kEepromBytes = 1024;
 
+// Boot loader support (datasheet §26, "Boot Loader Support – Read-While-Write Self-Programming"):
+// with BOOTSZ = 11 (256 words, a Nano's high fuse 0xDE) the boot section is the last 512 bytes,
+// and with BOOTRST programmed every reset starts there (§26.8.4, Table 26-7). Flash is written a
+// page of 64 words at a time through SPMCSR (§26.9.1).
+constexpr uint32_t kFlashBytes = 32768;
+constexpr uint32_t kBootSectionStart = 0x7E00;  // byte address; word address 0x3F00
+constexpr uint8_t kNanoFuseLow = 0xFF, kNanoFuseHigh = 0xDE, kNanoFuseExtended = 0xFD;
+constexpr uint16_t kSPMCSR = 0x57;
+constexpr uint8_t kSELFPRGEN = 1u << 0, kPGERS = 1u << 1, kPGWRT = 1u << 2, kRWWSB = 1u << 6;
+
 // PINx / DDRx / PORTx of a port letter, 0 if the 328P has no such port.
 constexpr uint16_t pin_register(char port) { return port == 'B' ? kPINB : port == 'C' ? kPINC : port == 'D' ? kPIND : 0; }
 constexpr uint16_t ddr_register(char port) { return port == 'B' ? kDDRB : port == 'C' ? kDDRC : port == 'D' ? kDDRD : 0; }

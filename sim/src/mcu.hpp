@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "robot_params.hpp"  // params::control
+#include "spm_timing.hpp"
 
 struct avr_t;
 struct avr_io_t;
@@ -39,6 +40,14 @@ class Mcu {
   // flash only, validated strictly first. Anything else, or a malformed HEX, is refused with
   // *error = "firmware PATH: reason".
   bool load(const std::string& path, uint32_t f_cpu_hz, std::string* error);
+
+  // mcu_boot.cpp: after load(), puts a bootloader (Intel HEX inside the boot section,
+  // 0x7E00-0x7FFF) into flash and programs BOOTRST: every reset, the power-on one load() just
+  // did included, then starts at 0x7E00 instead of the application's vector 0. SPM page erases
+  // and writes then take the chip's programming time.
+  bool load_bootloader(const std::string& path, std::string* error);
+  bool has_bootloader() const { return bootloader_; }
+  const SpmTiming* spm() const { return spm_.get(); }
 
   avr_t* avr() const { return avr_; }
   uint64_t cycle() const;
@@ -118,6 +127,9 @@ class Mcu {
   uint64_t release_cycle_ = 0;
   uint8_t held_wdt_bits_ = 0;    // WDE/WDIE, kept off while the chip is held in reset
   uint64_t resets_[kResetCauseCount] = {};
+
+  bool bootloader_ = false;
+  std::unique_ptr<SpmTiming> spm_;
 
   bool hang_requested_ = false;
   bool hang_waiting_wake_ = false;

@@ -22,6 +22,8 @@ std::string usage() {
          "  --check-firmware FILE check an Intel HEX as the firmware update does (strict records, what\n"
          "                        simavr reads, below the bootloader, the vector table); one JSON line\n"
          "  --firmware FILE       ATmega328P firmware: ELF or Intel HEX (required)\n"
+         "  --bootloader FILE     a bootloader (Intel HEX in 0x7E00-0x7FFF, e.g. Optiboot) with BOOTRST:\n"
+         "                        every reset starts it; avrdude -c arduino flashes through the pty\n"
          "  --speed F|max         simulated seconds per wall second (default 1 = real time)\n"
          "  --seed N              seed of every random fault (default 0)\n"
          "  --eeprom FILE         EEPROM image kept across runs\n"
@@ -123,6 +125,9 @@ bool parse_options(int argc, char** argv, Options* opts, bool* help, std::string
     } else if (!std::strcmp(arg, "--check-firmware")) {
       if (!value(&v)) return false;
       opts->check_firmware = v;
+    } else if (!std::strcmp(arg, "--bootloader")) {
+      if (!value(&v)) return false;
+      opts->bootloader = v;
     } else if (!std::strcmp(arg, "--firmware")) {
       if (!value(&v)) return false;
       opts->firmware = v;

@@ -11,6 +11,7 @@ namespace cart2d {
 
 struct Options {
   std::string firmware;
+  std::string bootloader;      // --bootloader FILE: Optiboot in the boot section, BOOTRST programmed
   std::string check_firmware;  // --check-firmware FILE: check an uploaded HEX, print a JSON line, exit
   double speed = 1.0;  // ≤ 0: as fast as possible
   uint64_t seed = 0;

@@ -18,6 +18,7 @@ bool Rig::init(const RigConfig& config, std::string* error) {
   const uint32_t f_cpu = static_cast<uint32_t>(params::control::f_cpu_hz);
   mcu_.set_seed(config.seed);
   if (!mcu_.load(config.firmware, f_cpu, error)) return false;
+  if (!config.bootloader.empty() && !mcu_.load_bootloader(config.bootloader, error)) return false;
   avr_t* avr = mcu_.avr();
   eeprom_ = std::make_unique<EepromPart>(avr, config.seed);
   if (!eeprom_->attach(error)) return false;

@@ -29,6 +29,7 @@ namespace cart2d {
 
 struct RigConfig {
   std::string firmware;
+  std::string bootloader;  // Intel HEX for the boot section (Optiboot); empty: none, resets start at 0
   uint64_t seed = 0;
   Pose start;
   double arena_margin_m = params::sim::arena_margin_m;

@@ -31,6 +31,7 @@ bool Simulator::init(std::string* error) {
 
   RigConfig rc;
   rc.firmware = opts_.firmware;
+  rc.bootloader = opts_.bootloader;
   rc.seed = opts_.seed;
   rc.start = opts_.start;
   rc.arena_margin_m = opts_.arena_margin_m;
@@ -176,7 +177,8 @@ void Simulator::serve_host_port() {
 }
 
 // A Nano's USB-serial chip drives RESET through a 100 nF capacitor from DTR, which the host
-// raises when it opens the port: the MCU restarts (the bootloader is not simulated).
+// raises when it opens the port: the MCU restarts (in Optiboot with --bootloader, which then waits
+// for a programmer).
 void Simulator::dtr_reset() {
   rig_.reset_mcu();
   mcu_dead_reported_ = false;
