@@ -18,6 +18,7 @@ from cart2d import faults as fault_table
 from cart2d.calibrate import add_arguments as add_calibrate_arguments
 from cart2d.calibrate import main_calibrate
 from cart2d.gateway import Gateway
+from cart2d.gateway.camera import CameraFeed
 from cart2d.link import Link, LinkError, ports
 from cart2d.server import addresses, create_app, is_loopback, serving
 from cart2d.simulator import SimOptions, Simulator, SimulatorError
@@ -44,6 +45,34 @@ def _network_args(parser: argparse.ArgumentParser) -> None:
         metavar="NAME",
         help="also answer to this Host name (a reverse proxy's, a DNS name of this machine); repeatable",
     )
+
+
+def _camera_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--camera",
+        type=cli_args.camera_url,
+        metavar="URL",
+        help="the ESP32-CAM's base URL, http://HOST[:PORT] (stock CameraWebServer: stream on PORT + 1)",
+    )
+    parser.add_argument(
+        "--camera-stream",
+        type=cli_args.camera_stream_url,
+        metavar="URL",
+        help="the camera's MJPEG stream URL outright (ESPHome's esp32_camera_web_server, other cameras)",
+    )
+
+
+def _attach_camera(gateway: Gateway, args: argparse.Namespace) -> None:
+    """The camera of --camera / --camera-stream, read from now on (closed with the gateway)."""
+    feed = CameraFeed.of(args.camera, args.camera_stream)
+    if feed is not None:
+        gateway.camera = feed.start()
+        log.info("camera stream %s", feed.reader.url)
+
+
+def _detach_camera(gateway: Gateway) -> None:
+    if gateway.camera is not None:
+        gateway.camera.stop()  # lets the camera go: it streams to one client at a time
 
 
 class Listening:
@@ -143,6 +172,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
         try:
             _connect(gateway, 5.0)
             gateway.start()
+            _attach_camera(gateway, args)
             on = f"; faults: {', '.join(f'{k}={v:g}' for k, v in faults.items())}" if faults else ""
             print(
                 f"simulator running ({args.speed}x real time{on}), robot serial port {sim.pty}, "
@@ -151,6 +181,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
             )
             _serve(gateway, where, args.allow_host)
         finally:
+            _detach_camera(gateway)
             gateway.close()
             link.close()
             sim.stop()
@@ -185,8 +216,10 @@ def cmd_serve(args: argparse.Namespace) -> int:
         try:
             _connect(gateway, 5.0)
             gateway.start()
+            _attach_camera(gateway, args)
             _serve(gateway, where, args.allow_host)
         finally:
+            _detach_camera(gateway)
             gateway.close()
             link.close()
     return 0
@@ -218,12 +251,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="a simulator fault for this run (repeatable; PUT /api/sim/faults changes them later): "
         + ", ".join(f"{f.name} ({f.range_text()})" for f in fault_table.FAULTS),
     )
+    _camera_args(sim)
     sim.set_defaults(run=cmd_sim)
 
     serve = sub.add_parser("serve", help="the gateway and panel for a real cart on a serial port")
     serve.add_argument("--serial", required=True, help="the Nano's serial port, e.g. /dev/ttyUSB0")
     serve.add_argument("--baud", type=int, default=115200)
     _network_args(serve)
+    _camera_args(serve)
     serve.set_defaults(run=cmd_serve)
 
     mission = sub.add_parser("mission", help="run a mission in the simulator and write a report")

@@ -36,6 +36,7 @@ from dataclasses import asdict
 from typing import Any
 
 from cart2d.gateway.live_map import Replan, RouteAhead, arena, planner_for, world_for
+from cart2d.gateway.perceived import PerceptionMixin, with_perceived
 from cart2d.gateway.state import (
     BUSY_POLL_S,
     RESET_POSE_SETTINGS,
@@ -74,7 +75,7 @@ SIM_START_TRIES = 3
 Listener = Callable[[dict[str, Any]], None]
 
 
-class Gateway:
+class Gateway(PerceptionMixin):  # the perceived layer and the camera: perceived.py
     def __init__(
         self, link: Link, store: Store, settings: GatewaySettings, sim: Simulator | None = None
     ) -> None:
@@ -280,7 +281,7 @@ class Gateway:
     def update_settings(self, settings: GatewaySettings, why: str = "new settings were loaded") -> None:
         """Replaces the gateway's settings (a new map takes effect now) and saves them."""
         with self._lock:
-            planner = planner_for(settings.map)  # validates the map before anything changes
+            planner = with_perceived(planner_for(settings.map), self.perceived)  # validates the map first
             self.store.save(settings)
             new_map = settings.map != self.settings.map
             self.settings = settings

@@ -1,0 +1,190 @@
+"""The API's camera and perception routes (added to the app by create_app).
+
+The ESP32-CAM streams to one client, the gateway; any number of panels watch the gateway's
+re-stream, /api/camera/stream. Each watcher has its own queue of the newest CAMERA_BACKLOG
+frames: one that reads slower than the camera sends loses the older frames (counted) and holds
+no more than that, while the others and the camera's reader go on undisturbed. At most
+MAX_CAMERA_VIEWERS at a time (503 beyond).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import threading
+from collections import deque
+from collections.abc import AsyncIterator
+from typing import Any
+
+from fastapi import FastAPI, HTTPException, Response
+from fastapi.params import Depends
+from fastapi.responses import StreamingResponse
+from pydantic import Field
+
+from cart2d.gateway import Gateway
+from cart2d.gateway.camera import CameraFeed, Shown
+from cart2d.gateway.perceived import DEFAULT_RESOLUTION_M, parse_cells
+from cart2d.server.models import Number, Strict, errors
+
+MAX_CAMERA_VIEWERS = 16
+CAMERA_BACKLOG = 2  # frames a watcher may be behind: the newest matter, not every one
+BOUNDARY = "cart2d-frame"
+NO_CAMERA = "this gateway has no camera: start it with --camera http://HOST (or --camera-stream URL)"
+MAX_CELLS_IN = 10_000  # a request's cells (256 KiB of JSON)
+
+
+class PerceptionIn(Strict):
+    enabled: bool | None = Field(None, description="perception on (its cells block the planner) or off")
+    cells: list[tuple[Number, Number, Number]] | None = Field(
+        None,
+        max_length=MAX_CELLS_IN,
+        description="replace the perceived cells with these [x_m, y_m, p_occupied] (p 0.5 to 1): for "
+        "perception running outside the gateway, and for tests",
+    )
+    resolution_m: float | None = Field(
+        None, ge=0.005, le=1.0, allow_inf_nan=False, description=f"cell size (default {DEFAULT_RESOLUTION_M})"
+    )
+    why: str = Field("perception saw obstacles", max_length=200, description="the reason a replan gives")
+
+
+class Watcher:
+    def __init__(self, loop: asyncio.AbstractEventLoop) -> None:
+        self.loop = loop
+        self.queue: deque[Shown] = deque(maxlen=CAMERA_BACKLOG)
+        self.ready = asyncio.Event()
+        self.dropped = 0
+
+    def put(self, shown: Shown) -> None:
+        if len(self.queue) == self.queue.maxlen:
+            self.dropped += 1
+        self.queue.append(shown)
+        self.ready.set()
+
+
+class Watchers:
+    """The panels watching the camera of one feed."""
+
+    def __init__(self, feed: CameraFeed) -> None:
+        self.feed = feed
+        self.watchers: frozenset[Watcher] = frozenset()  # replaced, never changed in place
+        self._lock = threading.Lock()
+        self._unsubscribe = feed.subscribe(self._shown)
+
+    def _shown(self, shown: Shown) -> None:
+        """The feed's thread: one hop into each watcher's event loop."""
+        for watcher in self.watchers:
+            with contextlib.suppress(RuntimeError):  # its loop is closing
+                watcher.loop.call_soon_threadsafe(watcher.put, shown)
+
+    async def stream(self) -> AsyncIterator[bytes]:
+        watcher = Watcher(asyncio.get_running_loop())
+        with self._lock:
+            if len(self.watchers) >= MAX_CAMERA_VIEWERS:
+                raise HTTPException(
+                    503, f"at most {MAX_CAMERA_VIEWERS} camera viewers at a time: try again later"
+                )
+            self.watchers = self.watchers | {watcher}
+        return self._parts(watcher)
+
+    async def _parts(self, watcher: Watcher) -> AsyncIterator[bytes]:
+        try:
+            shown = self.feed.shown()
+            if shown is not None:
+                watcher.put(shown)  # the newest frame at once, not after the camera's next
+            while True:
+                await watcher.ready.wait()
+                watcher.ready.clear()
+                while watcher.queue:
+                    seq, jpeg = watcher.queue.popleft()
+                    head = (
+                        f"--{BOUNDARY}\r\nContent-Type: image/jpeg\r\nContent-Length: {len(jpeg)}\r\n"
+                        f"X-Frame: {seq}\r\n\r\n"
+                    )
+                    yield head.encode() + jpeg + b"\r\n"
+        finally:
+            with self._lock:
+                self.watchers = self.watchers - {watcher}
+
+
+def add_camera_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
+    watchers: dict[int, Watchers] = {}  # by the feed's id: a feed set after the app was made
+
+    def feed() -> CameraFeed:
+        if gateway.camera is None:
+            raise HTTPException(404, NO_CAMERA)
+        return gateway.camera
+
+    def watchers_of(camera: CameraFeed) -> Watchers:
+        return watchers.setdefault(id(camera), Watchers(camera))
+
+    @app.get("/api/camera", summary="the camera: its stream's state (connected, fps, age, reconnects)")
+    def camera_state() -> dict[str, Any]:
+        camera = gateway.camera
+        if camera is None:
+            return {"camera": False, "message": NO_CAMERA}
+        state = camera.status()
+        return {
+            "camera": True,
+            "url": camera.base_url,
+            "stream_url": camera.reader.url,
+            **state,
+            "viewers": len(watchers_of(camera).watchers),
+            "calibration": None,
+        }
+
+    @app.get(
+        "/api/camera/frame.jpg",
+        summary="the newest frame, with what perception drew on it",
+        responses={200: {"content": {"image/jpeg": {}}}, **errors(404, 503)},
+    )
+    def frame() -> Response:
+        shown = feed().shown()
+        if shown is None:
+            raise HTTPException(503, "no frame from the camera yet")
+        return Response(shown[1], media_type="image/jpeg", headers={"Cache-Control": "no-store"})
+
+    @app.get(
+        "/api/camera/stream",
+        summary="the camera's frames as MJPEG (multipart/x-mixed-replace), for any number of viewers",
+        responses={200: {"content": {"multipart/x-mixed-replace": {}}}, **errors(404, 503)},
+    )
+    async def stream() -> StreamingResponse:
+        parts = await watchers_of(feed()).stream()
+        return StreamingResponse(
+            parts,
+            media_type=f"multipart/x-mixed-replace; boundary={BOUNDARY}",
+            headers={"Cache-Control": "no-store"},
+        )
+
+    @app.get("/api/perception", summary="the perceived cells [x, y, p_occupied] and whether perception is on")
+    def perception() -> dict[str, Any]:
+        return gateway.perception_view()
+
+    @app.put(
+        "/api/perception",
+        dependencies=[guarded],
+        summary="turn perception on or off; or replace the perceived cells",
+        description="Turning it off clears the perceived cells. New cells replan a mission whose path they "
+        "block, as an obstacle the user puts does.",
+        responses=errors(400, 401, 422),
+    )
+    def set_perception(body: PerceptionIn) -> dict[str, Any]:
+        try:
+            if body.cells is not None:
+                parse_cells(body.cells)  # all checked before anything changes
+            if body.enabled is not None:
+                gateway.set_perception_enabled(body.enabled)
+            if body.cells is not None:
+                gateway.set_perceived(body.cells, body.why, body.resolution_m)
+        except ValueError as exc:
+            raise HTTPException(422, str(exc)) from exc
+        return gateway.perception_view()
+
+    @app.post(
+        "/api/perception/clear",
+        dependencies=[guarded],
+        summary="forget the perceived cells (the user's obstacles stay)",
+        responses=errors(401),
+    )
+    def clear_perception() -> dict[str, Any]:
+        return gateway.clear_perceived("the perceived cells were cleared by the user")
