@@ -26,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from cart2d.gateway.live_map import planner_for
-from cart2d.planning import Grid, Planner
+from cart2d.planning import EPS, Grid, Planner
 
 if TYPE_CHECKING:
     from cart2d.gateway.camera import CameraFeed
@@ -69,8 +69,10 @@ def check_resolution(resolution_m: float) -> float:
 
 def _span(low: float, high: float, count: int) -> range:
     """Planner cells k (squares [k - 0.5, k + 0.5] in grid units) that [low, high] overlaps."""
-    first = max(math.floor(low - 0.5) + 1, 0)  # k - 0.5 < high and k + 0.5 > low: touching is not overlap
-    last = min(math.ceil(high + 0.5) - 1, count - 1)
+    # k - 0.5 < high and k + 0.5 > low, by more than the planner's contact tolerance: squares
+    # that only touch (up to rounding) do not overlap
+    first = max(math.floor(low - 0.5 + EPS) + 1, 0)
+    last = min(math.ceil(high + 0.5 - EPS) - 1, count - 1)
     return range(first, last + 1)
 
 

@@ -14,7 +14,7 @@ import contextlib
 import threading
 from collections import deque
 from collections.abc import AsyncIterator
-from typing import Any
+from typing import Annotated, Any
 
 from fastapi import FastAPI, HTTPException, Response
 from fastapi.params import Depends
@@ -35,7 +35,7 @@ MAX_CELLS_IN = 10_000  # a request's cells (256 KiB of JSON)
 
 class PerceptionIn(Strict):
     enabled: bool | None = Field(None, description="perception on (its cells block the planner) or off")
-    cells: list[tuple[Number, Number, Number]] | None = Field(
+    cells: list[Annotated[list[Number], Field(min_length=3, max_length=3)]] | None = Field(
         None,
         max_length=MAX_CELLS_IN,
         description="replace the perceived cells with these [x_m, y_m, p_occupied] (p 0.5 to 1): for "
