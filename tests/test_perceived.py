@@ -123,7 +123,8 @@ def test_bad_perceived_cells_are_refused_and_change_nothing(wide: tuple[GatewayR
 def test_a_perceived_cell_blocks_every_planner_cell_its_square_overlaps() -> None:
     grid = Grid(cols=10, rows=10, step_m=0.2)
     # a 5 cm cell inside node (5, 4)'s square: that cell alone
-    assert PerceivedLayer(((1.0, 0.8, 0.9),), 0.05).mask(grid).nonzero() == ((4,), (5,))
+    rows, cols = PerceivedLayer(((1.0, 0.8, 0.9),), 0.05).mask(grid).nonzero()
+    assert (rows.tolist(), cols.tolist()) == ([4], [5])
     # a 5 cm cell on the corner of four squares: all four
     rows, cols = PerceivedLayer(((1.1, 0.9, 0.9),), 0.05).mask(grid).nonzero()
     assert sorted(zip(cols.tolist(), rows.tolist(), strict=True)) == [(5, 4), (5, 5), (6, 4), (6, 5)]
