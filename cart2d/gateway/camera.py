@@ -75,6 +75,7 @@ class CameraFeed:
         self.decoded = 0
         self.decode_errors = 0
         self.processor_errors = 0
+        self._failed: set[int] = set()  # processors whose failure was logged
         self.skipped = 0  # frames that came while the one before was still being processed
         self.process_ms = 0.0  # the last frame's decoding, processing and re-encoding
 
@@ -176,9 +177,11 @@ class CameraFeed:
         for processor in processors:
             try:
                 overlay = processor(frame, image)
-            except Exception:  # a processor's bug must not stop the camera: it is logged and counted
+            except Exception:  # a processor's bug must not stop the camera: counted, logged once
                 self.processor_errors += 1
-                log.exception("a camera frame processor failed")
+                if id(processor) not in self._failed:
+                    self._failed.add(id(processor))
+                    log.exception("a camera frame processor failed (said once; /api/camera counts them)")
                 continue
             if overlay is not None:
                 overlays.append(overlay)

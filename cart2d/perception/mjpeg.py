@@ -163,7 +163,8 @@ class MjpegReader:
             frames_before = self._seq
             try:
                 self._read_once()
-            except (StreamError, OSError, http.client.HTTPException, ValueError) as exc:
+            except Exception as exc:  # whatever broke this connection (StreamError, OSError, http.client's
+                # errors, and theirs when stop() pulls the socket away mid-read): try another
                 if self._stop.is_set():
                     break
                 words = str(exc) or type(exc).__name__

@@ -108,6 +108,7 @@ class Watchers:
 
 def add_camera_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
     watchers: dict[int, Watchers] = {}  # by the feed's id: a feed set after the app was made
+    app.state.camera_watchers = watchers  # for tests and benchmarks, as app.state.viewers
 
     def feed() -> CameraFeed:
         if gateway.camera is None:
@@ -124,10 +125,10 @@ def add_camera_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
             return {"camera": False, "message": NO_CAMERA}
         state = camera.status()
         return {
+            **state,
             "camera": True,
             "url": camera.base_url,
             "stream_url": camera.reader.url,
-            **state,
             "viewers": len(watchers_of(camera).watchers),
             "calibration": None,
         }

@@ -1,0 +1,140 @@
+"""The camera on the gateway (cart2d/gateway/camera.py, cart2d/server/camera.py): the feed of a
+test camera (tests/mjpeg_server.py), its frames with the processors' overlays, and the re-stream
+to any number of panels, a slow one of which loses frames and holds no more than its backlog."""
+
+from __future__ import annotations
+
+import socket
+import threading
+from collections.abc import Iterator
+from typing import Any
+
+import cv2
+import numpy as np
+import pytest
+
+from cart2d.gateway.camera import CameraFeed, Overlay, stream_url_for
+from cart2d.perception.mjpeg import Frame, MjpegReader
+from cart2d.server import create_app, serving
+from cart2d.server.camera import CAMERA_BACKLOG
+from tests.conftest import wait_for
+from tests.mjpeg_server import MjpegServer
+from tests.test_server import Rig
+
+
+@pytest.fixture
+def camera() -> Iterator[MjpegServer]:
+    with MjpegServer([], then_every_s=0.01) as server:
+        yield server
+
+
+def decoded(jpeg: bytes) -> np.ndarray:
+    image = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
+    assert image is not None
+    return image
+
+
+def test_without_a_camera_the_api_says_how_to_give_one(rig: Rig) -> None:
+    state = rig.client.get("/api/camera").json()
+    assert state["camera"] is False and "--camera" in state["message"]
+    for path in ("/api/camera/frame.jpg", "/api/camera/stream"):
+        answer = rig.client.get(path)
+        assert answer.status_code == 404 and "--camera" in answer.json()["detail"]
+
+
+def test_frames_are_shown_with_the_processors_overlays(rig: Rig, camera: MjpegServer) -> None:
+    feed = CameraFeed(camera.url, "http://127.0.0.1:1")
+    seen: list[tuple[Frame, tuple[int, ...]]] = []
+
+    def box(frame: Frame, bgr: np.ndarray) -> Overlay:
+        seen.append((frame, bgr.shape))
+        return Overlay(lambda canvas: cv2.rectangle(canvas, (0, 0), (7, 7), (255, 255, 255), cv2.FILLED))
+
+    def broken(frame: Frame, bgr: np.ndarray) -> Overlay | None:
+        raise RuntimeError("a processor's bug")
+
+    feed.add_processor(broken)
+    feed.add_processor(box)
+    rig.gateway.camera = feed.start()
+    try:
+        wait_for(lambda: feed.shown() is not None and len(seen) >= 3, 10.0)
+        answer = rig.client.get("/api/camera/frame.jpg")
+        assert answer.status_code == 200 and answer.headers["content-type"] == "image/jpeg"
+        image = decoded(answer.content)
+        assert image.shape == (24, 32, 3)
+        assert image[2:6, 2:6].mean() > 240  # the overlay's white box
+        assert image[12:20, 16:28].mean() < 230  # the camera's grey elsewhere
+        assert seen[0][1] == (24, 32, 3)  # processors see the decoded BGR frame
+        state = rig.client.get("/api/camera").json()
+        assert state["camera"] and state["connected"] and state["fps"] > 0
+        assert state["url"] == "http://127.0.0.1:1" and state["stream_url"] == camera.url
+        assert state["processor_errors"] >= 1 and state["width"] == 32 and state["height"] == 24
+    finally:
+        feed.stop()
+
+
+class Served:
+    """The app served as `cart2d serve` does (its capped send buffers), in a thread."""
+
+    def __init__(self, app: Any) -> None:
+        self.sock = serving.listening_socket("127.0.0.1", 0)
+        self.port = self.sock.getsockname()[1]
+        self.server = serving.server(app)
+        self.thread = threading.Thread(target=self.server.run, kwargs={"sockets": [self.sock]}, daemon=True)
+        self.thread.start()
+        wait_for(lambda: self.server.started, 10.0)
+
+    def close(self) -> None:
+        self.server.should_exit = True
+        self.thread.join(timeout=10.0)
+        self.sock.close()
+
+
+def test_the_restream_serves_many_panels_and_a_slow_one_loses_frames(rig: Rig, camera: MjpegServer) -> None:
+    feed = CameraFeed(camera.url)
+    rig.gateway.camera = feed.start()
+    app = create_app(rig.gateway)
+    served = Served(app)
+    readers: list[MjpegReader] = []
+    slow = socket.create_connection(("127.0.0.1", served.port))
+    try:
+        # a panel that asks for the stream and never reads it
+        slow.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        slow.sendall(b"GET /api/camera/stream HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
+        got: list[list[Frame]] = [[], [], []]
+        for frames in got:
+            url = f"http://127.0.0.1:{served.port}/api/camera/stream"
+            readers.append(MjpegReader(url, frames.append).start())
+        wait_for(lambda: all(len(frames) >= 30 for frames in got), 20.0)
+        for frames in got:  # every panel got whole frames of the camera's, in order
+            assert decoded(frames[-1].jpeg).shape == (24, 32, 3)
+            assert all(a.received_s <= b.received_s for a, b in zip(frames, frames[1:], strict=False))
+        assert all(r.status()["errors"] == 0 for r in readers)
+        (watchers,) = app.state.camera_watchers.values()
+        assert len(watchers.watchers) == 4
+        wait_for(lambda: max(w.dropped for w in watchers.watchers) > 10, 30.0)  # the slow one loses frames...
+        stuck = max(watchers.watchers, key=lambda w: w.dropped)
+        assert len(stuck.queue) <= CAMERA_BACKLOG  # ...and holds no more than its backlog
+        assert sum(1 for w in watchers.watchers if w.dropped == 0) >= 1
+        for reader in readers:
+            reader.stop()
+        slow.close()
+        wait_for(lambda: len(watchers.watchers) == 0, 10.0)  # panels that left are forgotten
+    finally:
+        for reader in readers:
+            reader.stop()
+        slow.close()
+        served.close()
+        feed.stop()
+
+
+def test_the_stream_url_of_a_base_url_is_the_stock_sketchs() -> None:
+    assert stream_url_for("http://192.168.4.1") == "http://192.168.4.1:81/stream"
+    assert stream_url_for("http://cam.local:8180/") == "http://cam.local:8181/stream"
+    assert stream_url_for("http://[fe80::1]:80") == "http://[fe80::1]:81/stream"
+    for bad in ("ftp://cam", "http://cam/stream", "cam:80"):
+        with pytest.raises(ValueError):
+            stream_url_for(bad)
+    assert CameraFeed.of(None, None) is None
+    feed = CameraFeed.of("http://cam:80", "http://cam:9000/video")
+    assert feed is not None and feed.reader.url == "http://cam:9000/video"
