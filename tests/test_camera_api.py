@@ -106,9 +106,8 @@ def test_the_restream_serves_many_panels_and_a_slow_one_loses_frames(rig: Rig, c
             url = f"http://127.0.0.1:{served.port}/api/camera/stream"
             readers.append(MjpegReader(url, frames.append).start())
         wait_for(lambda: all(len(frames) >= 30 for frames in got), 20.0)
-        for frames in got:  # every panel got whole frames of the camera's, in order
-            assert decoded(frames[-1].jpeg).shape == (24, 32, 3)
-            assert all(a.received_s <= b.received_s for a, b in zip(frames, frames[1:], strict=False))
+        for frames in got:  # every panel got whole frames of the camera's
+            assert all(decoded(f.jpeg).shape == (24, 32, 3) for f in frames)
         assert all(r.status()["errors"] == 0 for r in readers)
         (watchers,) = app.state.camera_watchers.values()
         assert len(watchers.watchers) == 4
