@@ -34,7 +34,7 @@ JPEG_QUALITY = 80  # the overlaid frames the panel sees (the stock sketch stream
 class Overlay:
     """What a processor shows on a frame: `draw(bgr)` draws on the panel's copy (with cv2)."""
 
-    draw: Callable[[np.ndarray], None]
+    draw: Callable[[np.ndarray], object]  # what it returns is not used (cv2 returns the image)
 
 
 Processor = Callable[[Frame, np.ndarray], Overlay | None]
