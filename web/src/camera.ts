@@ -1,0 +1,86 @@
+// The camera card: the gateway's re-stream of the cart's camera (with what perception drew on
+// it), the stream's state, and the button that forgets the perceived cells. Without a camera the
+// card says how to give the gateway one instead of showing a broken image.
+
+import { api, type PerceivedMessage } from "./api";
+import { byId as $, say } from "./dom";
+import type { LiveMap } from "./map";
+import type { PanelContext } from "./tuning";
+
+const POLL_MS = 2000;
+
+interface CameraState {
+  camera: boolean;
+  message?: string;
+  connected?: boolean;
+  fps?: number;
+  age_s?: number | null;
+  reconnects?: number;
+  stream_url?: string;
+}
+
+export class CameraCard {
+  private readonly img = $<HTMLImageElement>("camera-view");
+  private readonly none = $("camera-none");
+  private readonly state = $("camera-state");
+  private readonly msg = $("perceived-msg");
+  private streaming = false;
+
+  constructor(
+    private readonly ctx: PanelContext,
+    private readonly map: LiveMap,
+  ) {
+    $("clear-perceived").addEventListener("click", () => void this.clear());
+    void this.poll();
+    void this.loadPerceived();
+  }
+
+  private async poll(): Promise<void> {
+    try {
+      this.show(await api<CameraState>("GET", "/api/camera"));
+    } catch {
+      /* the gateway is away: the link state says so */
+    }
+    window.setTimeout(() => void this.poll(), POLL_MS);
+  }
+
+  private show(s: CameraState): void {
+    document.body.dataset["camera"] = s.camera ? "yes" : "no";
+    this.img.hidden = !s.camera;
+    this.none.hidden = s.camera;
+    if (!s.camera) {
+      this.none.textContent = s.message ?? "No camera.";
+      this.state.textContent = "–";
+      if (this.streaming) this.img.removeAttribute("src");
+      this.streaming = false;
+      return;
+    }
+    if (!this.streaming) {
+      this.img.src = "/api/camera/stream"; // the browser decodes multipart/x-mixed-replace itself
+      this.streaming = true;
+    }
+    const age = s.age_s === null || s.age_s === undefined ? "no frame yet" : `last frame ${s.age_s.toFixed(1)} s ago`;
+    this.state.textContent = s.connected
+      ? `${(s.fps ?? 0).toFixed(1)} fps, ${age}`
+      : `not connected (${s.reconnects ?? 0} reconnects), ${age}`;
+  }
+
+  private async loadPerceived(): Promise<void> {
+    try {
+      const p = await api<PerceivedMessage>("GET", "/api/perception");
+      this.map.setPerceived(p.resolution, p.cells);
+    } catch {
+      /* shown once /ws says so */
+    }
+  }
+
+  private async clear(): Promise<void> {
+    try {
+      const p = await api<PerceivedMessage>("POST", "/api/perception/clear");
+      this.map.setPerceived(p.resolution, p.cells);
+      say(this.msg, "Perceived cells cleared.");
+    } catch (err) {
+      say(this.msg, this.ctx.errorText(err), true);
+    }
+  }
+}
