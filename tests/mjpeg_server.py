@@ -127,3 +127,22 @@ class MjpegServer:
         self.closing.set()
         self.httpd.shutdown()
         self.httpd.server_close()
+
+
+def main() -> None:
+    """`python -m tests.mjpeg_server`: a well-behaved test camera until killed (the panel's tests)."""
+    import argparse
+    import signal
+
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--every-s", type=float, default=0.1)
+    args = parser.parse_args()
+    stop = {signal.SIGINT, signal.SIGTERM}
+    signal.pthread_sigmask(signal.SIG_BLOCK, stop)  # waited for below, so the server closes
+    with MjpegServer([], then_every_s=args.every_s) as server:
+        print(server.url, flush=True)
+        signal.sigwait(stop)
+
+
+if __name__ == "__main__":
+    main()
