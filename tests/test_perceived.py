@@ -102,13 +102,13 @@ def test_bad_perceived_cells_are_refused_and_change_nothing(wide: tuple[GatewayR
     assert client.put("/api/perception", json={"cells": good, "resolution_m": 0.2}).status_code == 200
     before = client.get("/api/perception").json()
     for body, words in [
-        ({"cells": [[2.4, 0.8, 1.5]]}, "p_occupied 1.5"),
-        ({"cells": [[2.4, 0.8, 0.2]]}, "believed occupied"),
+        ({"cells": [[2.4, 0.8, 1.5]]}, "cells.0.2"),
+        ({"cells": [[2.4, 0.8, 0.2]]}, "cells.0.2: Input should be greater than or equal to 0.5"),
         ({"cells": [[2.4, 0.8]]}, "cells.0"),
         ({"cells": [[2.4, "0.8", 0.9]]}, "cells.0.1"),
         ({"cells": [[1e9, 0.8, 0.9]]}, "cells.0.0"),
         ({"cells": good, "resolution_m": 0.0}, "resolution_m"),
-        ({"enabled": False, "cells": [[2.4, 0.8, 2.0]]}, "p_occupied 2"),
+        ({"enabled": False, "cells": [[2.4, 0.8, 2.0]]}, "cells.0.2"),
         ({"enabled": "yes"}, "enabled"),
     ]:
         answer = client.put("/api/perception", json=body)
@@ -117,6 +117,8 @@ def test_bad_perceived_cells_are_refused_and_change_nothing(wide: tuple[GatewayR
         assert client.get("/api/perception").json() == before
     with pytest.raises(ValueError, match="not finite"):
         rig.gateway.set_perceived([(math.nan, 0.0, 0.9)], "a test")
+    with pytest.raises(ValueError, match=r"p_occupied 1\.5"):
+        rig.gateway.set_perceived([(1.0, 0.0, 1.5)], "a test")
     assert client.get("/api/perception").json() == before
 
 

@@ -20,11 +20,12 @@ from fastapi import FastAPI, HTTPException, Response
 from fastapi.params import Depends
 from fastapi.responses import StreamingResponse
 from pydantic import Field
+from pydantic import Strict as StrictMark
 
 from cart2d.gateway import Gateway
 from cart2d.gateway.camera import CameraFeed, Shown
-from cart2d.gateway.perceived import DEFAULT_RESOLUTION_M, parse_cells
-from cart2d.server.models import Number, Strict, errors
+from cart2d.gateway.perceived import DEFAULT_RESOLUTION_M, OCCUPIED_P, parse_cells
+from cart2d.server.models import Strict, errors
 
 MAX_CAMERA_VIEWERS = 16
 CAMERA_BACKLOG = 2  # frames a watcher may be behind: the newest matter, not every one
@@ -33,9 +34,15 @@ NO_CAMERA = "this gateway has no camera: start it with --camera http://HOST (or 
 MAX_CELLS_IN = 10_000  # a request's cells (256 KiB of JSON)
 
 
+# [x_m, y_m, p_occupied]: a JSON array read as a tuple (lax), of numbers taken as they are (strict)
+Metres = Annotated[float, StrictMark(), Field(allow_inf_nan=False, gt=-1048576.0, lt=1048576.0)]
+Occupied = Annotated[float, StrictMark(), Field(ge=OCCUPIED_P, le=1.0, allow_inf_nan=False)]
+PerceivedCellIn = Annotated[tuple[Metres, Metres, Occupied], StrictMark(False)]
+
+
 class PerceptionIn(Strict):
     enabled: bool | None = Field(None, description="perception on (its cells block the planner) or off")
-    cells: list[Annotated[list[Number], Field(min_length=3, max_length=3)]] | None = Field(
+    cells: list[PerceivedCellIn] | None = Field(
         None,
         max_length=MAX_CELLS_IN,
         description="replace the perceived cells with these [x_m, y_m, p_occupied] (p 0.5 to 1): for "
