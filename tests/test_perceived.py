@@ -6,13 +6,17 @@ the user's obstacles and saved settings never see them, bad input changes nothin
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from fastapi.testclient import TestClient
 
-from cart2d.gateway.perceived import PerceivedLayer
+from cart2d.gateway.live_map import planner_for
+from cart2d.gateway.perceived import PerceivedLayer, PerceptionMixin
+from cart2d.gateway.state import Mission
 from cart2d.params import robot
 from cart2d.planning import Grid, point_square_distance
 from cart2d.server import create_app
@@ -134,3 +138,45 @@ def test_a_perceived_cell_blocks_every_planner_cell_its_square_overlaps() -> Non
     assert PerceivedLayer(((1.0, 0.8, 0.9),), 0.2).mask(grid).sum() == 1
     # off the map: nothing
     assert not PerceivedLayer(((5.0, 5.0, 1.0), (-1.0, 0.5, 1.0)), 0.05).mask(grid).any()
+
+
+class LoneLayer(PerceptionMixin):
+    """The perceived layer without a robot: a map, a mission that is not driving, messages kept."""
+
+    def __init__(self) -> None:
+        self._lock = threading.RLock()
+        self.settings = GatewaySettings()
+        self.planner = planner_for(self.settings.map)
+        self.mission = Mission()
+        self.messages: list[dict[str, Any]] = []
+
+    def _publish(self, message: dict[str, Any]) -> None:
+        self.messages.append(message)
+
+    def _check_route(self, why: str) -> None:
+        raise AssertionError("no mission drives")
+
+
+def test_perceived_messages_come_at_most_twice_a_second_and_the_last_state_always_goes_out() -> None:
+    layer = LoneLayer()
+    for k in range(10):  # a burst, much faster than 2 Hz
+        layer.set_perceived([(1.0, 0.2 * k / 10, 0.9)], "a burst")
+    told = [m for m in layer.messages if m["type"] == "perceived"]
+    assert len(told) == 1 and told[0]["cells"] == [[1.0, 0.0, 0.9]]
+    wait_for(lambda: len([m for m in layer.messages if m["type"] == "perceived"]) == 2, 5.0)
+    last = [m for m in layer.messages if m["type"] == "perceived"][-1]
+    assert last == {"type": "perceived", "resolution": 0.05, "cells": [[1.0, 0.18, 0.9]]}
+
+
+def test_camera_messages_come_at_most_five_times_a_second() -> None:
+    layer = LoneLayer()
+    fov = [(0.1, 0.0), (1.5, -0.8), (1.5, 0.8)]
+    for k in range(10):
+        layer.tell_camera(float(k), fov, [(1.0, 0.0)])
+    (told,) = layer.messages
+    assert told == {
+        "type": "camera",
+        "t": 0.0,
+        "fov": [[0.1, 0.0], [1.5, -0.8], [1.5, 0.8]],
+        "hits": [[1.0, 0.0]],
+    }
