@@ -38,8 +38,8 @@ def level_for(stamp: float) -> int:
     return round(stamp * 10) % 200 + 20
 
 
-def part(stamp: float | None, length: bool = True) -> bytes:
-    jpeg = jpeg_of(level_for(stamp or 0.0))
+def part(stamp: float | None, length: bool = True, jpeg: bytes | None = None) -> bytes:
+    jpeg = jpeg if jpeg is not None else jpeg_of(level_for(stamp or 0.0))
     head = "Content-Type: image/jpeg\r\n"
     if length:
         head += f"Content-Length: {len(jpeg)}\r\n"
@@ -49,9 +49,19 @@ def part(stamp: float | None, length: bool = True) -> bytes:
 
 
 class MjpegServer:
-    def __init__(self, scripts: list[list[tuple[str, Any]]], then_every_s: float = 0.02) -> None:
+    def __init__(
+        self,
+        scripts: list[list[tuple[str, Any]]],
+        then_every_s: float = 0.02,
+        stamp_now: bool = False,
+        jpeg: bytes | None = None,
+    ) -> None:
+        """`stamp_now`: the endless frames are stamped time.monotonic() as they are sent (latency
+        measurements on this machine); `jpeg`: the endless frames' image instead of the grey one."""
         self.scripts = list(scripts)
         self.then_every_s = then_every_s
+        self.stamp_now = stamp_now
+        self.jpeg = jpeg
         self.busy = threading.Lock()  # one stream client at a time, like the ESP32-CAM
         self.connections = 0
         self.refused = 0
@@ -105,7 +115,8 @@ class MjpegServer:
                     return
             out.flush()
         while not self.closing.is_set():
-            out.write(part(next(self.stamps) / 10))
+            stamp = time.monotonic() if self.stamp_now else next(self.stamps) / 10
+            out.write(part(stamp, jpeg=self.jpeg))
             out.flush()
             time.sleep(self.then_every_s)
 

@@ -38,7 +38,15 @@ class Overlay:
 
 
 Processor = Callable[[Frame, np.ndarray], Overlay | None]
-Shown = tuple[int, bytes]  # the frame's seq and the JPEG the panel sees
+
+
+@dataclass(frozen=True)
+class Shown:
+    """A frame as the panel sees it: the reader's seq, the camera's stamp, the JPEG with overlays."""
+
+    seq: int
+    stamp_s: float | None
+    jpeg: bytes
 
 
 def stream_url_for(base_url: str) -> str:
@@ -195,4 +203,4 @@ class CameraFeed:
             if ok:
                 jpeg = data.tobytes()
         self.process_ms = (time.perf_counter() - started) * 1000.0
-        return (frame.seq, jpeg)
+        return Shown(frame.seq, frame.stamp_s, jpeg)

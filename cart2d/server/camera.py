@@ -102,12 +102,13 @@ class Watchers:
                 await watcher.ready.wait()
                 watcher.ready.clear()
                 while watcher.queue:
-                    seq, jpeg = watcher.queue.popleft()
+                    shown = watcher.queue.popleft()
+                    stamp = "" if shown.stamp_s is None else f"X-Timestamp: {shown.stamp_s:.6f}\r\n"
                     head = (
-                        f"--{BOUNDARY}\r\nContent-Type: image/jpeg\r\nContent-Length: {len(jpeg)}\r\n"
-                        f"X-Frame: {seq}\r\n\r\n"
+                        f"--{BOUNDARY}\r\nContent-Type: image/jpeg\r\nContent-Length: {len(shown.jpeg)}\r\n"
+                        f"X-Frame: {shown.seq}\r\n{stamp}\r\n"
                     )
-                    yield head.encode() + jpeg + b"\r\n"
+                    yield head.encode() + shown.jpeg + b"\r\n"
         finally:
             with self._lock:
                 self.watchers = self.watchers - {watcher}
@@ -149,7 +150,7 @@ def add_camera_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
         shown = feed().shown()
         if shown is None:
             raise HTTPException(503, "no frame from the camera yet")
-        return Response(shown[1], media_type="image/jpeg", headers={"Cache-Control": "no-store"})
+        return Response(shown.jpeg, media_type="image/jpeg", headers={"Cache-Control": "no-store"})
 
     @app.get(
         "/api/camera/stream",
