@@ -4,17 +4,25 @@ garbage between parts, one stream client at a time."""
 
 from __future__ import annotations
 
+import asyncio
 import http.client
+import itertools
+import socket
 import threading
-from collections.abc import Iterator
+from collections.abc import AsyncIterator, Iterator
 
 import cv2
 import numpy as np
 import pytest
+import uvicorn
+from starlette.applications import Starlette
+from starlette.requests import Request
+from starlette.responses import StreamingResponse
+from starlette.routing import Route
 
 from cart2d.perception.mjpeg import Frame, MjpegReader, StreamError, boundary_of
 from tests.conftest import wait_for
-from tests.mjpeg_server import MjpegServer, level_for
+from tests.mjpeg_server import BOUNDARY, MjpegServer, level_for, part
 
 
 class Collected:
@@ -47,7 +55,12 @@ def level(frame: Frame) -> float:
 
 
 def reading(server: MjpegServer, collected: Collected, **options: float) -> Iterator[MjpegReader]:
-    reader = MjpegReader(server.url, collected, **options).start()
+    return reading_url(server.url, collected, **options)
+
+
+def reading_url(url: str, collected: Collected, **options: float) -> Iterator[MjpegReader]:
+    """The reader, started, for the loop's body; stopped after it."""
+    reader = MjpegReader(url, collected, **options).start()
     try:
         yield reader
     finally:
@@ -175,3 +188,40 @@ def test_the_boundary_comes_from_the_content_type() -> None:
             boundary_of(bad)
     with pytest.raises(ValueError, match="http://"):
         MjpegReader("rtsp://camera/stream", lambda frame: None)
+
+
+def test_a_chunked_stream_as_the_esp32_sends_it(collected: Collected) -> None:
+    """The stock sketch sends its parts with chunked transfer encoding (httpd_resp_send_chunk):
+    here uvicorn's, with chunks that split parts and headers anywhere."""
+
+    async def parts() -> AsyncIterator[bytes]:
+        for k in itertools.count():
+            data = part(1.0 + k / 10)
+            yield data[:7]
+            yield data[7:50]
+            yield data[50 : len(data) // 2]
+            yield data[len(data) // 2 :]
+            await asyncio.sleep(0.01)
+
+    async def stream(request: Request) -> StreamingResponse:
+        return StreamingResponse(parts(), media_type=f"multipart/x-mixed-replace;boundary={BOUNDARY}")
+
+    app = Starlette(routes=[Route("/stream", stream)])
+    sock = socket.create_server(("127.0.0.1", 0))
+    server = uvicorn.Server(uvicorn.Config(app, log_level="warning", lifespan="off"))
+    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
+    thread.start()
+    try:
+        wait_for(lambda: server.started, 10.0)
+        url = f"http://127.0.0.1:{sock.getsockname()[1]}/stream"
+        for reader in reading_url(url, collected):
+            wait_for(lambda: collected.count() >= 5, 10.0)
+            assert collected.stamps()[:5] == [1.0, 1.1, 1.2, 1.3, 1.4]
+            for frame in collected.frames[:5]:
+                assert frame.stamp_s is not None
+                assert level(frame) == pytest.approx(level_for(frame.stamp_s), abs=2)
+            assert reader.status()["errors"] == 0
+    finally:
+        server.should_exit = True
+        thread.join(timeout=10.0)
+        sock.close()
