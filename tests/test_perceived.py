@@ -11,16 +11,18 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
 from cart2d.gateway.live_map import planner_for
 from cart2d.gateway.perceived import PerceivedLayer, PerceptionMixin
 from cart2d.gateway.state import Mission
+from cart2d.maps import OCCUPIED, OccupancyMap
 from cart2d.params import robot
-from cart2d.planning import Grid, point_square_distance
+from cart2d.planning import Grid, PlanError, point_square_distance
 from cart2d.server import create_app
-from cart2d.store import GatewaySettings, MapSettings
+from cart2d.store import FloorPlan, GatewaySettings, MapSettings
 from tests.conftest import wait_for
 from tests.test_live_map import GatewayRig
 from tests.test_server import BASE_URL, JSON
@@ -143,9 +145,9 @@ def test_a_perceived_cell_blocks_every_planner_cell_its_square_overlaps() -> Non
 class LoneLayer(PerceptionMixin):
     """The perceived layer without a robot: a map, a mission that is not driving, messages kept."""
 
-    def __init__(self) -> None:
+    def __init__(self, settings: GatewaySettings | None = None) -> None:
         self._lock = threading.RLock()
-        self.settings = GatewaySettings()
+        self.settings = settings or GatewaySettings()
         self.planner = planner_for(self.settings.map)
         self.mission = Mission()
         self.messages: list[dict[str, Any]] = []
@@ -180,3 +182,24 @@ def test_camera_messages_come_at_most_five_times_a_second() -> None:
         "fov": [[0.1, 0.0], [1.5, -0.8], [1.5, 0.8]],
         "hits": [[1.0, 0.0]],
     }
+
+
+def test_on_a_floor_plan_perceived_cells_block_with_its_walls_and_clearing_keeps_the_walls() -> None:
+    # a 3 x 2 m room at 5 cm, walled round, with a wall from y = 0 to 1.2 m at x = 1.5
+    cells = np.zeros((40, 60), dtype=np.int8)
+    cells[0, :] = cells[-1, :] = cells[:, 0] = cells[:, -1] = OCCUPIED
+    cells[:24, 29:31] = OCCUPIED
+    plan = FloorPlan.of(OccupancyMap((-0.5, -0.5), 0.05, cells), "room")
+    layer = LoneLayer(GatewaySettings(map=MapSettings.model_validate({"floor_plan": plan})))
+    start, goal = (0.0, 0.0), (2.0, 0.0)
+    over_the_wall = layer.planner.plan(start, goal)  # round the wall's top, at y = 0.7 m
+    assert max(y for _, y in over_the_wall.waypoints) > 0.7
+    # perceived cells close the gap above the wall (y 0.75 to 1.4 at x = 1.0): nothing is left
+    gap = [(1.0, 0.75 + 0.05 * k, 0.8) for k in range(14)]
+    layer.set_perceived(gap, "a box in the gap")
+    with pytest.raises(PlanError, match="cannot be reached"):
+        layer.planner.plan(start, goal)
+    layer.clear_perceived()
+    assert layer.planner.plan(start, goal).waypoints == over_the_wall.waypoints
+    # the floor plan's wall still blocks: the straight line is not taken
+    assert layer.planner.plan(start, goal).length_m > 2.5
