@@ -119,6 +119,17 @@ def test_repeated_and_stale_stamps_are_dropped_and_counted(collected: Collected)
             assert reader.status()["stale"] == 2
 
 
+def test_a_clock_that_starts_again_on_the_same_connection_is_followed(collected: Collected) -> None:
+    # the simulator restarted under the camera's server: its time went from 5.1 s back to 0.2 s
+    script = [("frame", 5.0), ("frame", 5.1), ("frame", 4.9), ("frame", 0.2), ("frame", 0.3), ("frame", 0.25)]
+    with MjpegServer([script]) as server:
+        for reader in reading(server, collected):
+            wait_for(lambda: collected.count() >= 5, 10.0)
+            assert collected.stamps()[:5] == [5.0, 5.1, 0.2, 0.3, 10.0]
+            status = reader.status()
+            assert status["stale"] == 2 and status["clock_restarts"] == 1 and status["reconnects"] == 0
+
+
 def test_frames_without_stamps_are_all_taken(collected: Collected) -> None:
     with MjpegServer([[("frame", None), ("frame", None)]]) as server:
         for _ in reading(server, collected):

@@ -17,7 +17,8 @@ What goes wrong with a camera on Wi-Fi, and what the reader does:
   connection at once so the camera is free for whoever comes next;
 - a frame whose X-Timestamp is not newer than the last one's (a repeated or stale frame) is
   dropped and counted; the last stamp is forgotten on a new connection, as a camera that
-  rebooted starts its clock again;
+  rebooted starts its clock again, and when a stamp is over CLOCK_RESTART_S behind it (a clock
+  that started again without the connection dropping: the simulator restarted);
 - bytes between parts that are not a boundary are skipped (counted), up to MAX_SKIP_BYTES.
 
 `on_frame` runs in the reader's thread: it must be quick (hand the frame over and return).
@@ -45,6 +46,10 @@ MAX_LINE_BYTES = 4096  # a line between parts is read in pieces of at most this 
 MAX_PART_BYTES = 4 * 1024 * 1024  # a UXGA JPEG at the best quality is well under 1 MiB
 MAX_SKIP_BYTES = 1024 * 1024  # garbage without a boundary in it: the stream is broken, reconnect
 FPS_WINDOW = 30  # frames the rate is measured over
+# A stamp this far behind the last one is not a stale frame but a camera whose clock started
+# again on the same connection (the simulator restarted under the camera's server): a stale
+# frame is at most a buffer's worth (a frame or two) old.
+CLOCK_RESTART_S = 2.0
 
 
 @dataclass(frozen=True)
@@ -117,6 +122,7 @@ class MjpegReader:
         self.errors = 0  # what went wrong: dropped or refused connections, broken parts
         self.stale = 0  # frames dropped because their stamp was not newer than the last one's
         self.skipped_bytes = 0  # garbage between parts
+        self.clock_restarts = 0  # stamps that went back by more than CLOCK_RESTART_S
         self.last_error = ""
 
     # -- the caller's side: none of these blocks on the camera --------------------------------
@@ -153,6 +159,7 @@ class MjpegReader:
                 "errors": self.errors,
                 "stale": self.stale,
                 "skipped_bytes": self.skipped_bytes,
+                "clock_restarts": self.clock_restarts,
                 "last_error": self.last_error,
             }
 
@@ -274,9 +281,12 @@ class MjpegReader:
 
     def _take(self, jpeg: bytes, stamp_s: float | None, received_s: float) -> None:
         with self._lock:
-            if stamp_s is not None and self._last_stamp is not None and stamp_s <= self._last_stamp:
-                self.stale += 1
-                return
+            last = self._last_stamp
+            if stamp_s is not None and last is not None and stamp_s <= last:
+                if last - stamp_s <= CLOCK_RESTART_S:
+                    self.stale += 1
+                    return
+                self.clock_restarts += 1
             if stamp_s is not None:
                 self._last_stamp = stamp_s
             self._seq += 1
