@@ -63,16 +63,24 @@ def _camera_args(parser: argparse.ArgumentParser) -> None:
 
 
 def _attach_camera(gateway: Gateway, args: argparse.Namespace) -> None:
-    """The camera of --camera / --camera-stream, read from now on (closed with the gateway)."""
-    feed = CameraFeed.of(args.camera, args.camera_stream)
+    """The camera of --camera / --camera-stream (this run only), else the saved one (PUT
+    /api/settings/camera), read from now on (closed with the gateway)."""
+    saved = gateway.settings.camera
+    try:
+        if args.camera or args.camera_stream:
+            feed = CameraFeed.of(args.camera, args.camera_stream)
+        else:
+            feed = CameraFeed.of(saved.url, saved.stream_url)
+    except ValueError as exc:
+        log.warning("the saved camera is not used: %s", exc)
+        return
     if feed is not None:
-        gateway.camera = feed.start()
+        gateway.use_camera(feed.start())
         log.info("camera stream %s", feed.reader.url)
 
 
 def _detach_camera(gateway: Gateway) -> None:
-    if gateway.camera is not None:
-        gateway.camera.stop()  # lets the camera go: it streams to one client at a time
+    gateway.use_camera(None)  # lets the camera go: it streams to one client at a time
 
 
 class Listening:

@@ -15,6 +15,7 @@ import secrets
 import time
 from pathlib import Path
 from typing import Annotated, Literal
+from urllib.parse import urlsplit
 
 import platformdirs
 from pydantic import (
@@ -86,6 +87,28 @@ class NetworkSettings(BaseModel):
         description="bind address: an IP address or a host name",
     )
     port: Integer = Field(8080, ge=1, le=65535)
+
+
+def http_url(text: str) -> str:
+    parts = urlsplit(text)
+    if parts.scheme != "http" or not parts.hostname:
+        raise ValueError(f"an http:// URL with a host, got {text!r}")
+    return text
+
+
+CameraUrl = Annotated[str, AfterValidator(http_url)]
+
+
+class CameraSettings(BaseModel):
+    """The camera the gateway reads at start (cart2d serve's --camera / --camera-stream win)."""
+
+    model_config = ConfigDict(extra="forbid", strict=True)
+    url: CameraUrl | None = Field(
+        None, max_length=300, description="the ESP32-CAM's base URL, http://HOST[:PORT] (stream on PORT + 1)"
+    )
+    stream_url: CameraUrl | None = Field(
+        None, max_length=300, description="its MJPEG stream's URL outright (wins over url's)"
+    )
 
 
 Metres = Annotated[float, Field(allow_inf_nan=False, ge=-100_000.0, le=100_000.0)]
@@ -181,6 +204,7 @@ class GatewaySettings(BaseModel):
     version: Literal[1] = 1
     network: NetworkSettings = Field(default_factory=NetworkSettings)
     map: MapSettings = Field(default_factory=MapSettings)
+    camera: CameraSettings = Field(default_factory=CameraSettings)
     token: str | None = Field(None, min_length=16, max_length=128)
 
 

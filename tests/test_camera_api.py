@@ -140,3 +140,39 @@ def test_the_stream_url_of_a_base_url_is_the_stock_sketchs() -> None:
     assert CameraFeed.of(None, None) is None
     feed = CameraFeed.of("http://cam:80", "http://cam:9000/video")
     assert feed is not None and feed.reader.url == "http://cam:9000/video"
+
+
+def test_the_camera_set_through_the_api_is_saved_and_read_at_once(rig: Rig, camera: MjpegServer) -> None:
+    answer = rig.client.put("/api/settings/camera", json={"stream_url": camera.url})
+    assert answer.status_code == 200, answer.text
+    assert answer.json()["camera"] and answer.json()["stream_url"] == camera.url
+    wait_for(lambda: rig.client.get("/api/camera/frame.jpg").status_code == 200, 10.0)
+    assert rig.store.load().camera.stream_url == camera.url
+    feed = rig.gateway.camera
+    assert feed is not None
+    for body, words in [
+        ({"url": "http://cam/stream"}, "url: the camera's URL is its base"),
+        ({"url": "ftp://cam"}, "url: Value error, an http:// URL"),
+        ({"stream_url": 81}, "stream_url"),
+        ({"url": "http://cam", "extra": 1}, "extra"),
+    ]:
+        refused = rig.client.put("/api/settings/camera", json=body)
+        assert refused.status_code == 422 and words in refused.json()["detail"], refused.json()
+        assert rig.gateway.camera is feed and rig.store.load().camera.stream_url == camera.url
+    # no camera: the feed is stopped (the camera is free for another client) and that is saved
+    gone = rig.client.put("/api/settings/camera", json={"url": None, "stream_url": None}).json()
+    assert gone["camera"] is False and rig.gateway.camera is None
+    assert not feed.reader.status()["connected"] and rig.store.load().camera.stream_url is None
+    assert rig.client.get("/api/camera/frame.jpg").status_code == 404
+
+
+def test_a_settings_file_with_a_camera_switches_to_it(rig: Rig, camera: MjpegServer) -> None:
+    file = rig.client.get("/api/settings/file").json()
+    answer = rig.client.post("/api/settings/file", json={**file, "camera": {"stream_url": camera.url}})
+    assert answer.status_code == 200, answer.text
+    wait_for(lambda: rig.client.get("/api/camera").json().get("connected") is True, 10.0)
+    bad = {**file, "camera": {"url": "http://cam/stream"}}
+    refused = rig.client.post("/api/settings/file", json=bad)
+    assert refused.status_code == 422 and "camera's URL is its base" in refused.json()["detail"]
+    assert rig.store.load().camera.stream_url == camera.url
+    rig.gateway.use_camera(None)

@@ -282,10 +282,12 @@ class Gateway(PerceptionMixin):  # the perceived layer and the camera: perceived
         """Replaces the gateway's settings (a new map takes effect now) and saves them."""
         with self._lock:
             planner = with_perceived(planner_for(settings.map), self.perceived)  # validates the map first
+            camera = self._camera_change(settings)  # and the camera (perceived.py)
             self.store.save(settings)
             new_map = settings.map != self.settings.map
             self.settings = settings
             self.planner = planner
+            self._apply_camera(camera)
             if new_map:
                 self._sync_world()
                 self._map_changed(why)

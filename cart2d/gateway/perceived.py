@@ -25,11 +25,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from cart2d.gateway.camera import CameraFeed
 from cart2d.gateway.live_map import planner_for
 from cart2d.planning import EPS, Grid, Planner
 
 if TYPE_CHECKING:
-    from cart2d.gateway.camera import CameraFeed
     from cart2d.gateway.state import Mission
     from cart2d.store import GatewaySettings
 
@@ -136,6 +136,25 @@ class PerceptionMixin:
 
     def _publish(self, message: dict[str, Any]) -> None:
         raise NotImplementedError
+
+    def use_camera(self, feed: CameraFeed | None) -> None:
+        """Reads `feed` (started) from now on, instead of the camera before it (stopped: the camera
+        serves one stream client)."""
+        old, self.camera = self.camera, feed
+        if old is not None and old is not feed:
+            old.stop()
+
+    def _camera_change(self, settings: GatewaySettings) -> tuple[bool, CameraFeed | None]:
+        """Whether `settings` change the camera, and the new feed (not started; None: no camera);
+        ValueError for a camera that cannot be read (before anything changes)."""
+        if settings.camera == self.settings.camera:
+            return False, None
+        return True, CameraFeed.of(settings.camera.url, settings.camera.stream_url)
+
+    def _apply_camera(self, change: tuple[bool, CameraFeed | None]) -> None:
+        changed, feed = change
+        if changed:
+            self.use_camera(feed.start() if feed is not None else None)
 
     def set_perceived(
         self, cells: Sequence[Sequence[float]], why: str, resolution_m: float | None = None

@@ -26,6 +26,7 @@ from cart2d.gateway import Gateway
 from cart2d.gateway.camera import CameraFeed, Shown
 from cart2d.gateway.perceived import DEFAULT_RESOLUTION_M, OCCUPIED_P, parse_cells
 from cart2d.server.models import Strict, errors
+from cart2d.store import CameraSettings
 
 MAX_CAMERA_VIEWERS = 16
 CAMERA_BACKLOG = 2  # frames a watcher may be behind: the newest matter, not every one
@@ -164,6 +165,24 @@ def add_camera_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
             media_type=f"multipart/x-mixed-replace; boundary={BOUNDARY}",
             headers={"Cache-Control": "no-store"},
         )
+
+    @app.put(
+        "/api/settings/camera",
+        dependencies=[guarded],
+        summary="the camera to read: saved, and read from now on (null for both: no camera)",
+        description="`url` is the stock CameraWebServer's base, http://HOST[:PORT] (its stream on PORT + 1); "
+        "`stream_url` an MJPEG stream outright (ESPHome's esp32_camera_web_server), which wins. The command "
+        "line's --camera and --camera-stream apply to their run only.",
+        responses=errors(400, 401, 422),
+    )
+    def set_camera(body: CameraSettings) -> dict[str, Any]:
+        try:  # the camera is read from now on (update_settings), or nothing changes
+            gateway.update_settings(
+                gateway.settings.model_copy(update={"camera": body}), "the camera changed"
+            )
+        except ValueError as exc:
+            raise HTTPException(422, f"url: {exc}") from exc
+        return camera_state()
 
     @app.get("/api/perception", summary="the perceived cells [x, y, p_occupied] and whether perception is on")
     def perception() -> dict[str, Any]:
