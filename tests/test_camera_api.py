@@ -176,3 +176,15 @@ def test_a_settings_file_with_a_camera_switches_to_it(rig: Rig, camera: MjpegSer
     assert refused.status_code == 422 and "camera's URL is its base" in refused.json()["detail"]
     assert rig.store.load().camera.stream_url == camera.url
     rig.gateway.use_camera(None)
+
+
+def test_no_camera_through_the_api_stops_a_camera_the_command_line_gave(
+    rig: Rig, camera: MjpegServer
+) -> None:
+    feed = CameraFeed(camera.url)
+    rig.gateway.use_camera(feed.start())  # as `cart2d serve --camera-stream URL`: not saved
+    wait_for(lambda: feed.reader.status()["connected"], 10.0)
+    assert rig.store.load().camera.stream_url is None
+    gone = rig.client.put("/api/settings/camera", json={"url": None, "stream_url": None})
+    assert gone.status_code == 200 and gone.json()["camera"] is False
+    assert rig.gateway.camera is None and not feed.reader.status()["connected"]

@@ -96,6 +96,9 @@ class CameraFeed:
             return cls(stream_url_for(camera), camera)
         return None
 
+    def same_camera(self, other: CameraFeed) -> bool:
+        return (self.base_url, self.reader.url) == (other.base_url, other.reader.url)
+
     def start(self) -> CameraFeed:
         self._worker.start()
         self.reader.start()

@@ -31,7 +31,7 @@ from cart2d.planning import EPS, Grid, Planner
 
 if TYPE_CHECKING:
     from cart2d.gateway.state import Mission
-    from cart2d.store import GatewaySettings
+    from cart2d.store import CameraSettings, GatewaySettings
 
 MAX_PERCEIVED_CELLS = 100_000  # a 10 x 10 m room at 3 cm
 OCCUPIED_P = 0.5  # a cell at or above this is believed occupied (the contract with vision)
@@ -134,6 +134,9 @@ class PerceptionMixin:
     def _check_route(self, why: str) -> None:
         raise NotImplementedError
 
+    def update_settings(self, settings: GatewaySettings, why: str = "") -> None:
+        raise NotImplementedError
+
     def _publish(self, message: dict[str, Any]) -> None:
         raise NotImplementedError
 
@@ -143,6 +146,19 @@ class PerceptionMixin:
         old, self.camera = self.camera, feed
         if old is not None and old is not feed:
             old.stop()
+
+    def set_camera(self, camera: CameraSettings) -> None:
+        """Saves `camera` and reads it from now on (also when the saved one was the same but the
+        command line gave another for this run); ValueError changes nothing."""
+        with self._lock:
+            self.update_settings(self.settings.model_copy(update={"camera": camera}), "the camera changed")
+            wanted = CameraFeed.of(camera.url, camera.stream_url)
+            current = self.camera
+            if wanted is None and current is None:
+                return
+            if wanted is not None and current is not None and wanted.same_camera(current):
+                return
+            self.use_camera(wanted.start() if wanted is not None else None)
 
     def _camera_change(self, settings: GatewaySettings) -> tuple[bool, CameraFeed | None]:
         """Whether `settings` change the camera, and the new feed (not started; None: no camera);

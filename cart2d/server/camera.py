@@ -176,10 +176,8 @@ def add_camera_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
         responses=errors(400, 401, 422),
     )
     def set_camera(body: CameraSettings) -> dict[str, Any]:
-        try:  # the camera is read from now on (update_settings), or nothing changes
-            gateway.update_settings(
-                gateway.settings.model_copy(update={"camera": body}), "the camera changed"
-            )
+        try:
+            gateway.set_camera(body)
         except ValueError as exc:
             raise HTTPException(422, f"url: {exc}") from exc
         return camera_state()

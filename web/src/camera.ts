@@ -17,6 +17,22 @@ interface CameraState {
   age_s?: number | null;
   reconnects?: number;
   stream_url?: string;
+  url?: string | null;
+}
+
+/** What the camera form sends: a base URL (the stock sketch's, stream on port + 1) or, with a
+ * path, the stream's own URL; empty: no camera. */
+export function cameraSettings(text: string): { url: string | null; stream_url: string | null } {
+  const t = text.trim();
+  if (!t) return { url: null, stream_url: null };
+  let path = "/";
+  try {
+    const u = new URL(t);
+    path = u.pathname + u.search;
+  } catch {
+    /* the gateway says what is wrong with it */
+  }
+  return path === "/" || path === "" ? { url: t, stream_url: null } : { url: null, stream_url: t };
 }
 
 export class CameraCard {
@@ -25,12 +41,18 @@ export class CameraCard {
   private readonly state = $("camera-state");
   private readonly msg = $("perceived-msg");
   private streaming = false;
+  private filled = false; // the form shows the gateway's camera once, then what the user types
 
   constructor(
     private readonly ctx: PanelContext,
     private readonly map: LiveMap,
   ) {
     $("clear-perceived").addEventListener("click", () => void this.clear());
+    const form = $<HTMLFormElement>("camera-form");
+    form.addEventListener("submit", (e) => {
+      e.preventDefault();
+      void this.use(String(new FormData(form).get("url") ?? ""));
+    });
     void this.poll();
     void this.loadPerceived();
   }
@@ -46,6 +68,10 @@ export class CameraCard {
 
   private show(s: CameraState): void {
     document.body.dataset["camera"] = s.camera ? "yes" : "no";
+    if (!this.filled) {
+      $<HTMLInputElement>("camera-url").value = s.camera ? (s.url ?? s.stream_url ?? "") : "";
+      this.filled = true;
+    }
     this.img.hidden = !s.camera;
     this.none.hidden = s.camera;
     if (!s.camera) {
@@ -63,6 +89,19 @@ export class CameraCard {
     this.state.textContent = s.connected
       ? `${(s.fps ?? 0).toFixed(1)} fps, ${age}`
       : `not connected (${s.reconnects ?? 0} reconnects), ${age}`;
+  }
+
+  private async use(text: string): Promise<void> {
+    const out = $("camera-msg");
+    try {
+      const s = await api<CameraState>("PUT", "/api/settings/camera", cameraSettings(text));
+      this.img.removeAttribute("src"); // the stream of the camera before
+      this.streaming = false;
+      this.show(s);
+      say(out, s.camera ? "Saved: the gateway reads this camera now." : "Saved: no camera.");
+    } catch (err) {
+      say(out, this.ctx.errorText(err), true);
+    }
   }
 
   private async loadPerceived(): Promise<void> {

@@ -13,6 +13,7 @@ import { type Gateway, ROOT, startGateway } from "./gateway";
 const SHARED = process.env["CART2D_URL"] ?? "";
 
 let camera: ChildProcess | null = null;
+let cameraUrl = "";
 let gateway: Gateway | null = null;
 
 async function startCamera(): Promise<string> {
@@ -35,8 +36,8 @@ test.describe.configure({ mode: "serial" });
 
 test.beforeAll(async () => {
   test.setTimeout(60_000);
-  const url = await startCamera();
-  gateway = await startGateway("127.0.0.1", "cart2d-camera-", ["--camera-stream", url]);
+  cameraUrl = await startCamera();
+  gateway = await startGateway("127.0.0.1", "cart2d-camera-", ["--camera-stream", cameraUrl]);
   await gateway.waitConnected();
 });
 
@@ -85,4 +86,28 @@ test("the camera's frames show, perceived cells appear on the map and clear on t
   const after = await (await page.request.get(`${base}/api/perception`)).json();
   expect(after.cells).toEqual([]);
   expect(errors).toEqual([]);
+});
+
+test("the camera form turns the camera off and on again, and the gateway saves it", async ({ page }) => {
+  const base = gateway?.base ?? "";
+  await page.goto(`${base}/`);
+  const input = page.locator("#camera-url");
+  await expect(input).toHaveValue(cameraUrl); // the camera the gateway reads
+  await input.fill("");
+  await page.locator("#camera-form button[type=submit]").click();
+  await expect(page.locator("#camera-msg")).toContainText("no camera");
+  await expect(page.locator("body")).toHaveAttribute("data-camera", "no");
+  await expect(page.locator("#camera-view")).toBeHidden();
+  expect((await (await page.request.get(`${base}/api/settings`)).json()).camera).toEqual({ url: null, stream_url: null });
+  await input.fill("ftp://cam");
+  await page.locator("#camera-form button[type=submit]").click();
+  await expect(page.locator("#camera-msg")).toHaveClass(/form-error/);
+  await expect(page.locator("#camera-msg")).toContainText("http://");
+  await input.fill(cameraUrl);
+  await page.locator("#camera-form button[type=submit]").click();
+  await expect(page.locator("#camera-msg")).toContainText("reads this camera now");
+  await expect(page.locator("body")).toHaveAttribute("data-camera", "yes");
+  const view = page.locator("#camera-view");
+  await expect.poll(() => view.evaluate((img: HTMLImageElement) => img.naturalWidth)).toBe(32);
+  expect((await (await page.request.get(`${base}/api/settings`)).json()).camera.stream_url).toBe(cameraUrl);
 });
