@@ -10,7 +10,9 @@ a coarse planning grid never lets a perceived obstacle slip between two nodes. C
 planner's grid are left out (the camera sees past the arena's walls): they cannot block a path.
 
 `PerceptionMixin` is the part of the Gateway (cart2d/gateway/core.py) that holds the layer and
-the optional camera feed; core.py only builds its planner through `planner_for(map, layer)`.
+the optional camera feed (cart2d/gateway/camera.py: the command line's --camera for its run, or
+the saved settings' camera, which PUT /api/settings/camera and a settings file change at once);
+core.py only builds its planner with `with_perceived` and lets update_settings follow the camera.
 """
 
 from __future__ import annotations
@@ -119,7 +121,7 @@ def with_perceived(planner: Planner, layer: PerceivedLayer) -> Planner:
 class PerceptionMixin:
     """The Gateway's perceived layer and camera (see the module's docstring)."""
 
-    camera: CameraFeed | None = None  # set by the command line when there is a camera
+    camera: CameraFeed | None = None  # use_camera(): the command line, set_camera(), update_settings()
     perceived: PerceivedLayer = PerceivedLayer()
     _perceived_sent_s = 0.0
     _perceived_timer: threading.Timer | None = None
