@@ -15,7 +15,6 @@ import secrets
 import time
 from pathlib import Path
 from typing import Annotated, Literal
-from urllib.parse import urlsplit
 
 import platformdirs
 from pydantic import (
@@ -89,25 +88,29 @@ class NetworkSettings(BaseModel):
     port: Integer = Field(8080, ge=1, le=65535)
 
 
-def http_url(text: str) -> str:
-    parts = urlsplit(text)
-    if parts.scheme != "http" or not parts.hostname:
-        raise ValueError(f"an http:// URL with a host, got {text!r}")
-    return text
-
-
-CameraUrl = Annotated[str, AfterValidator(http_url)]
+# http://HOST[:PORT] as the schema can say it (a host name or IPv4, or an IPv6 address in brackets;
+# a port 1 to 65535), so that what the schema allows is taken
+_HOST = r"([A-Za-z0-9][A-Za-z0-9.-]*|\[[0-9A-Fa-f:.]+\])"
+_PORT = r"(:([1-9][0-9]{0,3}|[1-5][0-9]{4}|6[0-4][0-9]{3}|65[0-4][0-9]{2}|655[0-2][0-9]|6553[0-5]))?"
+CAMERA_BASE_URL = rf"^http://{_HOST}{_PORT}/?$"
+CAMERA_STREAM_URL = rf"^http://{_HOST}{_PORT}([/?][^\s#]*)?$"
 
 
 class CameraSettings(BaseModel):
     """The camera the gateway reads at start (cart2d serve's --camera / --camera-stream win)."""
 
     model_config = ConfigDict(extra="forbid", strict=True)
-    url: CameraUrl | None = Field(
-        None, max_length=300, description="the ESP32-CAM's base URL, http://HOST[:PORT] (stream on PORT + 1)"
+    url: str | None = Field(
+        None,
+        max_length=300,
+        pattern=CAMERA_BASE_URL,
+        description="the ESP32-CAM's base URL, http://HOST[:PORT] (stream on PORT + 1)",
     )
-    stream_url: CameraUrl | None = Field(
-        None, max_length=300, description="its MJPEG stream's URL outright (wins over url's)"
+    stream_url: str | None = Field(
+        None,
+        max_length=300,
+        pattern=CAMERA_STREAM_URL,
+        description="its MJPEG stream's URL outright (wins over url's)",
     )
 
 

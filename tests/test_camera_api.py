@@ -7,16 +7,20 @@ from __future__ import annotations
 import socket
 import threading
 from collections.abc import Iterator
-from typing import Any
+from types import SimpleNamespace
+from typing import Any, cast
 
 import cv2
 import numpy as np
 import pytest
+from fastapi import Depends, FastAPI
+from fastapi.testclient import TestClient
 
+from cart2d.gateway import Gateway
 from cart2d.gateway.camera import CameraFeed, Overlay, stream_url_for
 from cart2d.perception.mjpeg import Frame, MjpegReader
 from cart2d.server import create_app, serving
-from cart2d.server.camera import CAMERA_BACKLOG
+from cart2d.server.camera import CAMERA_BACKLOG, add_camera_routes
 from tests.conftest import wait_for
 from tests.mjpeg_server import MjpegServer
 from tests.test_server import Rig
@@ -151,8 +155,10 @@ def test_the_camera_set_through_the_api_is_saved_and_read_at_once(rig: Rig, came
     feed = rig.gateway.camera
     assert feed is not None
     for body, words in [
-        ({"url": "http://cam/stream"}, "url: the camera's URL is its base"),
-        ({"url": "ftp://cam"}, "url: Value error, an http:// URL"),
+        ({"url": "http://cam/stream"}, "url: String should match pattern '^http://"),
+        ({"url": "ftp://cam"}, "url: String should match pattern"),
+        ({"url": "http://cam:65536"}, "url: String should match pattern"),
+        ({"stream_url": "http://cam:81/a b"}, "stream_url: String should match pattern"),
         ({"stream_url": 81}, "stream_url"),
         ({"url": "http://cam", "extra": 1}, "extra"),
     ]:
@@ -173,7 +179,7 @@ def test_a_settings_file_with_a_camera_switches_to_it(rig: Rig, camera: MjpegSer
     wait_for(lambda: rig.client.get("/api/camera").json().get("connected") is True, 10.0)
     bad = {**file, "camera": {"url": "http://cam/stream"}}
     refused = rig.client.post("/api/settings/file", json=bad)
-    assert refused.status_code == 422 and "camera's URL is its base" in refused.json()["detail"]
+    assert refused.status_code == 422 and "camera.url" in refused.json()["detail"]
     assert rig.store.load().camera.stream_url == camera.url
     rig.gateway.use_camera(None)
 
@@ -188,3 +194,22 @@ def test_no_camera_through_the_api_stops_a_camera_the_command_line_gave(
     gone = rig.client.put("/api/settings/camera", json={"url": None, "stream_url": None})
     assert gone.status_code == 200 and gone.json()["camera"] is False
     assert rig.gateway.camera is None and not feed.reader.status()["connected"]
+
+
+def test_a_restream_without_frames_for_a_while_ends() -> None:
+    """The camera sends one frame and stalls: the panel's stream ends (it opens it again later)."""
+    with MjpegServer([[("frame", 1.0), ("stall", 60.0)]]) as stalled:
+        feed = CameraFeed(stalled.url, stale_after_s=60.0).start()
+        try:
+            wait_for(lambda: feed.shown() is not None, 10.0)
+            app = FastAPI()
+            holder = SimpleNamespace(camera=feed)
+            add_camera_routes(app, cast(Gateway, holder), Depends(lambda: None))
+            with TestClient(app) as client:
+                answer = client.get("/api/camera/stream")
+            assert answer.status_code == 200
+            assert answer.headers["content-type"] == "multipart/x-mixed-replace; boundary=cart2d-frame"
+            assert answer.content.count(b"--cart2d-frame\r\n") == 1
+            assert b"X-Timestamp: 1.000000\r\n" in answer.content
+        finally:
+            feed.stop()

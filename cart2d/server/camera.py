@@ -4,7 +4,7 @@ The ESP32-CAM streams to one client, the gateway; any number of panels watch the
 re-stream, /api/camera/stream. Each watcher has its own queue of the newest CAMERA_BACKLOG
 frames: one that reads slower than the camera sends loses the older frames (counted) and holds
 no more than that, while the others and the camera's reader go on undisturbed. At most
-MAX_CAMERA_VIEWERS at a time (503 beyond).
+MAX_CAMERA_VIEWERS at a time (503 beyond). A re-stream without a frame for STREAM_IDLE_S ends.
 """
 
 from __future__ import annotations
@@ -29,6 +29,9 @@ from cart2d.server.models import Strict, errors
 from cart2d.store import CameraSettings
 
 MAX_CAMERA_VIEWERS = 16
+# A re-stream that has had no frame for this long ends (the camera is away: a dropped Wi-Fi, a
+# wrong address); the panel opens it again once the camera is back. A live camera's never ends.
+STREAM_IDLE_S = 3.0
 CAMERA_BACKLOG = 2  # frames a watcher may be behind: the newest matter, not every one
 BOUNDARY = "cart2d-frame"
 NO_CAMERA = "this gateway has no camera: start it with --camera http://HOST (or --camera-stream URL)"
@@ -39,6 +42,21 @@ MAX_CELLS_IN = 10_000  # a request's cells (256 KiB of JSON)
 Metres = Annotated[float, StrictMark(), Field(allow_inf_nan=False, gt=-1048576.0, lt=1048576.0)]
 Occupied = Annotated[float, StrictMark(), Field(ge=OCCUPIED_P, le=1.0, allow_inf_nan=False)]
 PerceivedCellIn = Annotated[tuple[Metres, Metres, Occupied], StrictMark(False)]
+
+
+CAMERA_ERRORS = {
+    404: "no camera (start the gateway with --camera, or PUT /api/settings/camera), or no frame from it yet",
+    503: f"more than {MAX_CAMERA_VIEWERS} viewers of the camera at a time: try again later",
+}
+
+
+def camera_errors(*codes: int) -> dict[int | str, dict[str, Any]]:
+    """errors(), with what 404 and 503 mean for the camera."""
+    out = errors(*codes)
+    for code, words in CAMERA_ERRORS.items():
+        if code in out:
+            out[code] = {**out[code], "description": words}
+    return out
 
 
 class PerceptionIn(Strict):
@@ -100,7 +118,10 @@ class Watchers:
             if shown is not None:
                 watcher.put(shown)  # the newest frame at once, not after the camera's next
             while True:
-                await watcher.ready.wait()
+                try:
+                    await asyncio.wait_for(watcher.ready.wait(), STREAM_IDLE_S)
+                except TimeoutError:
+                    return  # no frame for a while: the camera is away
                 watcher.ready.clear()
                 while watcher.queue:
                     shown = watcher.queue.popleft()
@@ -145,18 +166,18 @@ def add_camera_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
     @app.get(
         "/api/camera/frame.jpg",
         summary="the newest frame, with what perception drew on it",
-        responses={200: {"content": {"image/jpeg": {}}}, **errors(404, 503)},
+        responses={200: {"content": {"image/jpeg": {}}}, **camera_errors(404)},
     )
     def frame() -> Response:
         shown = feed().shown()
         if shown is None:
-            raise HTTPException(503, "no frame from the camera yet")
+            raise HTTPException(404, "no frame from the camera yet: GET /api/camera says why")
         return Response(shown.jpeg, media_type="image/jpeg", headers={"Cache-Control": "no-store"})
 
     @app.get(
         "/api/camera/stream",
         summary="the camera's frames as MJPEG (multipart/x-mixed-replace), for any number of viewers",
-        responses={200: {"content": {"multipart/x-mixed-replace": {}}}, **errors(404, 503)},
+        responses={200: {"content": {"multipart/x-mixed-replace": {}}}, **camera_errors(404, 503)},
     )
     async def stream() -> StreamingResponse:
         parts = await watchers_of(feed()).stream()

@@ -41,6 +41,7 @@ export class CameraCard {
   private readonly state = $("camera-state");
   private readonly msg = $("perceived-msg");
   private streaming = false;
+  private connected = false; // at the last look: a stream that ended while the camera was away reopens
   private filled = false; // the form shows the gateway's camera once, then what the user types
 
   constructor(
@@ -81,8 +82,12 @@ export class CameraCard {
       this.streaming = false;
       return;
     }
-    if (!this.streaming) {
-      this.img.src = "/api/camera/stream"; // the browser decodes multipart/x-mixed-replace itself
+    const back = s.connected === true && !this.connected;
+    this.connected = s.connected === true;
+    if (!this.streaming || back) {
+      // the browser decodes multipart/x-mixed-replace itself; the gateway ends a stream that has
+      // had no frame for a few seconds, so it is opened again when the camera is back
+      this.img.src = `/api/camera/stream?since=${Date.now()}`;
       this.streaming = true;
     }
     const age = s.age_s === null || s.age_s === undefined ? "no frame yet" : `last frame ${s.age_s.toFixed(1)} s ago`;
