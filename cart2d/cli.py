@@ -19,6 +19,7 @@ from cart2d import faults as fault_table
 from cart2d.calibrate import add_arguments as add_calibrate_arguments
 from cart2d.calibrate import main_calibrate
 from cart2d.gateway import Gateway
+from cart2d.gateway.camera import CameraFeed
 from cart2d.link import Link, LinkError, ports
 from cart2d.perception.calibrate_command import add_arguments as add_camera_calibrate_arguments
 from cart2d.perception.calibrate_command import main_camera_calibrate
@@ -49,6 +50,42 @@ def _network_args(parser: argparse.ArgumentParser) -> None:
         metavar="NAME",
         help="also answer to this Host name (a reverse proxy's, a DNS name of this machine); repeatable",
     )
+
+
+def _camera_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--camera",
+        type=cli_args.camera_url,
+        metavar="URL",
+        help="the ESP32-CAM's base URL, http://HOST[:PORT] (stock CameraWebServer: stream on PORT + 1)",
+    )
+    parser.add_argument(
+        "--camera-stream",
+        type=cli_args.camera_stream_url,
+        metavar="URL",
+        help="the camera's MJPEG stream URL outright (ESPHome's esp32_camera_web_server, other cameras)",
+    )
+
+
+def _attach_camera(gateway: Gateway, args: argparse.Namespace) -> None:
+    """The camera of --camera / --camera-stream (this run only), else the saved one (PUT
+    /api/settings/camera), read from now on (closed with the gateway)."""
+    saved = gateway.settings.camera
+    try:
+        if args.camera or args.camera_stream:
+            feed = CameraFeed.of(args.camera, args.camera_stream)
+        else:
+            feed = CameraFeed.of(saved.url, saved.stream_url)
+    except ValueError as exc:
+        log.warning("the saved camera is not used: %s", exc)
+        return
+    if feed is not None:
+        gateway.use_camera(feed.start())
+        log.info("camera stream %s", feed.reader.url)
+
+
+def _detach_camera(gateway: Gateway) -> None:
+    gateway.use_camera(None)  # lets the camera go: it streams to one client at a time
 
 
 class Listening:
@@ -152,6 +189,9 @@ def cmd_sim(args: argparse.Namespace) -> int:
             with recording_cli.live_session(gateway, args):
                 _connect(gateway, 5.0)
                 gateway.start()
+                if camera and not (args.camera or args.camera_stream):
+                    args.camera = camera.url  # the simulated ESP32-CAM, read as a real one is
+                _attach_camera(gateway, args)
                 on = f"; faults: {', '.join(f'{k}={v:g}' for k, v in faults.items())}" if faults else ""
                 print(
                     f"simulator running ({args.speed}x real time{on}), robot serial port {sim.pty}, "
@@ -167,6 +207,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
                     )
                 _serve(gateway, where, args.allow_host)
         finally:
+            _detach_camera(gateway)
             gateway.close()
             link.close()
             if camera:
@@ -229,8 +270,10 @@ def cmd_serve(args: argparse.Namespace) -> int:
             with recording_cli.live_session(gateway, args):
                 _connect(gateway, 5.0)
                 gateway.start()
+                _attach_camera(gateway, args)
                 _serve(gateway, where, args.allow_host)
         finally:
+            _detach_camera(gateway)
             gateway.close()
             link.close()
     return 0
@@ -286,6 +329,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(default 8180)",
     )
     sim.add_argument("--no-camera", action="store_true", help="run without the simulated camera")
+    _camera_args(sim)
     sim.set_defaults(run=cmd_sim)
 
     serve = sub.add_parser("serve", help="the gateway and panel for a real cart on a serial port")
@@ -298,6 +342,7 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--baud", type=int, default=115200)
     _network_args(serve)
     recording_cli.add_live_arguments(serve)
+    _camera_args(serve)
     serve.set_defaults(run=cmd_serve)
 
     mission = sub.add_parser("mission", help="run a mission in the simulator and write a report")

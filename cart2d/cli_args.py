@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import math
 from typing import NoReturn
+from urllib.parse import urlsplit
 
 from cart2d import __version__
 from cart2d.spec import load_spec
@@ -75,6 +76,24 @@ def seed(text: str) -> int:
     if not 0 <= value <= SEED_MAX:
         raise argparse.ArgumentTypeError(f"{text!r} is not a seed: give a whole number from 0 to 2^64 - 1")
     return value
+
+
+def camera_url(text: str) -> str:
+    """The camera's base URL (http://HOST[:PORT]), checked as its stream's URL is made from it."""
+    from cart2d.gateway.camera import stream_url_for
+
+    try:
+        stream_url_for(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
+
+
+def camera_stream_url(text: str) -> str:
+    parts = urlsplit(text)
+    if parts.scheme != "http" or not parts.hostname:
+        raise argparse.ArgumentTypeError(f"the camera's stream must be an http:// URL, got {text!r}")
+    return text
 
 
 def version_text() -> str:

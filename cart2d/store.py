@@ -88,6 +88,32 @@ class NetworkSettings(BaseModel):
     port: Integer = Field(8080, ge=1, le=65535)
 
 
+# http://HOST[:PORT] as the schema can say it (a host name or IPv4, or an IPv6 address in brackets;
+# a port 1 to 65535), so that what the schema allows is taken
+_HOST = r"([A-Za-z0-9][A-Za-z0-9.-]*|\[[0-9A-Fa-f:.]+\])"
+_PORT = r"(:([1-9][0-9]{0,3}|[1-5][0-9]{4}|6[0-4][0-9]{3}|65[0-4][0-9]{2}|655[0-2][0-9]|6553[0-5]))?"
+CAMERA_BASE_URL = rf"^http://{_HOST}{_PORT}/?$"
+CAMERA_STREAM_URL = rf"^http://{_HOST}{_PORT}([/?][^\s#]*)?$"
+
+
+class CameraSettings(BaseModel):
+    """The camera the gateway reads at start (cart2d serve's --camera / --camera-stream win)."""
+
+    model_config = ConfigDict(extra="forbid", strict=True)
+    url: str | None = Field(
+        None,
+        max_length=300,
+        pattern=CAMERA_BASE_URL,
+        description="the ESP32-CAM's base URL, http://HOST[:PORT] (stream on PORT + 1)",
+    )
+    stream_url: str | None = Field(
+        None,
+        max_length=300,
+        pattern=CAMERA_STREAM_URL,
+        description="its MJPEG stream's URL outright (wins over url's)",
+    )
+
+
 Metres = Annotated[float, Field(allow_inf_nan=False, ge=-100_000.0, le=100_000.0)]
 # A floor plan's cells as text: base64 of zlib data, 2000 x 2000 cells deflate to far less.
 MAX_CELLS_TEXT = 8 * 1024 * 1024
@@ -181,6 +207,7 @@ class GatewaySettings(BaseModel):
     version: Literal[1] = 1
     network: NetworkSettings = Field(default_factory=NetworkSettings)
     map: MapSettings = Field(default_factory=MapSettings)
+    camera: CameraSettings = Field(default_factory=CameraSettings)
     token: str | None = Field(None, min_length=16, max_length=128)
 
 

@@ -44,7 +44,8 @@ SEED = 20261121
 # the *current* map (which /api/settings/file changes at run time), blocked or unreachable; a pose
 # beyond the current arena's walls; a settings file whose obstacles lie off its own grid; a HEX file
 # with bad records or checksums; a map whose image or YAML cannot be read; a network host that is
-# neither an IP address nor a host name (the schema's pattern gives only its characters). Only for
+# neither an IP address nor a host name (the schema's pattern gives only its characters); a camera
+# URL whose bracketed IPv6 address is none (the pattern gives only its characters). Only for
 # these does positive_data_acceptance take 422 as well (its defaults, plus 422); every other check,
 # including that the 422 is documented and its body matches the documented schema, applies as
 # everywhere.
@@ -56,6 +57,7 @@ SEMANTIC_REFUSALS = [
     "POST /api/settings/file",
     "POST /api/firmware/update",
     "PUT /api/settings/network",
+    "PUT /api/settings/camera",
 ]
 POSITIVE_DATA_STATUSES = ["2xx", "3xx", "401", "403", "404", "409", "422", "429", "5xx"]
 

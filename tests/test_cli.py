@@ -74,6 +74,12 @@ def test_version_names_the_package_and_the_protocol(tmp_path: Path) -> None:
         (["sim", "--host", "evil host"], "argument --host: 'evil host'"),
         (["mission", "m.json", "--speed", "nan"], "argument --speed: 'nan' is not a speed"),
         (["calibrate", "--sim", "--speed", "-2"], "argument --speed: '-2' is not a speed"),
+        (
+            ["serve", "--serial", "x", "--camera", "http://cam/stream"],
+            "argument --camera: the camera's URL is",
+        ),
+        (["sim", "--camera", "rtsp://cam"], "argument --camera: the camera's URL must be http://"),
+        (["serve", "--serial", "x", "--camera-stream", "cam:81"], "argument --camera-stream: the camera's"),
     ],
 )
 def test_bad_option_values_are_one_sentence(tmp_path: Path, args: list[str], words: str) -> None:

@@ -41,6 +41,7 @@ class LiveGateway(GatewayProcess):
         status = self.get_json("/api/status")
         return {
             "map": self.get_json("/api/map"),
+            "perception": self.get_json("/api/perception"),
             "settings.json": (self.home / "settings.json").read_bytes()
             if (self.home / "settings.json").exists()
             else None,
@@ -91,6 +92,10 @@ ATTACKS: dict[str, bytes] = {
     "POST /api/settings/file": b'{"version": 1, "network": {"host": "0.0.0.0", "port": 8080}, '
     b'"map": {"cols": 10, "rows": 10, "step_m": 0.2, "obstacles": []}}',
     "PUT /api/sim/faults": b'{"uart_rx_drop": 1}',  # would cut the robot off
+    # a wall of perceived cells across the arena, or perception off
+    "PUT /api/perception": b'{"enabled": false, "cells": [[1.0, 0.0, 1.0], [1.0, 0.2, 1.0]]}',
+    "POST /api/perception/clear": b"",
+    "PUT /api/settings/camera": b'{"stream_url": "http://127.0.0.1:9/stream"}',  # a camera of theirs
     # a 4 x 4 m floor plan with a wall (a PGM of 40 x 40 cells at 0.1 m)
     "POST /api/map": b'{"resolution_m": 0.1, "image": "'
     + base64.b64encode(b"P5 40 40 255\n" + bytes([254] * 800 + [0] * 40 + [254] * 760))

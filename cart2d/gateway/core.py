@@ -36,6 +36,7 @@ from dataclasses import asdict
 from typing import Any
 
 from cart2d.gateway.live_map import Replan, RouteAhead, arena, planner_for, world_for
+from cart2d.gateway.perceived import PerceptionMixin, with_perceived
 from cart2d.gateway.state import (
     BUSY_POLL_S,
     RESET_POSE_SETTINGS,
@@ -79,7 +80,7 @@ def _walls_of(m: MapSettings) -> tuple[object, ...]:
     return (m.floor_plan, m.cols, m.rows, m.step_m, m.origin_m)
 
 
-class Gateway:
+class Gateway(PerceptionMixin):  # the perceived layer and the camera: perceived.py
     def __init__(
         self, link: Link, store: Store, settings: GatewaySettings, sim: Simulator | None = None
     ) -> None:
@@ -285,7 +286,8 @@ class Gateway:
     def update_settings(self, settings: GatewaySettings, why: str = "new settings were loaded") -> None:
         """Replaces the gateway's settings (a new map takes effect now) and saves them."""
         with self._lock:
-            planner = planner_for(settings.map)  # validates the map before anything changes
+            planner = with_perceived(planner_for(settings.map), self.perceived)  # validates the map first
+            camera = self._camera_change(settings)  # and the camera (perceived.py)
             self.store.save(settings)
             new_map = settings.map != self.settings.map
             # Only new walls replace the simulated world: an obstacle drawn on the map must not
@@ -293,6 +295,7 @@ class Gateway:
             new_walls = new_map and _walls_of(settings.map) != _walls_of(self.settings.map)
             self.settings = settings
             self.planner = planner
+            self._apply_camera(camera)
             if new_walls:
                 self._sync_world()
             if new_map:

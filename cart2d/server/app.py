@@ -29,6 +29,7 @@ from cart2d.maps.ros import image_bytes
 from cart2d.planning import PlanError
 from cart2d.server import api_docs, guards
 from cart2d.server.admin import add_admin_routes
+from cart2d.server.camera import add_camera_routes
 from cart2d.server.guards import is_loopback
 from cart2d.server.live import Viewers
 from cart2d.server.models import (
@@ -383,6 +384,7 @@ def create_app(
         return gateway.flasher.job.view()
 
     add_admin_routes(app, gateway, Guarded)
+    add_camera_routes(app, gateway, Guarded)
 
     # -- live data ---------------------------------------------------------------------------
     @app.websocket("/ws")

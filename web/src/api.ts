@@ -172,7 +172,24 @@ export type LiveMessage =
   | ({ type: "reset"; pose_trust: PoseTrust } & ResetReport)
   | ({ type: "pose_trust"; how: string } & PoseTrust)
   | ({ type: "routine" } & RoutineView)
-  | { type: "map"; version: number; why: string };
+  | { type: "map"; version: number; why: string }
+  | PerceivedMessage
+  | CameraMessage;
+
+/** The live map's perceived layer (GET /api/perception, /ws "perceived"): [x, y, p_occupied]. */
+export interface PerceivedMessage {
+  type: "perceived";
+  resolution: number;
+  cells: [number, number, number][];
+}
+
+/** A processed camera frame (/ws "camera"): its field of view and the obstacle bases it saw, map m. */
+export interface CameraMessage {
+  type: "camera";
+  t: number | null;
+  fov: Point[];
+  hits: Point[];
+}
 
 /** A failed request, with the gateway's {"detail": ...} (or what went wrong) as its message. */
 export class ApiError extends Error {

@@ -17,6 +17,7 @@ import {
 } from "./api";
 import { GatewayPanel } from "./admin";
 import { CommandForm } from "./command";
+import { CameraCard } from "./camera";
 import { byId as $, say } from "./dom";
 import { Driver } from "./drive";
 import { SimFaults } from "./faults";
@@ -156,6 +157,7 @@ const liveMap = new LiveMap(
   { click: (world, node) => void mapClick(world, node), setPose: (p) => void setPoseFromMap(p) },
   $("map-cursor"),
 );
+new CameraCard(ctx, liveMap);
 let mapMode: MapMode = "obstacle";
 let missionState = "";
 const MAP_HINTS: Record<MapMode, string> = {
@@ -363,6 +365,12 @@ function onMessage(msg: LiveMessage): void {
       break;
     case "routine":
       restartNotice.onRoutine(msg);
+      break;
+    case "perceived":
+      liveMap.setPerceived(msg.resolution, msg.cells);
+      break;
+    case "camera":
+      liveMap.setCamera(msg.fov, msg.hits);
       break;
   }
 }

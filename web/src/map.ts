@@ -62,6 +62,9 @@ export class LiveMap {
   private readonly trail: Point[] = [];
   private readonly truthTrail: Point[] = [];
   private obstacleKeys = new Set<string>();
+  private perceived: { resolution: number; cells: [number, number, number][] } = { resolution: 0.05, cells: [] };
+  private fov: Point[] = [];
+  private hits: Point[] = [];
   private readonly view = new Viewport();
   private cssW = 200;
   private cssH = 200;
@@ -120,6 +123,21 @@ export class LiveMap {
     }
     if (newExtent) this.view.fitted = true;
     this.resize();
+  }
+
+  /** What the camera believes occupied: drawn apart from the user's obstacles, opacity = p. */
+  setPerceived(resolution: number, cells: [number, number, number][]): void {
+    this.perceived = { resolution, cells };
+    this.canvas.dataset["perceived"] = String(cells.length);
+    this.invalidate();
+  }
+
+  /** The camera's field of view and the obstacle bases of its last processed frame. */
+  setCamera(fov: Point[], hits: Point[]): void {
+    this.fov = fov;
+    this.hits = hits;
+    this.canvas.dataset["fov"] = String(fov.length);
+    this.invalidate();
   }
 
   hasObstacle(node: Point): boolean {
@@ -438,9 +456,12 @@ export class LiveMap {
       wall: cssVar("--map-wall", "#475569", css),
       text: cssVar("--muted", "#64748b", css),
       band: cssVar("--map-axis-band", "rgba(127,127,127,0.08)", css),
+      perceived: cssVar("--map-perceived", "#9333ea", css),
+      fov: cssVar("--map-fov", "#0891b2", css),
     };
 
     if (m) this.drawMap(ctx, m, s, colors);
+    this.drawPerception(ctx, s, colors);
     this.drawPaths(ctx, colors);
 
     const radius = (m?.footprint_radius_m ?? 0.17) * s;
@@ -531,6 +552,43 @@ export class LiveMap {
       ctx.strokeStyle = colors["robot"] ?? "";
       ctx.lineWidth = 1.5;
       ctx.strokeRect(px - half - 2, py - half - 2, 2 * half + 4, 2 * half + 4);
+    }
+  }
+
+  private drawPerception(ctx: CanvasRenderingContext2D, s: number, colors: Record<string, string>): void {
+    // perceived cells: squares in their own colour (not the obstacles'), as opaque as they are certain
+    const half = Math.max(1, (this.perceived.resolution * s) / 2);
+    ctx.fillStyle = colors["perceived"] ?? "";
+    for (const [x, y, p] of this.perceived.cells) {
+      const [px, py] = this.toScreen(x, y);
+      ctx.globalAlpha = Math.min(Math.max(p, 0.15), 1);
+      ctx.fillRect(px - half, py - half, 2 * half, 2 * half);
+    }
+    ctx.globalAlpha = 1;
+    if (this.fov.length >= 3) {
+      ctx.strokeStyle = colors["fov"] ?? "";
+      ctx.fillStyle = colors["fov"] ?? "";
+      ctx.setLineDash([6, 4]);
+      ctx.lineWidth = 1.5;
+      ctx.beginPath();
+      this.fov.forEach(([x, y], k) => {
+        const [px, py] = this.toScreen(x, y);
+        if (k === 0) ctx.moveTo(px, py);
+        else ctx.lineTo(px, py);
+      });
+      ctx.closePath();
+      ctx.globalAlpha = 0.08;
+      ctx.fill();
+      ctx.globalAlpha = 1;
+      ctx.stroke();
+      ctx.setLineDash([]);
+    }
+    ctx.fillStyle = colors["perceived"] ?? "";
+    for (const [x, y] of this.hits) {
+      const [px, py] = this.toScreen(x, y);
+      ctx.beginPath();
+      ctx.arc(px, py, 2, 0, 2 * Math.PI);
+      ctx.fill();
     }
   }
 

@@ -33,10 +33,14 @@ const ROUTES: [string, string, string][] = [
   ["POST", "/api/drive", '{"v": 0.3, "omega": 0.0}'],
   ["POST", "/api/stop", ""],
   ["PUT", "/api/sim/faults", '{"uart_rx_drop": 1}'],
+  ["PUT", "/api/perception", '{"enabled": false, "cells": [[1.0, 0.0, 1.0], [1.0, 0.2, 1.0]]}'],
+  ["POST", "/api/perception/clear", ""],
+  ["PUT", "/api/settings/camera", '{"stream_url": "http://127.0.0.1:9/stream"}'],
 ];
 
 interface Snapshot {
   map: unknown;
+  perception: unknown;
   settingsFile: string | null;
   firmwareUpdate: string;
   restartsNoticed: number;
@@ -58,6 +62,7 @@ async function snapshot(gw: Gateway): Promise<Snapshot> {
   const file = join(gw.home, "settings.json");
   return {
     map: await get("/api/map"),
+    perception: await get("/api/perception"),
     settingsFile: existsSync(file) ? readFileSync(file, "utf8") : null,
     firmwareUpdate: ((await get("/api/firmware/update")) as { state: string }).state,
     restartsNoticed: status.reset.noticed,

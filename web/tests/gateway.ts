@@ -41,14 +41,18 @@ async function stopChild(child: ChildProcess): Promise<void> {
   clearTimeout(timer);
 }
 
-// Starts `cart2d sim --speed 1` bound to `host` (127.0.0.1 unless given).
-export async function startGateway(host = "127.0.0.1", prefix = "cart2d-panel-"): Promise<Gateway> {
+// Starts `cart2d sim --speed 1` bound to `host` (127.0.0.1 unless given), with `extra` options.
+export async function startGateway(
+  host = "127.0.0.1",
+  prefix = "cart2d-panel-",
+  extra: string[] = [],
+): Promise<Gateway> {
   const cart2d = join(ROOT, "build", "venv", "bin", "cart2d");
   if (!existsSync(cart2d)) throw new Error(`${cart2d} is missing: run make python-env sim firmware`);
   const home = mkdtempSync(join(tmpdir(), prefix));
   const port = await freePort();
   let output = "";
-  const child = spawn(cart2d, ["sim", "--speed", "1", "--host", host, "--port", String(port)], {
+  const child = spawn(cart2d, ["sim", "--speed", "1", "--host", host, "--port", String(port), ...extra], {
     cwd: ROOT,
     env: { ...process.env, CART2D_HOME: home },
     stdio: ["ignore", "pipe", "pipe"],
