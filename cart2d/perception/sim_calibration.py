@@ -1,0 +1,143 @@
+"""`cart2d camera calibrate --sim`: the calibration against the simulated camera, which places the
+checkerboard itself (Simulator.place_target) where a person would hold it and takes the frame
+captured after it was placed (the camera's latency: a frame in flight still shows the board where
+it was). The views and the maths are the real camera's (calibrate_command.calibrate).
+
+Conventions shared with the simulator (sim/README.md, "The camera"), checked by
+tests/test_perception_sim.py: a placement (R, t) puts inner corner (i, j) of a cols x rows
+INNER-corner board at R @ (i * square_m, j * square_m, 0) + t in the world, which is what
+Board.from_rotation takes; the cart's base_link is the world moved by the cart's true pose.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from cart2d.params import robot
+from cart2d.perception.calibrate_command import Image, Placement, Pose, board_placements, calibrate
+from cart2d.perception.calibration import Board, CameraCalibration, GroundBoard
+from cart2d.perception.camera_model import Intrinsics, Mount
+from cart2d.simulation.controls import Board as SimBoard
+from cart2d.simulator import SimOptions, Simulator, World
+
+# A board held in the air must stay above the floor, which a camera 0.25 m up looking 25 degrees
+# down sees from about 0.35 m on: the held board is smaller than the floor board (9 x 6 corners
+# of 15 mm fit at 0.27-0.35 m in every part of the picture; 30 mm ones fit nowhere but the top).
+HELD_SQUARE_M = 0.015
+FLOOR_SQUARE_M = 0.03
+# The simulated room: walls far enough to stay out of the way of the boards (the arena's nearest
+# wall, 0.25 m to the side, would cut into the views).
+ROOM = (-2.0, -2.0, 4.0, 2.0)
+FRAME_TIMEOUT_S = 10.0
+
+
+def simulated_lens(mount: Mount | None = None) -> Intrinsics:
+    """The lens the simulator renders with (sim/README.md, "The camera"): the nominal pinhole of
+    [camera] (fx = fy from hfov, the principal point in the middle) and [sim.camera]'s k1, k2."""
+    nominal = Intrinsics.nominal(mount)
+    lens = robot()["sim"]["camera"]
+    dist = (float(lens["k1"]), float(lens["k2"]), 0.0, 0.0, 0.0)
+    return Intrinsics(nominal.width, nominal.height, nominal.fx, nominal.fy, nominal.cx, nominal.cy, dist)
+
+
+def decode(jpeg: bytes) -> Image:
+    image = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
+    if image is None:
+        raise ValueError("the simulated camera sent a frame that is not a JPEG")
+    return np.asarray(image, dtype=np.uint8)
+
+
+@dataclass
+class SimCamera:
+    """A simulator (paused, advanced by run_for) with its camera on, taking pictures on demand."""
+
+    sim: Simulator
+    fps: float
+    latency_s: float
+    last_seq: int = -1
+
+    @classmethod
+    def on(cls, sim: Simulator) -> SimCamera:
+        settings = sim.camera(True)
+        return cls(sim, float(settings["fps"]), float(settings["latency_ms"]) / 1000.0)
+
+    def cart(self) -> Pose:
+        truth = self.sim.truth()
+        return float(truth["x"]), float(truth["y"]), float(truth["theta"])
+
+    def picture(self) -> Image:
+        """A frame captured after this call: everything changed before it is in the picture."""
+        since = float(self.sim.truth()["t"])
+        # one frame period to the next capture, the latency for it to arrive, and a frame to spare
+        self.sim.run_for(2.0 / self.fps + self.latency_s)
+        while True:
+            frame = self.sim.wait_frame(self.last_seq, FRAME_TIMEOUT_S)
+            self.last_seq = frame.seq
+            if frame.t >= since:
+                return decode(frame.jpeg)
+
+    def with_board(self, board: Board, placement: Placement) -> Image:
+        r, t = placement
+        self.sim.place_target(
+            SimBoard.from_rotation(r.tolist(), t.tolist(), board.cols, board.rows, board.square_m)
+        )
+        return self.picture()
+
+
+def sim_views(
+    camera: SimCamera, board: Board, ground: GroundBoard, n: int, mount: Mount
+) -> tuple[Iterator[Image], Callable[[], Image]]:
+    """The simulated camera's views of the held board (board_placements, above the floor) and of
+    the board on the floor, for the cart where it stands."""
+    held, on_floor = board_placements(board, ground, n, mount, camera.cart(), above_floor=True)
+
+    def views() -> Iterator[Image]:
+        for placement in held:
+            yield camera.with_board(board, placement)
+
+    def floor_view() -> Image:
+        return camera.with_board(ground.board, on_floor)
+
+    return views(), floor_view
+
+
+def sim_options(eeprom: Path | None = None, seed: int = 1) -> SimOptions:
+    """A paused simulator in a room with nothing but far walls, the cart at the origin."""
+    return SimOptions(
+        speed="max",
+        seed=seed,
+        paused=True,
+        quiet=True,
+        eeprom=eeprom,
+        world=World(boundary=ROOM),
+        start=(0.0, 0.0, 0.0),
+    )
+
+
+def calibrate_in_simulator(
+    board: Board,
+    ground: GroundBoard,
+    n: int,
+    mount: Mount,
+    options: SimOptions | None = None,
+    say: Callable[[str], None] = print,
+) -> CameraCalibration:
+    """Starts a simulator, turns its camera on, places the board at each view and on the floor,
+    calibrates; the simulator is stopped whatever happens."""
+    with Simulator(options or sim_options()) as sim:
+        camera = SimCamera.on(sim)
+        views, floor_view = sim_views(camera, board, ground, n, mount)
+        return calibrate(views, floor_view, board, ground, mount, say)
+
+
+def describe_truth(mount: Mount) -> str:
+    truth = simulated_lens(mount)
+    return (
+        f"the simulated lens is fx {truth.fx:.1f} fy {truth.fy:.1f} cx {truth.cx:.1f} cy {truth.cy:.1f} px, "
+        f"k1 {truth.dist[0]:.3f} k2 {truth.dist[1]:.3f} (config/robot.toml [camera], [sim.camera])"
+    )
