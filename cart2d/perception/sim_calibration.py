@@ -21,7 +21,8 @@ import numpy as np
 from cart2d.params import robot
 from cart2d.perception.calibrate_command import Image, Placement, Pose, board_placements, calibrate
 from cart2d.perception.calibration import Board, CameraCalibration, GroundBoard
-from cart2d.perception.camera_model import Intrinsics, Mount
+from cart2d.perception.camera_model import FloatArray, Intrinsics, Mount
+from cart2d.perception.synthetic import true_pixels
 from cart2d.simulation.controls import Board as SimBoard
 from cart2d.simulator import SimOptions, Simulator, World
 
@@ -141,3 +142,21 @@ def describe_truth(mount: Mount) -> str:
         f"the simulated lens is fx {truth.fx:.1f} fy {truth.fy:.1f} cx {truth.cx:.1f} cy {truth.cy:.1f} px, "
         f"k1 {truth.dist[0]:.3f} k2 {truth.dist[1]:.3f} (config/robot.toml [camera], [sim.camera])"
     )
+
+
+def ground_errors(calibration: CameraCalibration, mount: Mount, range_m: float) -> FloatArray:
+    """How far (m) the calibrated model puts floor points `range_m` ahead of the lens's foot from
+    where they are, across the width of the picture: each point's raw pixel from the simulator's
+    true lens and mount (sim/README.md, "The camera"; tests/test_sim_camera.py checks the rendered
+    pictures against the same model to a fraction of a pixel), projected back to the floor."""
+    x = mount.x_m + range_m
+    across = np.linspace(-1.0, 1.0, 81) * x  # wider than the picture: those outside are dropped
+    floor = np.column_stack([np.full_like(across, x), mount.y_m + across])
+    raw = true_pixels(simulated_lens(mount), mount, floor)
+    inside = (raw[:, 0] >= 0) & (raw[:, 0] <= mount.width_px - 1) & (raw[:, 1] >= 0)
+    inside &= raw[:, 1] <= mount.height_px - 1
+    if not inside.any():
+        return np.zeros(0)
+    seen, valid = calibration.pixels_to_ground(raw[inside])
+    errors = np.linalg.norm(seen - floor[inside], axis=1)
+    return np.where(valid, errors, np.inf)
