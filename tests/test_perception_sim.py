@@ -30,7 +30,7 @@ from cart2d.perception.sim_calibration import (
     sim_options,
     simulated_lens,
 )
-from cart2d.simulator import Box, Simulator
+from cart2d.simulator import Box, SimOptions, Simulator, arena_world
 from tests.conftest import _require_builds
 
 MOUNT = Mount.from_robot()
@@ -169,3 +169,31 @@ def test_the_command_calibrates_against_the_simulator(
     said = capsys.readouterr().out
     assert "RMS reprojection error" in said and "the simulated lens is" in said
     assert load_calibration(out, MOUNT).calibrated
+
+
+def test_the_command_calibrates_against_a_running_simulator(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`--sim --sim-address`: a simulator that runs by itself (as `cart2d sim`'s, in the arena,
+    the nearest wall 0.25 m to the cart's right), reached at its side channel; the board is taken
+    away afterwards."""
+    out = tmp_path / "camera.json"
+    options = SimOptions(
+        speed="max", eeprom=tmp_path / "eeprom.bin", world=arena_world(10, 10, 0.2), start=(0.0, 0.0, 0.0)
+    )
+    _require_builds()
+    with Simulator(options) as sim:
+        address = ["--sim-address", sim.control_address]
+        assert cli.main(["camera", "calibrate", "--sim", *address, "--out", str(out)]) == 0
+        after = SimCamera.on(sim).picture()
+    said = capsys.readouterr().out
+    assert said.count("board found") == SIM_VIEWS
+    result = load_calibration(out, MOUNT)
+    assert result.rms_px is not None and result.rms_px < 0.5
+    assert result.intrinsics.fx == pytest.approx(simulated_lens(MOUNT).fx, rel=0.01)
+    assert find_corners(after, ON_FLOOR.board) is None and find_corners(after, HELD) is None
+
+
+def test_sim_address_goes_with_sim(capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli.main(["camera", "calibrate", "--synthetic", "--sim-address", "127.0.0.1:1"]) == 2
+    assert "--sim-address goes with --sim" in capsys.readouterr().err

@@ -346,6 +346,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--sim", action="store_true", help="the simulated camera (a simulator of its own places the board)"
     )
     where.add_argument("--synthetic", action="store_true", help="a dry run on rendered views of a known lens")
+    parser.add_argument(
+        "--sim-address",
+        metavar="HOST:PORT",
+        help="with --sim: a running `cart2d sim`'s side channel (it prints it), not a simulator of its own",
+    )
     parser.add_argument("--board", type=_board, default=(9, 6), help="inner corners, COLSxROWS (default 9x6)")
     parser.add_argument(
         "--square-m",
@@ -368,9 +373,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main_camera_calibrate(args: argparse.Namespace, say: Callable[[str], None] = print) -> int:
-    sim = bool(getattr(args, "sim", False))
+    sim = bool(args.sim)
     views_wanted = args.views if args.views is not None else (SIM_VIEWS if sim else 12)
     square_m = args.square_m if args.square_m is not None else 0.03
+    if args.sim_address and not sim:
+        print("cart2d camera calibrate: --sim-address goes with --sim", file=sys.stderr)
+        return 2
     if views_wanted < MIN_VIEWS or not 0.01 <= square_m <= 0.2:
         print(
             f"cart2d camera calibrate: --views at least {MIN_VIEWS}, --square-m from 0.01 to 0.2",
@@ -385,6 +393,7 @@ def main_camera_calibrate(args: argparse.Namespace, say: Callable[[str], None] =
             from cart2d.perception.sim_calibration import (
                 HELD_SQUARE_M,
                 calibrate_in_simulator,
+                calibrate_running_simulator,
                 describe_truth,
             )
             from cart2d.simulation.controls import CameraTimeout
@@ -392,7 +401,12 @@ def main_camera_calibrate(args: argparse.Namespace, say: Callable[[str], None] =
 
             held = board if args.square_m is not None else Board(board.cols, board.rows, HELD_SQUARE_M)
             try:
-                result = calibrate_in_simulator(held, ground, views_wanted, mount, say=say)
+                if args.sim_address:
+                    result = calibrate_running_simulator(
+                        args.sim_address, held, ground, views_wanted, mount, say
+                    )
+                else:
+                    result = calibrate_in_simulator(held, ground, views_wanted, mount, say=say)
             except (SimulatorError, CameraTimeout) as exc:
                 raise ValueError(f"the simulator: {exc}") from exc
             say(describe_truth(mount))

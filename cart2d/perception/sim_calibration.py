@@ -11,9 +11,12 @@ Board.from_rotation takes; the cart's base_link is the world moved by the cart's
 
 from __future__ import annotations
 
+import contextlib
+import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -24,7 +27,8 @@ from cart2d.perception.calibration import Board, CameraCalibration, GroundBoard
 from cart2d.perception.camera_model import FloatArray, Intrinsics, Mount
 from cart2d.perception.synthetic import true_pixels
 from cart2d.simulation.controls import Board as SimBoard
-from cart2d.simulator import SimOptions, Simulator, World
+from cart2d.simulation.controls import CameraControls
+from cart2d.simulator import SideChannel, SimOptions, Simulator, SimulatorError, World
 
 # A board held in the air must stay above the floor, which a camera 0.25 m up looking 25 degrees
 # down sees from about 0.35 m on: the held board is smaller than the floor board (9 x 6 corners
@@ -35,6 +39,7 @@ FLOOR_SQUARE_M = 0.03
 # wall, 0.25 m to the side, would cut into the views).
 ROOM = (-2.0, -2.0, 4.0, 2.0)
 FRAME_TIMEOUT_S = 10.0
+MAX_DRIFT_M, MAX_DRIFT_DEG = 0.002, 0.2  # the cart standing still: a running simulator's cart may not
 
 
 def simulated_lens(mount: Mount | None = None) -> Intrinsics:
@@ -53,34 +58,65 @@ def decode(jpeg: bytes) -> Image:
     return np.asarray(image, dtype=np.uint8)
 
 
+class RunningSim(CameraControls):
+    """A simulator that runs already (`cart2d sim`), reached at the side channel it prints: its
+    time goes on by itself, the cart stands where the user left it, the world is the user's."""
+
+    def __init__(self, address: str) -> None:
+        self.side: SideChannel | None = SideChannel(address)
+
+    def control(self, kind: str, **members: Any) -> dict[str, Any]:
+        if self.side is None:
+            raise SimulatorError("the side channel is closed")
+        return self.side.request({"type": kind, **members})
+
+    def close(self) -> None:
+        if self.side is not None:
+            with contextlib.suppress(SimulatorError, OSError):
+                self.control("target", board=None)
+                self.control("camera", on=False)
+            self.side.close()
+            self.side = None
+
+
 @dataclass
 class SimCamera:
-    """A simulator (paused, advanced by run_for) with its camera on, taking pictures on demand."""
+    """A simulator's camera, on, taking pictures on demand. `advance` runs a paused simulator
+    for so many simulated seconds (Simulator.run_for); None: the simulator runs by itself."""
 
-    sim: Simulator
+    sim: CameraControls
     fps: float
     latency_s: float
+    advance: Callable[[float], object] | None = None
     last_seq: int = -1
 
     @classmethod
-    def on(cls, sim: Simulator) -> SimCamera:
+    def on(cls, sim: Simulator | RunningSim) -> SimCamera:
         settings = sim.camera(True)
-        return cls(sim, float(settings["fps"]), float(settings["latency_ms"]) / 1000.0)
+        advance = sim.run_for if isinstance(sim, Simulator) else None
+        return cls(sim, float(settings["fps"]), float(settings["latency_ms"]) / 1000.0, advance)
+
+    def now(self) -> dict[str, Any]:
+        truth: dict[str, Any] = self.sim.control("truth")["truth"]
+        return truth
 
     def cart(self) -> Pose:
-        truth = self.sim.truth()
+        truth = self.now()
         return float(truth["x"]), float(truth["y"]), float(truth["theta"])
 
     def picture(self) -> Image:
         """A frame captured after this call: everything changed before it is in the picture."""
-        since = float(self.sim.truth()["t"])
+        since = float(self.now()["t"])
         # one frame period to the next capture, the latency for it to arrive, and a frame to spare
-        self.sim.run_for(2.0 / self.fps + self.latency_s)
+        if self.advance is not None:
+            self.advance(2.0 / self.fps + self.latency_s)
         while True:
             frame = self.sim.wait_frame(self.last_seq, FRAME_TIMEOUT_S)
             self.last_seq = frame.seq
             if frame.t >= since:
                 return decode(frame.jpeg)
+            if self.advance is not None:
+                self.advance(1.0 / self.fps)  # captured before: the next one is still to come
 
     def with_board(self, board: Board, placement: Placement) -> Image:
         r, t = placement
@@ -94,15 +130,24 @@ def sim_views(
     camera: SimCamera, board: Board, ground: GroundBoard, n: int, mount: Mount
 ) -> tuple[Iterator[Image], Callable[[], Image]]:
     """The simulated camera's views of the held board (board_placements, above the floor) and of
-    the board on the floor, for the cart where it stands."""
-    held, on_floor = board_placements(board, ground, n, mount, camera.cart(), above_floor=True)
+    the board on the floor, for the cart where it stands (ValueError if it moves meanwhile: the
+    boards were placed for where it stood)."""
+    start = camera.cart()
+    held, on_floor = board_placements(board, ground, n, mount, start, above_floor=True)
+
+    def still(placement: Placement) -> Placement:
+        x, y, theta = camera.cart()
+        turned = abs(math.remainder(theta - start[2], math.tau))
+        if math.hypot(x - start[0], y - start[1]) > MAX_DRIFT_M or turned > math.radians(MAX_DRIFT_DEG):
+            raise ValueError("the cart moved during the calibration: stop it and calibrate again")
+        return placement
 
     def views() -> Iterator[Image]:
         for placement in held:
-            yield camera.with_board(board, placement)
+            yield camera.with_board(board, still(placement))
 
     def floor_view() -> Image:
-        return camera.with_board(ground.board, on_floor)
+        return camera.with_board(ground.board, still(on_floor))
 
     return views(), floor_view
 
@@ -134,6 +179,20 @@ def calibrate_in_simulator(
         camera = SimCamera.on(sim)
         views, floor_view = sim_views(camera, board, ground, n, mount)
         return calibrate(views, floor_view, board, ground, mount, say)
+
+
+def calibrate_running_simulator(
+    address: str, board: Board, ground: GroundBoard, n: int, mount: Mount, say: Callable[[str], None] = print
+) -> CameraCalibration:
+    """The same against a simulator that runs already (`cart2d sim`'s side channel, HOST:PORT):
+    the board is placed in front of its cart where it stands, then taken away."""
+    sim = RunningSim(address)
+    try:
+        camera = SimCamera.on(sim)
+        views, floor_view = sim_views(camera, board, ground, n, mount)
+        return calibrate(views, floor_view, board, ground, mount, say)
+    finally:
+        sim.close()
 
 
 def describe_truth(mount: Mount) -> str:
