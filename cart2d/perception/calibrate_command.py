@@ -105,6 +105,7 @@ TILTS = [
 ]
 PLANNED_TILTS = 6  # the first six of TILTS take turns; the others are there for held_above_floor
 FLOOR_CLEARANCE_M = 0.01  # the held board's lowest edge above the floor
+SEEN_MARGIN_SQUARES = 1.3  # of the board around its inner corners kept in the picture
 
 
 def _held_pose(
@@ -138,19 +139,29 @@ def held_above_floor(pose: HeldPose, board: Board, lens: Intrinsics, mount: Moun
     """Whether the whole printed board (its white margin included) is in the picture of the
     nominal lens and above the floor: a board cannot be held below the floor the camera looks
     down at (at 25 degrees of pitch the floor fills the picture from about 0.35 m on)."""
-    s = board.square_m
-    x0, x1, y0, y1 = -2 * s, (board.cols + 1) * s, -2 * s, (board.rows + 1) * s
-    outline = np.array([[x0, y0, 0.0], [x1, y0, 0.0], [x0, y1, 0.0], [x1, y1, 0.0]])
     r, t = pose.in_camera(board, lens)
-    cam = outline @ r.T + t
-    if (cam[:, 2] <= 0.05).any():
+
+    def corners(margin: float) -> FloatArray:
+        s = board.square_m
+        x0, x1, y0, y1 = (
+            -margin * s,
+            (board.cols - 1 + margin) * s,
+            -margin * s,
+            (board.rows - 1 + margin) * s,
+        )
+        return np.array([[x0, y0, 0.0], [x1, y0, 0.0], [x0, y1, 0.0], [x1, y1, 0.0]]) @ r.T + t
+
+    # in the picture: the squares and a little of the white around them (what findChessboardCorners
+    # needs); above the floor: all of the card
+    seen, card = corners(SEEN_MARGIN_SQUARES), corners(2.0)
+    if (seen[:, 2] <= 0.05).any():
         return False
-    u = lens.fx * cam[:, 0] / cam[:, 2] + lens.cx
-    v = lens.fy * cam[:, 1] / cam[:, 2] + lens.cy
+    u = lens.fx * seen[:, 0] / seen[:, 2] + lens.cx
+    v = lens.fy * seen[:, 1] / seen[:, 2] + lens.cy
     if (u < 1).any() or (u > lens.width - 2).any() or (v < 1).any() or (v > lens.height - 2).any():
         return False
     r_cb, t_cb = mount.extrinsics()
-    base = (cam - t_cb) @ r_cb  # r_cb.T @ (p - t) row by row
+    base = (card - t_cb) @ r_cb  # r_cb.T @ (p - t) row by row
     return bool((base[:, 2] >= FLOOR_CLEARANCE_M).all())
 
 
@@ -171,7 +182,7 @@ def view_plan(n: int, lens: Intrinsics, board: Board, mount: Mount | None = None
             candidates = (
                 _held_pose(k, spot, other, f, shrink, lens, board)
                 for other in [tilt, *(t for t in TILTS if t != tilt)]
-                for shrink in (1.0, 0.8, 0.6)
+                for shrink in (1.5, 1.25, 1.0, 0.8, 0.6)
                 for f in np.arange(fill, 0.951, 0.05)
             )
             found = next((p for p in candidates if held_above_floor(p, board, lens, mount)), None)

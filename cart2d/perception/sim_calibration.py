@@ -32,7 +32,8 @@ from cart2d.simulator import SideChannel, SimOptions, Simulator, SimulatorError,
 
 # A board held in the air must stay above the floor, which a camera 0.25 m up looking 25 degrees
 # down sees from about 0.35 m on: the held board is smaller than the floor board (9 x 6 corners
-# of 15 mm fit at 0.27-0.35 m in every part of the picture; 30 mm ones fit nowhere but the top).
+# of 15 mm fit at 0.27-0.35 m in every part of the picture; 30 mm ones only near its top edge,
+# too alike for Zhang's method).
 HELD_SQUARE_M = 0.015
 FLOOR_SQUARE_M = 0.03
 # The simulated room: walls far enough to stay out of the way of the boards (the arena's nearest
