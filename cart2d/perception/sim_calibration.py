@@ -35,9 +35,8 @@ from cart2d.simulator import SideChannel, SimOptions, Simulator, SimulatorError,
 # of 15 mm fit at 0.27-0.35 m in every part of the picture; 30 mm ones only near its top edge,
 # too alike for Zhang's method).
 HELD_SQUARE_M = 0.015
-FLOOR_SQUARE_M = 0.03
-# The simulated room: walls far enough to stay out of the way of the boards (the arena's nearest
-# wall, 0.25 m to the side, would cut into the views).
+# The simulator of its own: a room with nothing in it, its walls 2 m away, beyond what the
+# detector looks at (a running `cart2d sim` keeps its own world: its arena does too).
 ROOM = (-2.0, -2.0, 4.0, 2.0)
 FRAME_TIMEOUT_S = 10.0
 MAX_DRIFT_M, MAX_DRIFT_DEG = 0.002, 0.2  # the cart standing still: a running simulator's cart may not
