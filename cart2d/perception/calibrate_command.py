@@ -45,6 +45,9 @@ Placement = tuple[FloatArray, FloatArray]  # (R, t): world point = R @ board poi
 SYNTHETIC_K1, SYNTHETIC_K2 = -0.12, 0.03
 CAPTURE_TIMEOUT_S = 5.0
 EDGE_PX = 4  # the held board's margin kept inside the picture
+# the simulator's views cost little, and more of them pin k2 down (a held board cannot reach the
+# picture's bottom corners without going below the floor)
+SIM_VIEWS = 20
 
 
 @dataclass(frozen=True)
@@ -74,57 +77,119 @@ class HeldPose:
         return r, middle - r @ board_middle
 
 
-def view_plan(n: int, lens: Intrinsics, board: Board) -> list[HeldPose]:
-    """`n` views that fill the image and tilt the board both ways (what Zhang's method needs to
-    separate the focal length from the distance, and the distortion from both), each far enough
-    for the whole board (with its white margin) to stay in the picture."""
-    # where the board's middle goes, as a fraction of the room it has to each side: the middle
-    # and the edges of the picture, where the distortion is largest
-    spots = [
-        (0.0, 0.0, "in the middle"),
-        (-1.0, -1.0, "top left"),
-        (1.0, -1.0, "top right"),
-        (-1.0, 1.0, "bottom left"),
-        (1.0, 1.0, "bottom right"),
-        (0.0, -1.0, "top middle"),
-        (0.0, 1.0, "bottom middle"),
-        (-1.0, 0.0, "left middle"),
-        (1.0, 0.0, "right middle"),
-    ]
-    # rotations about the camera's x (right) and y (down) axes: a positive one about x takes the
-    # board's lower edge away from the lens, a positive one about y brings its right side nearer
-    tilts = [
-        (0, 0, "facing the camera"),
-        (35, 0, "its lower edge away"),
-        (-35, 0, "its top edge away"),
-        (0, 35, "its left side away"),
-        (0, -35, "its right side away"),
-        (25, 25, "its lower left corner away"),
-    ]
+# where the board's middle goes, as a fraction of the room it has to each side: the middle and
+# the edges of the picture, where the distortion is largest
+SPOTS = [
+    (0.0, 0.0, "in the middle"),
+    (-1.0, -1.0, "top left"),
+    (1.0, -1.0, "top right"),
+    (-1.0, 1.0, "bottom left"),
+    (1.0, 1.0, "bottom right"),
+    (0.0, -1.0, "top middle"),
+    (0.0, 1.0, "bottom middle"),
+    (-1.0, 0.0, "left middle"),
+    (1.0, 0.0, "right middle"),
+]
+# rotations about the camera's x (right) and y (down) axes: a positive one about x takes the
+# board's lower edge away from the lens, a positive one about y brings its right side nearer
+TILTS = [
+    (0, 0, "facing the camera"),
+    (35, 0, "its lower edge away"),
+    (-35, 0, "its top edge away"),
+    (0, 35, "its left side away"),
+    (0, -35, "its right side away"),
+    (25, 25, "its lower left corner away"),
+    (-25, 25, "its top left corner away"),
+    (-25, -25, "its top right corner away"),
+    (25, -25, "its lower right corner away"),
+]
+PLANNED_TILTS = 6  # the first six of TILTS take turns; the others are there for held_above_floor
+FLOOR_CLEARANCE_M = 0.01  # the held board's lowest edge above the floor
+SEEN_MARGIN_SQUARES = 1.3  # of the board around its inner corners kept in the picture
+
+
+def _held_pose(
+    k: int,
+    spot: tuple[float, float, str],
+    tilt: tuple[int, int, str],
+    fill: float,
+    shrink: float,
+    lens: Intrinsics,
+    board: Board,
+) -> HeldPose:
+    fu, fv, where = spot
+    tx, ty, how = tilt
     # the printed board is (cols + 1) x (rows + 1) squares and a margin of about a square each side
     board_w_m, board_h_m = (board.cols + 3) * board.square_m, (board.rows + 3) * board.square_m
+    distance = lens.fx * board_w_m / (fill * lens.width)
+    half_w, half_h = lens.fx * board_w_m / distance / 2, lens.fy * board_h_m / distance / 2
+    room_u = max(0.0, lens.width / 2 - half_w - EDGE_PX)
+    room_v = max(0.0, lens.height / 2 - half_h - EDGE_PX)
+    return HeldPose(
+        lens.cx + shrink * fu * room_u,
+        lens.cy + shrink * fv * room_v,
+        distance,
+        tx,
+        ty,
+        f"{where}, {how}, about {distance:.2f} m away",
+    )
+
+
+def held_above_floor(pose: HeldPose, board: Board, lens: Intrinsics, mount: Mount) -> bool:
+    """Whether the whole printed board (its white margin included) is in the picture of the
+    nominal lens and above the floor: a board cannot be held below the floor the camera looks
+    down at (at 25 degrees of pitch the floor fills the picture from about 0.35 m on)."""
+    r, t = pose.in_camera(board, lens)
+
+    def corners(margin: float) -> FloatArray:
+        s = board.square_m
+        x0, x1, y0, y1 = (
+            -margin * s,
+            (board.cols - 1 + margin) * s,
+            -margin * s,
+            (board.rows - 1 + margin) * s,
+        )
+        return np.array([[x0, y0, 0.0], [x1, y0, 0.0], [x0, y1, 0.0], [x1, y1, 0.0]]) @ r.T + t
+
+    # in the picture: the squares and a little of the white around them (what findChessboardCorners
+    # needs); above the floor: all of the card
+    seen, card = corners(SEEN_MARGIN_SQUARES), corners(2.0)
+    if (seen[:, 2] <= 0.05).any():
+        return False
+    u = lens.fx * seen[:, 0] / seen[:, 2] + lens.cx
+    v = lens.fy * seen[:, 1] / seen[:, 2] + lens.cy
+    if (u < 1).any() or (u > lens.width - 2).any() or (v < 1).any() or (v > lens.height - 2).any():
+        return False
+    r_cb, t_cb = mount.extrinsics()
+    base = (card - t_cb) @ r_cb  # r_cb.T @ (p - t) row by row
+    return bool((base[:, 2] >= FLOOR_CLEARANCE_M).all())
+
+
+def view_plan(n: int, lens: Intrinsics, board: Board, mount: Mount | None = None) -> list[HeldPose]:
+    """`n` views that fill the image and tilt the board both ways (what Zhang's method needs to
+    separate the focal length from the distance, and the distortion from both), each far enough
+    for the whole board (with its white margin) to stay in the picture. With `mount`, every view
+    also keeps the board above the floor (held_above_floor): a view that would not is brought
+    nearer, nearer the middle of the picture or tilted otherwise, the first of those that fits."""
     poses = []
     for k in range(n):
-        fu, fv, where = spots[k % len(spots)]
-        tx, ty, tilt = tilts[k % len(tilts)]
+        spot = SPOTS[k % len(SPOTS)]
+        tilt = TILTS[k % PLANNED_TILTS]
         # far enough for the board to take 40 to 60 % of the picture's width: room to reach its corners
-        fill = 0.6 - 0.1 * ((k // len(spots)) % 3)
-        distance = lens.fx * board_w_m / (fill * lens.width)
-        half_w, half_h = lens.fx * board_w_m / distance / 2, lens.fy * board_h_m / distance / 2
-        room_u, room_v = (
-            max(0.0, lens.width / 2 - half_w - EDGE_PX),
-            max(0.0, lens.height / 2 - half_h - EDGE_PX),
-        )
-        poses.append(
-            HeldPose(
-                lens.cx + fu * room_u,
-                lens.cy + fv * room_v,
-                distance,
-                tx,
-                ty,
-                f"{where}, {tilt}, about {distance:.2f} m away",
+        fill = 0.6 - 0.1 * ((k // len(SPOTS)) % 3)
+        pose = _held_pose(k, spot, tilt, fill, 1.0, lens, board)
+        if mount is not None:
+            candidates = (
+                _held_pose(k, spot, other, f, shrink, lens, board)
+                for other in [tilt, *(t for t in TILTS if t != tilt)]
+                for shrink in (1.5, 1.25, 1.0, 0.8, 0.6)
+                for f in np.arange(fill, 0.951, 0.05)
             )
-        )
+            found = next((p for p in candidates if held_above_floor(p, board, lens, mount)), None)
+            if found is None:
+                continue  # no way to hold the board there: the spot is left out
+            pose = found
+        poses.append(pose)
     return poses
 
 
@@ -145,15 +210,20 @@ def in_world(placement_in_base: Placement, cart: Pose) -> Placement:
 
 
 def board_placements(
-    board: Board, ground: GroundBoard, n: int, mount: Mount, cart: Pose = (0.0, 0.0, 0.0)
+    board: Board,
+    ground: GroundBoard,
+    n: int,
+    mount: Mount,
+    cart: Pose = (0.0, 0.0, 0.0),
+    above_floor: bool = False,
 ) -> tuple[list[Placement], Placement]:
     """Where a calibration without a person puts the board, in the world of a cart at `cart`:
-    the held views of `view_plan` (for the nominal lens) and the board on the floor. The
+    the held views of `view_plan` (for the nominal lens; with `above_floor`, only views that keep
+    the board above the floor, as a world with a floor needs) and the board on the floor. The
     simulator takes them as they are: Simulator.place_target(Board.from_rotation(R, t, ...))."""
     nominal = Intrinsics.nominal(mount)
-    held = [
-        in_world(held_in_base(pose, board, nominal, mount), cart) for pose in view_plan(n, nominal, board)
-    ]
+    plan = view_plan(n, nominal, board, mount if above_floor else None)
+    held = [in_world(held_in_base(pose, board, nominal, mount), cart) for pose in plan]
     return held, in_world(ground.pose_in_base(), cart)
 
 
@@ -283,11 +353,23 @@ def _board(text: str) -> tuple[int, int]:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     where = parser.add_mutually_exclusive_group(required=True)
     where.add_argument("--camera", metavar="URL", help="the ESP32-CAM's base URL, e.g. http://192.168.4.2")
+    where.add_argument(
+        "--sim", action="store_true", help="the simulated camera (a simulator of its own places the board)"
+    )
     where.add_argument("--synthetic", action="store_true", help="a dry run on rendered views of a known lens")
-    parser.add_argument("--board", type=_board, default=(9, 6), help="inner corners, COLSxROWS (default 9x6)")
-    parser.add_argument("--square-m", type=float, default=0.03, help="square side, m (default 0.03)")
     parser.add_argument(
-        "--views", type=int, default=12, help=f"views of the held board (default 12, at least {MIN_VIEWS})"
+        "--sim-address",
+        metavar="HOST:PORT",
+        help="with --sim: a running `cart2d sim`'s side channel (it prints it), not a simulator of its own",
+    )
+    parser.add_argument("--board", type=_board, default=(9, 6), help="inner corners, COLSxROWS (default 9x6)")
+    parser.add_argument(
+        "--square-m",
+        type=float,
+        help="square side, m (default 0.03; --sim: 0.015 held up, 0.03 on the floor)",
+    )
+    parser.add_argument(
+        "--views", type=int, help=f"views of the held board (default 12, --sim 20; at least {MIN_VIEWS})"
     )
     parser.add_argument(
         "--floor-x-m",
@@ -302,25 +384,52 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main_camera_calibrate(args: argparse.Namespace, say: Callable[[str], None] = print) -> int:
-    if args.views < MIN_VIEWS or not 0.01 <= args.square_m <= 0.2:
+    sim = bool(args.sim)
+    views_wanted = args.views if args.views is not None else (SIM_VIEWS if sim else 12)
+    square_m = args.square_m if args.square_m is not None else 0.03
+    if args.sim_address and not sim:
+        print("cart2d camera calibrate: --sim-address goes with --sim", file=sys.stderr)
+        return 2
+    if views_wanted < MIN_VIEWS or not 0.01 <= square_m <= 0.2:
         print(
             f"cart2d camera calibrate: --views at least {MIN_VIEWS}, --square-m from 0.01 to 0.2",
             file=sys.stderr,
         )
         return 2
     mount = Mount.from_robot()
-    board = Board(args.board[0], args.board[1], args.square_m)
+    board = Board(args.board[0], args.board[1], square_m)
     ground = GroundBoard(board, args.floor_x_m, args.floor_y_m)
     try:
-        if args.synthetic:
-            truth, views, floor = synthetic_views(board, ground, args.views, mount)
+        if sim:
+            from cart2d.perception.sim_calibration import (
+                HELD_SQUARE_M,
+                calibrate_in_simulator,
+                calibrate_running_simulator,
+                describe_truth,
+            )
+            from cart2d.simulation.controls import CameraTimeout
+            from cart2d.simulator import SimulatorError
+
+            held = board if args.square_m is not None else Board(board.cols, board.rows, HELD_SQUARE_M)
+            try:
+                if args.sim_address:
+                    result = calibrate_running_simulator(
+                        args.sim_address, held, ground, views_wanted, mount, say
+                    )
+                else:
+                    result = calibrate_in_simulator(held, ground, views_wanted, mount, say=say)
+            except (SimulatorError, CameraTimeout) as exc:
+                raise ValueError(f"the simulator: {exc}") from exc
+            say(describe_truth(mount))
+        elif args.synthetic:
+            truth, views, floor = synthetic_views(board, ground, views_wanted, mount)
             result = calibrate(views, floor, board, ground, mount, say)
             say(
                 f"the synthetic lens was fx {truth.fx:.1f} fy {truth.fy:.1f} cx {truth.cx:.1f} "
                 f"cy {truth.cy:.1f} px, k1 {truth.dist[0]:.3f} k2 {truth.dist[1]:.3f}"
             )
         else:
-            views, floor_view = camera_views(args.camera, board, ground, args.views, mount, input)
+            views, floor_view = camera_views(args.camera, board, ground, views_wanted, mount, input)
             result = calibrate(views, floor_view, board, ground, mount, say)
     except (ValueError, OSError) as exc:
         print(f"cart2d camera calibrate: {exc}", file=sys.stderr)
