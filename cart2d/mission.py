@@ -35,6 +35,7 @@ from cart2d.gateway import Gateway, PoseUntrusted
 from cart2d.gateway.live_map import planner_for, world_for
 from cart2d.link import CommandRefused, Link, LinkError, firmware
 from cart2d.maps import MapError, load_ros_map
+from cart2d.mission_camera import mission_camera, perception_report
 from cart2d.mission_events import EventPlayer, MapEvent, Pacer, snapped
 from cart2d.params import robot, setting_id
 from cart2d.planning import Grid, PlanError, Point, point_polyline_distance, polyline_length
@@ -346,11 +347,14 @@ def run_mission(
     report: dict[str, Any] | None = None,
     base_dir: Path | None = None,
     mcap_path: Path | None = None,
+    camera_calibration: Path | None = None,
 ) -> dict[str, Any]:
     """Runs the mission in a fresh simulator (blank EEPROM); returns the report. `report`, if
     given, is filled as the mission goes (each goal as it ends): what it holds is the report so
     far if the run stops on an error. `base_dir`: where a relative "map" path starts (the
-    mission file's folder). `mcap_path`: where to record the run (cart2d/recording/)."""
+    mission file's folder). `mcap_path`: where to record the run (cart2d/recording/).
+    `camera_calibration`: the saved camera calibration perception sees with (None: the nominal
+    model), when the mission sees (its "perception", on by default with a "world")."""
     report = {} if report is None else report
     report.update(behaviour=spec.behaviour, goals=[], resets=[])
     map_settings = mission_map(spec, base_dir)
@@ -394,9 +398,16 @@ def run_mission(
             )
             pacer = Pacer(sim)
             events = EventPlayer(gateway, sim, pacer, spec.events, t0)
+            seeing = contextlib.ExitStack()
+            sees = mission_file.perception_on(spec.perception, spec.world is not None)
+            if sees and spec.behaviour != "seed":
+                seeing.enter_context(mission_camera(gateway, sim, camera_calibration))
+                seeing.enter_context(pacer.real_time())  # perception runs in wall-clock time
             try:
-                with _resets_at(sim, [t0 + t for t in spec.resets_at_s]), events:
+                with seeing, _resets_at(sim, [t0 + t for t in spec.resets_at_s]), events:
                     _drive_goals(gateway, sim, pacer, recorder, spec, deadline, progress, report["goals"])
+                    if gateway.seeing is not None:
+                        report["perception"] = perception_report(gateway)
             finally:
                 gateway.close()
                 if spec.events:

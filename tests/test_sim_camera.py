@@ -375,8 +375,9 @@ def test_a_board_held_up_facing_the_lens(tmp_path: Path) -> None:
 
 
 def test_a_missions_world_boxes_block_the_cart_and_count() -> None:
-    """A box of the mission's world, not on the map: the planner drives straight at it, the cart
-    stops against it (physical), the contact is in the report, the goal beyond is not reached."""
+    """A box of the mission's world, not on the map, driven blind (perception off): the planner
+    drives straight at it, the cart stops against it (physical), the contact is in the report,
+    the goal beyond is not reached."""
     from cart2d.mission import MissionSpec, run_mission
 
     spec = MissionSpec.model_validate(
@@ -385,6 +386,7 @@ def test_a_missions_world_boxes_block_the_cart_and_count() -> None:
             "goals": [[1.2, 0.0]],
             "world": {"boxes": [{"x": 0.6, "y": 0.0, "sx": 0.2, "sy": 0.4, "colour": "#c03020"}]},
             "timeout_s": 15.0,
+            "perception": False,
         }
     )
     report = run_mission(spec)

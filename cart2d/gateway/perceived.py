@@ -9,10 +9,12 @@ cell its square overlaps (the planner's cells are the squares round its nodes, s
 a coarse planning grid never lets a perceived obstacle slip between two nodes. Cells off the
 planner's grid are left out (the camera sees past the arena's walls): they cannot block a path.
 
-`PerceptionMixin` is the part of the Gateway (cart2d/gateway/core.py) that holds the layer and
-the optional camera feed (cart2d/gateway/camera.py: the command line's --camera for its run, or
-the saved settings' camera, which PUT /api/settings/camera and a settings file change at once);
-core.py only builds its planner with `with_perceived` and lets update_settings follow the camera.
+The camera's frames become perceived cells in cart2d/gateway/seeing.py, attached to every camera
+feed the gateway reads. `PerceptionMixin` is the part of the Gateway (cart2d/gateway/core.py)
+that holds the layer and the optional camera feed (cart2d/gateway/camera.py: the command line's
+--camera for its run, or the saved settings' camera, which PUT /api/settings/camera and a
+settings file change at once); core.py only builds its planner with `with_perceived` and lets
+update_settings follow the camera.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ import numpy.typing as npt
 
 from cart2d.gateway.camera import CameraFeed
 from cart2d.gateway.live_map import planner_for
+from cart2d.gateway.seeing import Seeing, seeing_for
 from cart2d.planning import EPS, Grid, Planner
 
 if TYPE_CHECKING:
@@ -122,6 +125,7 @@ class PerceptionMixin:
     """The Gateway's perceived layer and camera (see the module's docstring)."""
 
     camera: CameraFeed | None = None  # use_camera(): the command line, set_camera(), update_settings()
+    seeing: Seeing | None = None  # the camera's frames into the perceived layer (seeing.py)
     perceived: PerceivedLayer = PerceivedLayer()
     _perceived_sent_s = 0.0
     _perceived_timer: threading.Timer | None = None
@@ -148,6 +152,12 @@ class PerceptionMixin:
         old, self.camera = self.camera, feed
         if old is not None and old is not feed:
             old.stop()
+            if self.seeing is not None:
+                self.seeing.close()
+                self.seeing = None
+        if feed is not None and feed is not old:
+            self.seeing = seeing_for(self)  # type: ignore[arg-type]  # self is the Gateway
+            feed.add_processor(self.seeing)
 
     def set_camera(self, camera: CameraSettings) -> None:
         """Saves `camera` and reads it from now on (also when the saved one was the same but the

@@ -4,9 +4,11 @@ every cell holds l = log(p / (1 - p)), starting at 0 (p = 0.5, unknown). A detec
 `hit_log_odds` to their cells, the cells its rays cross on their way (free floor seen) add
 `free_log_odds`, and l is clamped so that a cell can change its mind after a few frames.
 
-A ray is sampled every half cell from min range to its end: the cells it crosses, each counted
-once per frame however many rays cross it; a ray that ends on a hit stops half a cell short of
-it, and a cell hit in a frame is never also cleared in that frame.
+A hit marks its cell and, with `hit_depth_m`, the cells that far behind it along its ray (the
+camera sees an obstacle's face, not its depth). A ray is sampled every half cell from min range
+to its end: the cells it crosses, each counted once per frame however many rays cross it; a ray
+that ends on a hit stops half a cell short of it, and a cell hit in a frame is never also
+cleared in that frame.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ class LogOddsGrid:
         free_log_odds: float = -0.4,  # p = 0.4 per ray crossing
         min_log_odds: float = -2.0,
         max_log_odds: float = 3.5,  # p = 0.97: cleared by about 9 frames of free rays
+        hit_depth_m: float = 0.0,  # how deep behind its face an obstacle is taken to be
     ) -> None:
         if resolution_m <= 0.0 or width < 1 or height < 1:
             raise ValueError("the grid needs a positive resolution and at least one cell")
@@ -41,6 +44,7 @@ class LogOddsGrid:
         self.width, self.height = int(width), int(height)
         self.hit_log_odds, self.free_log_odds = hit_log_odds, free_log_odds
         self.min_log_odds, self.max_log_odds = min_log_odds, max_log_odds
+        self.hit_depth_m = float(hit_depth_m)
         self.log_odds = np.zeros((self.height, self.width), dtype=np.float32)
 
     def clear(self) -> None:
@@ -69,13 +73,24 @@ class LogOddsGrid:
         hits, ends = to_map(detection.hits), to_map(detection.free)
         ends_on_hit = np.zeros(len(ends), dtype=bool)
         ends_on_hit[: len(hits)] = True  # Detection.free lists the hits first
-        hit_cells = np.unique(self._cells(hits))
+        hit_cells = np.unique(self._cells(self._behind(origin, hits)))
         free_cells = np.setdiff1d(
             self._free_cells(origin, ends, ends_on_hit, detection.min_range_m), hit_cells
         )
         flat = self.log_odds.reshape(-1)
         for touched, change in ((free_cells, self.free_log_odds), (hit_cells, self.hit_log_odds)):
             flat[touched] = np.clip(flat[touched] + change, self.min_log_odds, self.max_log_odds)
+
+    def _behind(self, origin: FloatArray, hits: FloatArray) -> FloatArray:
+        """The hits and, along each ray, the points up to hit_depth_m behind them: a camera sees an
+        obstacle's face, never how deep it is, and a cart that plans past a face's ends must not
+        cut through the unseen rest. Free rays from other views clear what is not there."""
+        if self.hit_depth_m <= 0.0 or len(hits) == 0:
+            return hits
+        offsets = hits - origin
+        directions = offsets / np.maximum(np.linalg.norm(offsets, axis=1), 1e-12)[:, None]
+        t = np.arange(0.0, self.hit_depth_m + 1e-9, self.resolution_m / 2)
+        return np.asarray((hits[:, None, :] + directions[:, None, :] * t[None, :, None]).reshape(-1, 2))
 
     def _free_cells(
         self, origin: FloatArray, ends: FloatArray, ends_on_hit: npt.NDArray[np.bool_], min_range_m: float

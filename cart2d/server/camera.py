@@ -160,7 +160,9 @@ def add_camera_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
             "url": camera.base_url,
             "stream_url": camera.reader.url,
             "viewers": len(watchers_of(camera).watchers),
-            "calibration": None,
+            "calibration": gateway.seeing.calibration.summary()
+            if gateway.seeing and gateway.seeing.calibration
+            else None,
         }
 
     @app.get(

@@ -1,0 +1,178 @@
+"""The gateway sees: each camera frame, with the odometry pose at its capture, goes through the
+detector into the log-odds grid (cart2d/perception/pipeline.py). What the grid believes occupied
+becomes the perceived layer of the live map (cart2d/gateway/perceived.py, so a blocked route is
+replanned), the hits and the field of view go to viewers, and the detection is drawn on the
+picture the panel shows.
+
+The pose at capture: a frame reaches the gateway `latency_s` after it was taken (one frame plus
+Wi-Fi on an ESP32-CAM; [sim.camera] latency_ms in the simulator), so the odometry pose is looked
+up that long before the frame arrived, interpolated between telemetry frames as they came in.
+"""
+
+from __future__ import annotations
+
+import bisect
+import logging
+import math
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from cart2d.gateway.camera import Overlay
+from cart2d.params import robot
+from cart2d.perception.calibration import CameraCalibration, calibration_path, load_calibration
+from cart2d.perception.mjpeg import Frame
+from cart2d.perception.occupancy import LogOddsGrid, Pose
+from cart2d.perception.pipeline import Perception
+
+if TYPE_CHECKING:
+    from cart2d.gateway.core import Gateway
+
+log = logging.getLogger(__name__)
+
+# The occupancy grid's cells: finer than the planner's, coarser than a hit's error at 1 m.
+GRID_RESOLUTION_M = 0.05
+# An obstacle seen by its face is taken to be this deep, until views from elsewhere clear the
+# floor behind it: deeper than a chair leg, a wall or half a cardboard box.
+OBSTACLE_DEPTH_M = 0.2
+SEND_INTERVAL_S = 0.5  # the perceived layer is refreshed at least this often while its cells' p change
+
+
+def default_latency_s() -> float:
+    """Capture to arrival: the simulated camera's, which models the ESP32-CAM's frame plus Wi-Fi."""
+    return float(robot()["sim"]["camera"]["latency_ms"]) / 1000.0
+
+
+class PoseHistory:
+    """Odometry poses as telemetry brought them, by the gateway's monotonic clock of arrival."""
+
+    def __init__(self, keep_s: float = 3.0, clock: Callable[[], float] = time.monotonic) -> None:
+        self.keep_s = keep_s
+        self.clock = clock
+        self._times: deque[float] = deque()
+        self._poses: deque[Pose] = deque()
+        self._lock = threading.Lock()
+
+    def __call__(self, message: dict[str, Any]) -> None:
+        """A gateway listener: takes its telemetry frames."""
+        if message.get("type") == "telemetry":
+            self.add(self.clock(), (float(message["x"]), float(message["y"]), float(message["theta"])))
+
+    def add(self, t: float, pose: Pose) -> None:
+        with self._lock:
+            self._times.append(t)
+            self._poses.append(pose)
+            while self._times and self._times[0] < t - self.keep_s:
+                self._times.popleft()
+                self._poses.popleft()
+
+    def at(self, t: float) -> Pose | None:
+        """The pose at `t`: interpolated between the two telemetry frames around it, the newest
+        one if `t` is after it; None before the history starts (the pose then is not known)."""
+        with self._lock:
+            times, poses = list(self._times), list(self._poses)
+        if not times or t < times[0]:
+            return None
+        k = bisect.bisect_right(times, t)
+        if k >= len(times):
+            return poses[-1]
+        (t0, p0), (t1, p1) = (times[k - 1], poses[k - 1]), (times[k], poses[k])
+        f = 0.0 if t1 <= t0 else (t - t0) / (t1 - t0)
+        turn = math.remainder(p1[2] - p0[2], math.tau)
+        return (p0[0] + f * (p1[0] - p0[0]), p0[1] + f * (p1[1] - p0[1]), p0[2] + f * turn)
+
+
+def _grid_for(arena: dict[str, float], resolution_m: float) -> LogOddsGrid:
+    """A grid over the arena's walls and a cell beyond, so the walls' faces are in it."""
+    x0, y0 = arena["x_min"] - resolution_m, arena["y_min"] - resolution_m
+    width = math.ceil((arena["x_max"] - arena["x_min"]) / resolution_m) + 2
+    height = math.ceil((arena["y_max"] - arena["y_min"]) / resolution_m) + 2
+    return LogOddsGrid((x0, y0), resolution_m, width, height, hit_depth_m=OBSTACLE_DEPTH_M)
+
+
+class Seeing:
+    """The camera feed's processor that turns frames into the live map's perceived layer."""
+
+    def __init__(
+        self,
+        gateway: Gateway,
+        calibration: CameraCalibration | None = None,
+        latency_s: float | None = None,
+        resolution_m: float = GRID_RESOLUTION_M,
+    ) -> None:
+        self.gateway = gateway
+        self.calibration = calibration
+        self.latency_s = default_latency_s() if latency_s is None else latency_s
+        self.resolution_m = resolution_m
+        self.poses = PoseHistory()
+        self._unsubscribe = gateway.subscribe(self.poses)
+        self._arena: dict[str, float] | None = None
+        self._perception: Perception | None = None
+        self._sent: frozenset[tuple[int, int]] = frozenset()
+        self._sent_at = 0.0
+        self._layer: object = None  # the perceived layer this set last (another's means a clear)
+        self.frames = 0
+        self.skipped = 0  # frames without a pose (telemetry not yet there) or with perception off
+
+    def close(self) -> None:
+        self._unsubscribe()
+
+    def _perception_for_the_map(self) -> Perception:
+        """A grid over the current map: a new map (its arena) starts a new belief."""
+        arena = self.gateway.map_view()["arena"]
+        if self._perception is None or arena != self._arena:
+            self._arena = arena
+            self._perception = Perception(_grid_for(arena, self.resolution_m), self.calibration)
+            self._sent = frozenset()
+        return self._perception
+
+    def __call__(self, frame: Frame, bgr: np.ndarray) -> Overlay | None:
+        g = self.gateway
+        layer = g.perceived
+        if not layer.enabled:
+            self.skipped += 1
+            return None
+        pose = self.poses.at(frame.received_s - self.latency_s)
+        if pose is None:
+            self.skipped += 1
+            return None
+        perception = self._perception_for_the_map()
+        if self._layer is not None and layer is not self._layer and not layer.cells:
+            perception.clear()  # cleared by the user: forget what was seen, not just what is shown
+            self._sent = frozenset()
+        seen = perception.process(np.asarray(bgr, dtype=np.uint8), pose)
+        self.frames += 1
+        g.tell_camera(frame.stamp_s, seen.fov.tolist(), seen.hits.tolist())
+        self._send(perception)
+        return Overlay(draw=seen.draw)
+
+    def _send(self, perception: Perception) -> None:
+        """The grid's occupied cells to the live map: at once when the set of cells changed (a
+        replan may be due), else every SEND_INTERVAL_S while there are cells (their confidence)."""
+        cells = perception.cells(0.5)
+        r = self.resolution_m
+        key = frozenset((math.floor(x / r), math.floor(y / r)) for x, y, _ in cells)
+        now = time.monotonic()
+        if key == self._sent and (not key or now - self._sent_at < SEND_INTERVAL_S):
+            return
+        what = f"the camera sees {len(key)} occupied cell{'s' if len(key) != 1 else ''}"
+        self.gateway.set_perceived(cells, what, r)
+        self._layer = self.gateway.perceived
+        self._sent, self._sent_at = key, now
+
+
+def seeing_for(gateway: Gateway, directory: Path | None = None) -> Seeing:
+    """Perception with the calibration saved beside the gateway's settings (the nominal model,
+    with a warning in the log, if there is none)."""
+    path = calibration_path(directory or gateway.store.directory)
+    calibration = load_calibration(path)
+    if not calibration.calibrated:
+        log.warning(
+            "the camera is not calibrated (cart2d camera calibrate): perception uses the nominal model"
+        )
+    return Seeing(gateway, calibration)

@@ -1,0 +1,83 @@
+"""A mission's eyes: the simulated ESP32-CAM served at its URLs on free ports, read by the
+gateway as a real camera is (cart2d/gateway/camera.py), and perception on its frames
+(cart2d/gateway/seeing.py), with the camera calibration a user would have made.
+
+Perception runs in wall-clock time on the gateway, so a mission that sees runs the simulator in
+real time: at "max" the cart would cover metres while a frame is processed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import shutil
+import socket
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from cart2d.gateway.camera import CameraFeed
+from cart2d.perception.calibration import calibration_path
+from cart2d.simulation.camera import SimCameraServer
+from cart2d.simulator import Simulator, SimulatorError
+
+if TYPE_CHECKING:
+    from cart2d.gateway import Gateway
+
+
+def free_port_pair(host: str = "127.0.0.1", tries: int = 50) -> int:
+    """A port P with P + 1 also free: the camera's control port and its stream's."""
+    for _ in range(tries):
+        with socket.socket() as probe:
+            probe.bind((host, 0))
+            port = int(probe.getsockname()[1])
+        if port >= 65535:
+            continue
+        with contextlib.suppress(OSError), socket.socket() as a, socket.socket() as b:
+            a.bind((host, port))
+            b.bind((host, port + 1))
+            return port
+    raise OSError("no two consecutive free ports for the simulated camera")
+
+
+@contextlib.contextmanager
+def mission_camera(gateway: Gateway, sim: Simulator, calibration: Path | None) -> Iterator[None]:
+    """The simulated camera and perception for the mission's run. `calibration`: a saved camera
+    calibration (cart2d camera calibrate) to see with; None: the nominal model."""
+    if calibration is not None:
+        shutil.copyfile(calibration, calibration_path(gateway.store.directory))
+    server = SimCameraServer(lambda: sim.control_address, free_port_pair()).start()
+    try:
+        feed = CameraFeed.of(server.url, None)
+        assert feed is not None  # a base URL always gives a feed
+        gateway.use_camera(feed.start())
+        _wait_until_seeing(gateway)
+        yield
+    finally:
+        gateway.use_camera(None)
+        server.stop()
+
+
+def _wait_until_seeing(gateway: Gateway, frames: int = 3, wall_timeout_s: float = 20.0) -> None:
+    """Until perception has seen a few frames: a user looks before sending the cart."""
+    deadline = time.monotonic() + wall_timeout_s
+    while time.monotonic() < deadline:
+        seeing = gateway.seeing
+        if seeing is not None and seeing.frames >= frames:
+            return
+        time.sleep(0.02)
+    raise SimulatorError(f"the simulated camera gave perception no frame in {wall_timeout_s:g} s")
+
+
+def perception_report(gateway: Gateway) -> dict[str, Any]:
+    """What perception did in the mission: frames seen, its calibration, the cells it believed
+    occupied at the end (x, y, p)."""
+    seeing = gateway.seeing
+    view = gateway.perception_view()
+    return {
+        "frames": seeing.frames if seeing else 0,
+        "frames_without_pose": seeing.skipped if seeing else 0,
+        "calibrated": bool(seeing and seeing.calibration and seeing.calibration.calibrated),
+        "resolution_m": view["resolution"],
+        "cells": view["cells"],
+    }
