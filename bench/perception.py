@@ -26,6 +26,8 @@ towards four boxes; with the hits' distance to the boxes' footprints. The cost i
 CPU time (time.thread_time), what a frame takes of one core however busy the machine is; the wall
 clock, which also counts the time other processes held the core, is given beside it.
 
+**Unknown arenas, mapping and frame-to-replan latency**: bench/perception_missions.py (below).
+
 `python -m bench.perception [--quick]`.
 """
 
@@ -42,6 +44,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from bench.common import Section, percentile, section_main, spread, table
+from bench.perception_missions import measure as unknown_arenas
 from bench.perception_sim import sim_calibration_runs
 from cart2d.perception.calibrate_command import calibrate, synthetic_views
 from cart2d.perception.calibration import Board, CameraCalibration, GroundBoard
@@ -230,6 +233,7 @@ def run(out: Path, quick: bool) -> Section:
         mount, [1] if quick else [1, 2, 3], DISTANCES_M, lambda c: ground_errors(sim_truth, c, mount)
     )
     plot(out, runs, sim_runs, cost)
+    missions_markdown, missions_data, missions_checks = unknown_arenas(out, quick, mount)
 
     at_1m = DISTANCES_M.index(1.0)
     worst_1m = max(r["ground_error_m"][at_1m] for r in runs)
@@ -250,6 +254,7 @@ def run(out: Path, quick: bool) -> Section:
             sim_worst_1m <= GROUND_TARGET_M,
         ),
         (f"median CPU ms per QVGA frame <= {FRAME_TARGET_MS:.0f}", median_ms <= FRAME_TARGET_MS),
+        *missions_checks,
     ]
     calibration_rows = [
         [
@@ -347,13 +352,15 @@ def run(out: Path, quick: bool) -> Section:
         f"{cost['hits_over_5cm']} beyond 5 cm; {cost['occupied_cells']} cells occupied at the end, "
         f"{cost['occupied_cells_off_boxes']} of them off the boxes' edges.\n\n"
         + table(["target", "met"], [[name, "yes" if ok else "**NO**"] for name, ok in checks])
-        + f"\n![ground-projection error and pipeline cost]({NAME}.png)\n"
+        + f"\n![ground-projection error and pipeline cost]({NAME}.png)\n\n"
+        + missions_markdown
     )
     data = {
         "calibration": runs,
         "sim_calibration": sim_runs,
         "distances_m": DISTANCES_M,
         "pipeline": {k: v for k, v in cost.items() if k != "total_ms_all"},
+        "unknown_arenas": missions_data,
         "checks": dict(checks),
     }
     return Section(NAME, markdown, data, all(ok for _, ok in checks))

@@ -71,10 +71,18 @@ def _wait_until_seeing(gateway: Gateway, frames: int = 3, wall_timeout_s: float 
 
 def perception_report(gateway: Gateway) -> dict[str, Any]:
     """What perception did in the mission: frames seen, its calibration, the cells it believed
-    occupied at the end (x, y, p)."""
+    occupied at the end (x, y, p); each processed frame's capture stamp (simulated s) and the
+    odometry pose it was seen from, and the replans frames caused with those frames' stamps."""
     seeing = gateway.seeing
     view = gateway.perception_view()
+    frames = list(seeing.frame_log) if seeing else []
+    causes = list(seeing.replan_causes) if seeing else []
     return {
+        "frame_log": [[t, round(x, 4), round(y, 4), round(theta, 4)] for t, (x, y, theta) in frames],
+        "replan_frames": [
+            {"sim_t": r.sim_t, "reason": r.reason, "outcome": r.outcome, "frame_stamp_s": t}
+            for r, t in causes
+        ],
         "frames": seeing.frames if seeing else 0,
         "frames_without_pose": seeing.skipped if seeing else 0,
         "calibrated": bool(seeing and seeing.calibration and seeing.calibration.calibrated),

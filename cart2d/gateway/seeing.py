@@ -40,6 +40,7 @@ GRID_RESOLUTION_M = 0.05
 # An obstacle seen by its face is taken to be this deep, until views from elsewhere clear the
 # floor behind it: deeper than a chair leg, a wall or half a cardboard box.
 OBSTACLE_DEPTH_M = 0.2
+FRAME_LOG_LENGTH = 10_000  # about 11 minutes at 15 fps
 SEND_INTERVAL_S = 0.5  # the perceived layer is refreshed at least this often while its cells' p change
 
 
@@ -118,6 +119,11 @@ class Seeing:
         self._layer: object = None  # the perceived layer this set last (another's means a clear)
         self.frames = 0
         self.skipped = 0  # frames without a pose (telemetry not yet there) or with perception off
+        # For the frame-to-replan latency (bench/perception_missions.py): each processed frame's
+        # capture stamp and the pose it was seen from, and per replan a frame caused (its map
+        # change), that replan's record and the frame's stamp. Bounded: a long session forgets.
+        self.frame_log: deque[tuple[float | None, Pose]] = deque(maxlen=FRAME_LOG_LENGTH)
+        self.replan_causes: deque[tuple[Any, float | None]] = deque(maxlen=FRAME_LOG_LENGTH)
 
     def close(self) -> None:
         self._unsubscribe()
@@ -147,8 +153,13 @@ class Seeing:
             self._sent = frozenset()
         seen = perception.process(np.asarray(bgr, dtype=np.uint8), pose)
         self.frames += 1
+        self.frame_log.append((frame.stamp_s, pose))
         g.tell_camera(frame.stamp_s, seen.fov.tolist(), seen.hits.tolist())
-        self._send(perception)
+        replans = g.mission.replans
+        before = len(replans)
+        self._send(perception)  # a replan, if the route is blocked now, happens in here
+        if g.mission.replans is replans:
+            self.replan_causes.extend((r, frame.stamp_s) for r in replans[before:])
         return Overlay(draw=seen.draw)
 
     def _send(self, perception: Perception) -> None:

@@ -1,0 +1,476 @@
+"""### Unknown arenas: missions that see
+
+The scenes of the missions benchmark (bench/scenes.py) with their obstacles as physical boxes the
+map does not show: each obstacle node's cell becomes a box of step x step centred on the node,
+BOX_HEIGHT_M high, cardboard-coloured (the floor is light grey); the map has no obstacles. The
+cart drives with the simulated ESP32-CAM and the gateway's perception (cart2d/mission_camera.py),
+seeing with a calibration made once in the simulator (calibrate_in_simulator, the real
+procedure's floor board) and saved as a user's would be. Missions that see run the simulator in
+real time (perception runs in wall-clock time on the gateway). Each is compared with the same
+scene with the map known (its obstacles on the map, no boxes: bench/missions.py's run_one), same
+simulator seed. *time unknown / known*: the times to goal (firmware ticks in PATH mode). Targets:
+every goal reached, zero collisions and box contacts, time <= TIME_TARGET x the known map's.
+
+**Mapping**, from the cells perception believes occupied (p > 0.5, 5 cm) at the mission's end:
+- *precision*: the fraction of perceived cells whose square overlaps a box or lies beyond an arena
+  wall (the walls are physical obstacles the camera sees too). The gateway takes an obstacle
+  seen by its face to be OBSTACLE_DEPTH_M (0.2 m) deep until views from elsewhere clear the
+  floor behind it; the 4 m arena's boxes are 0.1 m deep, so cells behind their back faces are
+  expected: precision is given against the boxes as they are, and against the boxes grown by
+  that depth on every side (*precision, depth*).
+- *recall*: over the box cells the cart could have seen: the 5 cm cells inside a box along a face
+  that is not against another box or outside the arena, whose centre is within RECALL_RANGE_M of
+  some point of the driven trace (ground truth) lying in front of that face (occlusion by other
+  boxes is not modelled, so this is a lower bound). Such a cell counts as found when a perceived
+  cell is on it or on one of its 8 neighbours (a hit is placed within about a cell's size).
+- *false obstacles*: perceived cells whose centre is farther than FALSE_MARGIN_M from every box
+  and wall: obstacles on open floor.
+
+**Frame-to-replan latency**: a box out of the camera's view at the start (test_seeing's mission:
+heading north, the box 45 degrees right, the first plan through it) comes into view as the cart
+turns. *in view*: the capture stamp (X-Timestamp, simulated time) of the first processed frame
+from whose pose (the odometry pose perception used) a point of the box's foot is in the picture
+and within the detector's range; *cause*: the stamp of the frame whose processing made the
+perceived layer block the route (Seeing records it per replan); *in firmware*: the simulated
+time the replan's new path was in the firmware (Replan.sim_t). In-view to cause is the evidence
+the log-odds grid needs; cause to firmware is the frame's latency, processing, planning and
+upload. The causing frame to firmware time is also given for every camera replan of the
+unknown-arena missions.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import matplotlib.pyplot as plt
+import numpy as np
+import numpy.typing as npt
+from matplotlib.patches import Rectangle
+
+from bench.common import spread, table
+from bench.missions import run_one
+from bench.perception_sim import FLOOR_BOARDS, HELD
+from bench.scenes import Scene, scenes
+from cart2d.gateway.live_map import arena
+from cart2d.gateway.seeing import OBSTACLE_DEPTH_M
+from cart2d.mission import MissionSpec, mission_map, run_mission
+from cart2d.perception.calibrate_command import SIM_VIEWS
+from cart2d.perception.calibration import save_calibration
+from cart2d.perception.camera_model import FloatArray, Mount
+from cart2d.perception.detection import DetectorConfig
+from cart2d.perception.sim_calibration import calibrate_in_simulator, sim_options, simulated_lens
+from cart2d.perception.synthetic import true_pixels
+
+TIME_TARGET = 1.3  # unknown map / known map
+BOX_HEIGHT_M = 0.3
+BOX_COLOUR = "#b8742f"  # cardboard
+RECALL_RANGE_M = 1.5  # the detector's max_range_m
+FALSE_MARGIN_M = 0.1
+QUICK_SCENES = (("1.8 m", "wall with a gap"), ("4 m", "slalom"))
+LATENCY_BOX = {"x": 0.9, "y": 0.9, "sx": 0.2, "sy": 0.4, "height": 0.3, "colour": "#3050c0"}
+
+Rect = tuple[float, float, float, float]  # centre x, y and half sizes
+Mask = npt.NDArray[np.bool_]
+
+
+def boxes_of(scene: Scene) -> list[dict[str, Any]]:
+    step = scene.grid.step_m
+    return [
+        {"x": x, "y": y, "sx": step, "sy": step, "height": BOX_HEIGHT_M, "colour": BOX_COLOUR}
+        for x, y in (scene.grid.node_xy(i, j) for i, j in sorted(scene.obstacles))
+    ]
+
+
+def unknown_mission(scene: Scene) -> dict[str, Any]:
+    mission = scene.mission("cart2d")
+    mission["obstacles"] = []
+    if scene.obstacles:
+        mission["world"] = {"boxes": boxes_of(scene)}
+    else:  # an empty world: the camera and perception still on, seeing the walls only
+        mission["world"] = {"boxes": []}
+    return mission
+
+
+def _rects(boxes: list[dict[str, Any]], grow_m: float = 0.0) -> list[Rect]:
+    return [(b["x"], b["y"], b["sx"] / 2 + grow_m, b["sy"] / 2 + grow_m) for b in boxes]
+
+
+def _overlaps(cells: FloatArray, half: float, rects: list[Rect]) -> Mask:
+    """Whether each cell's square (centre, half side) overlaps one of the rectangles (not touching)."""
+    hit = np.zeros(len(cells), dtype=bool)
+    for x, y, hx, hy in rects:
+        hit |= (np.abs(cells[:, 0] - x) < hx + half - 1e-6) & (np.abs(cells[:, 1] - y) < hy + half - 1e-6)
+    return hit
+
+
+def _beyond_walls(cells: FloatArray, half: float, walls: dict[str, float]) -> Mask:
+    out: Mask = (
+        (cells[:, 0] - half < walls["x_min"] - 1e-6)
+        | (cells[:, 0] + half > walls["x_max"] + 1e-6)
+        | (cells[:, 1] - half < walls["y_min"] - 1e-6)
+        | (cells[:, 1] + half > walls["y_max"] + 1e-6)
+    )
+    return out
+
+
+def _distance_to_obstacles(cells: FloatArray, rects: list[Rect], walls: dict[str, float]) -> FloatArray:
+    """Each point's distance to the nearest box or to the region beyond the walls."""
+    x, y = cells[:, 0], cells[:, 1]
+    inside = np.minimum.reduce(
+        [x - walls["x_min"], walls["x_max"] - x, y - walls["y_min"], walls["y_max"] - y]
+    )
+    best = np.maximum(inside, 0.0)
+    for bx, by, hx, hy in rects:
+        dx = np.maximum(np.abs(x - bx) - hx, 0.0)
+        dy = np.maximum(np.abs(y - by) - hy, 0.0)
+        best = np.minimum(best, np.hypot(dx, dy))
+    return np.asarray(best, dtype=np.float64)
+
+
+def face_cells(
+    boxes: list[dict[str, Any]], walls: dict[str, float], r: float
+) -> list[tuple[FloatArray, FloatArray]]:
+    """(cell centres N x 2, outward normal) of each box face not against another box or a wall."""
+    rects = _rects(boxes)
+    faces = []
+    for x, y, hx, hy in rects:
+        for normal, half_along, along_axis in (
+            ((1.0, 0.0), hy, 1),
+            ((-1.0, 0.0), hy, 1),
+            ((0.0, 1.0), hx, 0),
+            ((0.0, -1.0), hx, 0),
+        ):
+            n = np.array(normal)
+            k = max(1, round(2 * half_along / r))
+            offsets = -half_along + r / 2 + r * np.arange(k)
+            depth = (hx if along_axis == 1 else hy) - r / 2
+            centres = np.tile([x, y], (k, 1)) + n * depth
+            centres[:, along_axis] += offsets
+            beyond = centres + n * r
+            against = _overlaps(beyond, r / 4, rects) | _beyond_walls(beyond, r / 4, walls)
+            if (~against).any():
+                faces.append((centres[~against], n))
+    return faces
+
+
+def mapping_quality(
+    cells_xyp: list[list[float]],
+    resolution_m: float,
+    boxes: list[dict[str, Any]],
+    walls: dict[str, float],
+    trace_xy: FloatArray,
+) -> dict[str, Any]:
+    cells = np.array([c[:2] for c in cells_xyp], dtype=float).reshape(-1, 2)
+    half = resolution_m / 2
+    wall_cells = _beyond_walls(cells, half, walls)
+    on_box = _overlaps(cells, half, _rects(boxes))
+    on_grown = _overlaps(cells, half, _rects(boxes, OBSTACLE_DEPTH_M))
+    n = len(cells)
+    false = _distance_to_obstacles(cells, _rects(boxes), walls) > FALSE_MARGIN_M
+    visible, found = 0, 0
+    trace = trace_xy[:: max(1, len(trace_xy) // 400)]
+    for centres, normal in face_cells(boxes, walls, resolution_m):
+        face_points = centres + normal * half
+        for centre, face_point in zip(centres, face_points, strict=True):
+            ahead = (trace - face_point) @ normal > 0
+            near = np.hypot(*(trace - centre).T) <= RECALL_RANGE_M
+            if not (ahead & near).any():
+                continue
+            visible += 1
+            if n and (np.max(np.abs(cells - centre), axis=1) <= resolution_m + 1e-6).any():
+                found += 1
+    return {
+        "cells": n,
+        "wall_cells": int(wall_cells.sum()),
+        "precision": float((on_box | wall_cells).sum() / n) if n else None,
+        "precision_depth": float((on_grown | wall_cells).sum() / n) if n else None,
+        "visible_box_cells": visible,
+        "found_box_cells": found,
+        "recall": found / visible if visible else None,
+        "false_cells": int(false.sum()),
+    }
+
+
+def calibration_file(directory: Path, mount: Mount) -> tuple[Path, float]:
+    """The calibration made once in the simulator, saved; and how long it took (s)."""
+    start = time.perf_counter()
+    result = calibrate_in_simulator(
+        HELD, next(iter(FLOOR_BOARDS.values())), SIM_VIEWS, mount, sim_options(seed=1), say=lambda _: None
+    )
+    return save_calibration(result, directory / "camera_calibration.json"), time.perf_counter() - start
+
+
+def _see(mission: dict[str, Any], calibration: Path, seed: int) -> dict[str, Any]:
+    return run_mission(
+        MissionSpec.model_validate_json(json.dumps(mission)), seed=seed, camera_calibration=calibration
+    )
+
+
+def _goal(report: dict[str, Any]) -> dict[str, Any]:
+    goals = report.get("goals") or [{}]
+    return dict(goals[0])
+
+
+def camera_replans(report: dict[str, Any]) -> list[dict[str, Any]]:
+    return [r for r in report.get("perception", {}).get("replan_frames", []) if r["outcome"] == "replanned"]
+
+
+def scene_row(scene: Scene, calibration: Path, seed: int) -> dict[str, Any]:
+    mission = unknown_mission(scene)
+    unknown = _see(mission, calibration, seed)
+    known = run_one(scene.mission("cart2d"), seed=seed)
+    g, k = _goal(unknown), _goal(known)
+    walls = arena(mission_map(MissionSpec.model_validate_json(json.dumps(mission))))
+    trace = np.array([p[1:] for p in g.get("trace", [])], dtype=float).reshape(-1, 2)
+    perception = unknown.get("perception", {})
+    quality = mapping_quality(
+        perception.get("cells", []), perception.get("resolution_m", 0.05), boxes_of(scene), walls, trace
+    )
+    latencies = [r["sim_t"] - r["frame_stamp_s"] for r in camera_replans(unknown) if r["sim_t"] is not None]
+    ratio = g["time_s"] / k["time_s"] if g.get("reached") and k.get("reached") else None
+    return {
+        "arena": scene.arena,
+        "scene": scene.name,
+        "boxes": len(scene.obstacles),
+        "reached": bool(g.get("reached")),
+        "reason": g.get("reason", unknown.get("error", "")),
+        "known_reached": bool(k.get("reached")),
+        "collisions": unknown.get("collisions"),
+        "box_contacts": unknown.get("box_contacts"),
+        "wall_contacts": unknown.get("wall_contacts"),
+        "time_s": g.get("time_s"),
+        "known_time_s": k.get("time_s"),
+        "time_ratio": ratio,
+        "path_length_m": g.get("path_length_m"),
+        "known_path_length_m": k.get("path_length_m"),
+        "replans": len(unknown.get("replans", [])),
+        "camera_replans": len(camera_replans(unknown)),
+        "frames": perception.get("frames", 0),
+        "calibrated": perception.get("calibrated", False),
+        "real_time_factor": unknown.get("real_time_factor"),
+        "cause_to_firmware_s": latencies,
+        "mapping": quality,
+        "trace": trace.round(3).tolist(),
+        "known_trace": [p[1:] for p in k.get("trace", [])],
+        "cells": perception.get("cells", []),
+        "box_list": boxes_of(scene),
+    }
+
+
+def passed(row: dict[str, Any]) -> bool:
+    return bool(
+        row["reached"]
+        and row["collisions"] == 0
+        and row["box_contacts"] == 0
+        and row["time_ratio"] is not None
+        and row["time_ratio"] <= TIME_TARGET
+    )
+
+
+def in_view(pose: tuple[float, float, float], box: dict[str, Any], mount: Mount) -> bool:
+    """Whether a point of the box's foot is in the picture and within the detector's range, from
+    the cart at `pose`."""
+    x, y, theta = pose
+    k = 24
+    hx, hy = box["sx"] / 2, box["sy"] / 2
+    s = np.linspace(-1.0, 1.0, k)
+    foot = np.concatenate(
+        [
+            np.column_stack([box["x"] + hx * s, np.full(k, box["y"] - hy)]),
+            np.column_stack([box["x"] + hx * s, np.full(k, box["y"] + hy)]),
+            np.column_stack([np.full(k, box["x"] - hx), box["y"] + hy * s]),
+            np.column_stack([np.full(k, box["x"] + hx), box["y"] + hy * s]),
+        ]
+    )
+    c, sn = math.cos(theta), math.sin(theta)
+    d = foot - [x, y]
+    local = np.column_stack([c * d[:, 0] + sn * d[:, 1], -sn * d[:, 0] + c * d[:, 1]])
+    settings = DetectorConfig()
+    ahead = np.hypot(local[:, 0] - mount.x_m, local[:, 1] - mount.y_m)
+    front = (
+        (local[:, 0] > mount.x_m + 0.05) & (ahead >= settings.min_range_m) & (ahead <= settings.max_range_m)
+    )
+    if not front.any():
+        return False
+    uv = true_pixels(simulated_lens(mount), mount, local[front])
+    inside = (
+        (uv[:, 0] >= 0)
+        & (uv[:, 0] <= mount.width_px - 1)
+        & (uv[:, 1] >= 0)
+        & (uv[:, 1] <= mount.height_px - 1)
+    )
+    return bool(inside.any())
+
+
+def latency_run(calibration: Path, seed: int, mount: Mount) -> dict[str, Any]:
+    mission = {
+        "grid": {"cols": 10, "rows": 10, "step": 0.2},
+        "start": [0.2, 0.2, math.pi / 2],
+        "goals": [[1.6, 1.6]],
+        "world": {"boxes": [LATENCY_BOX]},
+        "timeout_s": 60.0,
+    }
+    report = _see(mission, calibration, seed)
+    frames = report.get("perception", {}).get("frame_log", [])
+    first = next(
+        (f[0] for f in frames if f[0] is not None and in_view(tuple(f[1:]), LATENCY_BOX, mount)), None
+    )
+    causes = camera_replans(report)
+    cause = causes[0] if causes else None
+    out: dict[str, Any] = {
+        "seed": seed,
+        "reached": bool(_goal(report).get("reached")),
+        "box_contacts": report.get("box_contacts"),
+        "frames": len(frames),
+        "in_view_t": first,
+        "cause_t": cause["frame_stamp_s"] if cause else None,
+        "firmware_t": cause["sim_t"] if cause else None,
+    }
+    if first is not None and cause is not None and cause["sim_t"] is not None:
+        out["in_view_to_cause_s"] = cause["frame_stamp_s"] - first
+        out["cause_to_firmware_s"] = cause["sim_t"] - cause["frame_stamp_s"]
+        out["in_view_to_firmware_s"] = cause["sim_t"] - first
+    return out
+
+
+def _plot(rows: list[dict[str, Any]], out: Path) -> None:
+    cols = min(5, len(rows))
+    n_rows = (len(rows) + cols - 1) // cols
+    fig, axes = plt.subplots(n_rows, cols, figsize=(3.3 * cols, 3.4 * n_rows), squeeze=False)
+    for ax, row in zip(axes.flat, rows, strict=False):
+        for b in row["box_list"]:
+            ax.add_patch(
+                Rectangle((b["x"] - b["sx"] / 2, b["y"] - b["sy"] / 2), b["sx"], b["sy"], color="0.6", lw=0)
+            )
+        if row["cells"]:
+            cells = np.array(row["cells"])
+            ax.scatter(
+                cells[:, 0], cells[:, 1], c=cells[:, 2], cmap="Reds", vmin=0.4, vmax=1.0, s=5, marker="s"
+            )
+        if row["known_trace"]:
+            ax.plot(*zip(*row["known_trace"], strict=True), color="tab:green", lw=1, label="map known")
+        if row["trace"]:
+            ax.plot(*zip(*row["trace"], strict=True), color="tab:blue", lw=1.2, label="map unknown")
+        ax.set_aspect("equal")
+        ratio = f"{row['time_ratio']:.2f}x" if row["time_ratio"] is not None else "not reached"
+        ax.set_title(f"{row['arena']}: {row['scene']} ({ratio})", fontsize=8)
+        ax.tick_params(labelsize=6)
+    for ax in list(axes.flat)[len(rows) :]:
+        ax.axis("off")
+    axes.flat[0].legend(fontsize=6)
+    fig.suptitle("Unknown arenas: boxes (grey), perceived cells (red, p), driven paths (ground truth)")
+    fig.tight_layout()
+    fig.savefig(out / "perception_missions.png", dpi=100)
+    plt.close(fig)
+
+
+def _fmt(value: float | None, fmt: str = ".2f") -> str:
+    return "n/a" if value is None else f"{value:{fmt}}"
+
+
+def measure(out: Path, quick: bool, mount: Mount) -> tuple[str, dict[str, Any], list[tuple[str, bool]]]:
+    """The unknown-arena missions, their mapping and the frame-to-replan latency: Markdown, data,
+    the checks."""
+    chosen = [s for s in scenes() if (s.arena, s.name) in QUICK_SCENES] if quick else scenes()
+    with tempfile.TemporaryDirectory() as tmp:
+        calibration, calibration_s = calibration_file(Path(tmp), mount)
+        rows = [scene_row(s, calibration, seed=1) for s in chosen]
+        latency = [latency_run(calibration, seed, mount) for seed in ([1] if quick else [1, 2, 3])]
+    _plot(rows, out)
+    body = [
+        [
+            r["arena"],
+            r["scene"],
+            r["boxes"],
+            "yes" if r["reached"] else f"**no** ({r['reason']})",
+            f"{r['collisions']} + {r['box_contacts']}",
+            f"{_fmt(r['time_s'])} / {_fmt(r['known_time_s'])}",
+            _fmt(r["time_ratio"]),
+            f"{r['replans']} ({r['camera_replans']})",
+            _fmt(r["mapping"]["precision"]),
+            _fmt(r["mapping"]["precision_depth"]),
+            f"{_fmt(r['mapping']['recall'])} of {r['mapping']['visible_box_cells']}",
+            r["mapping"]["false_cells"],
+            r["mapping"]["cells"],
+            r["frames"],
+        ]
+        for r in rows
+    ]
+    header = [
+        "arena",
+        "mission",
+        "boxes",
+        "reached",
+        "collisions + box contacts",
+        "time s unknown / known",
+        "unknown / known",
+        "replans (camera)",
+        "precision",
+        "precision, depth",
+        "recall",
+        "false cells",
+        "cells",
+        "frames",
+    ]
+    cause_to_fw = [x for r in rows for x in r["cause_to_firmware_s"]]
+    lat_body = [
+        [
+            x["seed"],
+            "yes" if x["reached"] else "**no**",
+            x["box_contacts"],
+            _fmt(x.get("in_view_to_cause_s"), ".3f"),
+            _fmt(x.get("cause_to_firmware_s"), ".3f"),
+            _fmt(x.get("in_view_to_firmware_s"), ".3f"),
+        ]
+        for x in latency
+    ]
+    failed = [f"{r['arena']} {r['scene']}" for r in rows if not passed(r)]
+    checks = [
+        (
+            f"unknown arenas: every goal reached, 0 collisions and box contacts, time <= {TIME_TARGET} x "
+            "the known map's" + (f" (missed: {', '.join(failed)})" if failed else ""),
+            not failed,
+        ),
+        (
+            "frame-to-replan latency measured (a box coming into view caused a replan)",
+            all("in_view_to_firmware_s" in x for x in latency),
+        ),
+    ]
+    markdown = (
+        (__doc__ or "").strip()
+        + f"\n\nCalibration in the simulator: {calibration_s:.1f} s. Seed 1 per scene.\n\n"
+        + table(header, body)
+        + "\nFrame-to-replan latency (simulated s), test_seeing's mission per simulator seed:\n\n"
+        + table(
+            [
+                "seed",
+                "reached",
+                "box contacts",
+                "in view -> cause",
+                "cause -> firmware",
+                "in view -> firmware",
+            ],
+            lat_body,
+        )
+        + (
+            f"\nCausing frame's capture to the new path in the firmware over the {len(cause_to_fw)} "
+            f"camera replans of the unknown-arena missions: {spread(cause_to_fw).text('.3f', 's')}.\n"
+            if cause_to_fw
+            else "\n"
+        )
+        + "\n![unknown arenas](perception_missions.png)\n"
+    )
+    data = {
+        "missions": [
+            {k: v for k, v in r.items() if k not in ("trace", "known_trace", "cells", "box_list")}
+            for r in rows
+        ],
+        "latency": latency,
+        "calibration_s": calibration_s,
+    }
+    return markdown, data, checks
