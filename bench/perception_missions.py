@@ -363,7 +363,9 @@ def _plot(rows: list[dict[str, Any]], out: Path) -> None:
     for ax in list(axes.flat)[len(rows) :]:
         ax.axis("off")
     axes.flat[0].legend(fontsize=6)
-    fig.suptitle("Unknown arenas: boxes (grey), perceived cells (red, p), driven paths (ground truth)")
+    fig.suptitle(
+        "Unknown arenas: boxes (grey), perceived cells (red, p), driven paths (ground truth)", fontsize=9
+    )
     fig.tight_layout()
     fig.savefig(out / "perception_missions.png", dpi=100)
     plt.close(fig)

@@ -76,6 +76,11 @@ def test_a_box_the_map_does_not_show_is_seen_mapped_and_driven_around(tmp_path: 
     assert goal["reached"], goal.get("reason")
     assert report["box_contacts"] == 0 and report["collisions"] == 0
     assert any("camera" in r["reason"] for r in report["replans"])  # seen on the way, not before
+    # each camera replan with the frame that caused it: captured before the new path was in the
+    # firmware, by the camera's latency, the processing, planning and upload (simulated time)
+    causes = [r for r in report["perception"]["replan_frames"] if r["outcome"] == "replanned"]
+    assert causes and all("camera" in r["reason"] for r in causes)
+    assert all(0.0 < r["sim_t"] - r["frame_stamp_s"] < 0.5 for r in causes), causes
     cells = np.array([c[:2] for c in report["perception"]["cells"]])
     # what it believes occupied is on the box (its face, and as deep as the camera assumes)
     near_box = (np.abs(cells[:, 0] - BOX["x"]) <= 0.1 + 0.2 + 0.05) & (
