@@ -35,7 +35,8 @@ perceived layer block the route (Seeing records it per replan); *in firmware*: t
 time the replan's new path was in the firmware (Replan.sim_t). In-view to cause is the evidence
 the log-odds grid needs; cause to firmware is the frame's latency, processing, planning and
 upload. The causing frame to firmware time is also given for every camera replan of the
-unknown-arena missions.
+unknown-arena missions. *driven backwards*: the odometry distance the cart drove in reverse (the
+firmware's polar law reverses to a waypoint behind it): driven blind, the camera looks ahead.
 """
 
 from __future__ import annotations
@@ -220,6 +221,18 @@ def camera_replans(report: dict[str, Any]) -> list[dict[str, Any]]:
     return [r for r in report.get("perception", {}).get("replan_frames", []) if r["outcome"] == "replanned"]
 
 
+def driven_backwards_m(frame_log: list[list[float]]) -> float:
+    """How far the cart drove backwards (odometry at the frames perception processed): the
+    firmware's polar law reverses to a waypoint behind it, and the camera only looks ahead."""
+    poses = np.array([f[1:] for f in frame_log], dtype=float).reshape(-1, 3)
+    if len(poses) < 2:
+        return 0.0
+    step = np.diff(poses[:, :2], axis=0)
+    heading = poses[:-1, 2] + np.remainder(np.diff(poses[:, 2]) + np.pi, 2 * np.pi) / 2 - np.pi / 2
+    along = step[:, 0] * np.cos(heading) + step[:, 1] * np.sin(heading)
+    return float(-along[along < 0].sum())
+
+
 def scene_row(scene: Scene, calibration: Path, seed: int) -> dict[str, Any]:
     mission = unknown_mission(scene)
     unknown = _see(mission, calibration, seed)
@@ -251,6 +264,7 @@ def scene_row(scene: Scene, calibration: Path, seed: int) -> dict[str, Any]:
         "replans": len(unknown.get("replans", [])),
         "camera_replans": len(camera_replans(unknown)),
         "frames": perception.get("frames", 0),
+        "backwards_m": driven_backwards_m(perception.get("frame_log", [])),
         "calibrated": perception.get("calibrated", False),
         "real_time_factor": unknown.get("real_time_factor"),
         "cause_to_firmware_s": latencies,
@@ -400,6 +414,7 @@ def measure(out: Path, quick: bool, mount: Mount) -> tuple[str, dict[str, Any], 
             r["mapping"]["false_cells"],
             r["mapping"]["cells"],
             r["frames"],
+            _fmt(r["backwards_m"]),
         ]
         for r in rows
     ]
@@ -418,6 +433,7 @@ def measure(out: Path, quick: bool, mount: Mount) -> tuple[str, dict[str, Any], 
         "false cells",
         "cells",
         "frames",
+        "driven backwards m",
     ]
     cause_to_fw = [x for r in rows for x in r["cause_to_firmware_s"]]
     lat_body = [
