@@ -231,7 +231,7 @@ def driven_backwards_m(frame_log: list[list[float]]) -> float:
     step = np.diff(poses[:, :2], axis=0)
     heading = poses[:-1, 2] + np.remainder(np.diff(poses[:, 2]) + np.pi, 2 * np.pi) / 2 - np.pi / 2
     along = step[:, 0] * np.cos(heading) + step[:, 1] * np.sin(heading)
-    return float(-along[along < 0].sum())
+    return float(np.abs(along[along < 0]).sum())
 
 
 def scene_row(scene: Scene, calibration: Path, seed: int) -> dict[str, Any]:
@@ -421,7 +421,7 @@ def measure(out: Path, quick: bool, mount: Mount) -> tuple[str, dict[str, Any], 
         "collisions + box contacts",
         "time s unknown / known",
         "unknown / known",
-        "replans (camera)",
+        "replans (by a frame)",
         "precision",
         "precision, depth",
         "recall",

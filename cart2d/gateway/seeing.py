@@ -157,24 +157,26 @@ class Seeing:
         g.tell_camera(frame.stamp_s, seen.fov.tolist(), seen.hits.tolist())
         replans = g.mission.replans
         before = len(replans)
-        self._send(perception)  # a replan, if the route is blocked now, happens in here
-        if g.mission.replans is replans:
-            self.replan_causes.extend((r, frame.stamp_s) for r in replans[before:])
+        told = self._send(perception)  # a replan, if the route is blocked now, happens in here
+        if told and g.mission.replans is replans:  # not one another thread made meanwhile
+            self.replan_causes.extend((r, frame.stamp_s) for r in replans[before:] if told in r.reason)
         return Overlay(draw=seen.draw)
 
-    def _send(self, perception: Perception) -> None:
+    def _send(self, perception: Perception) -> str:
         """The grid's occupied cells to the live map: at once when the set of cells changed (a
-        replan may be due), else every SEND_INTERVAL_S while there are cells (their confidence)."""
+        replan may be due), else every SEND_INTERVAL_S while there are cells (their confidence).
+        What it told the map ('' if nothing): a replan it caused has it in its reason."""
         cells = perception.cells(0.5)
         r = self.resolution_m
         key = frozenset((math.floor(x / r), math.floor(y / r)) for x, y, _ in cells)
         now = time.monotonic()
         if key == self._sent and (not key or now - self._sent_at < SEND_INTERVAL_S):
-            return
+            return ""
         what = f"the camera sees {len(key)} occupied cell{'s' if len(key) != 1 else ''}"
         self.gateway.set_perceived(cells, what, r)
         self._layer = self.gateway.perceived
         self._sent, self._sent_at = key, now
+        return what
 
 
 def seeing_for(gateway: Gateway, directory: Path | None = None) -> Seeing:
