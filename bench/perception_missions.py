@@ -33,10 +33,12 @@ from whose pose (the odometry pose perception used) a point of the box's foot is
 and within the detector's range; *cause*: the stamp of the frame whose processing made the
 perceived layer block the route (Seeing records it per replan); *in firmware*: the simulated
 time the replan's new path was in the firmware (Replan.sim_t). In-view to cause is the evidence
-the log-odds grid needs; cause to firmware is the frame's latency, processing, planning and
-upload. The causing frame to firmware time is also given for every camera replan of the
-unknown-arena missions. *driven backwards*: the odometry distance the cart drove in reverse (the
-firmware's polar law reverses to a waypoint behind it): driven blind, the camera looks ahead.
+the log-odds grid needs (in view is known to a frame: the box may have entered the view up to a
+frame period, 67 ms at 15 fps, before that capture); cause to firmware is the frame's latency,
+processing, planning and upload. The causing frame to firmware time is also given for every
+camera replan of the unknown-arena missions. *driven backwards*: the odometry distance the cart
+drove in reverse (the firmware's polar law reverses to a waypoint behind it): driven blind, the
+camera looks ahead.
 """
 
 from __future__ import annotations
