@@ -1,5 +1,5 @@
 """Boxes in the world of `cart2d sim` (issue 14): the command line's --world, and GET
-/api/sim/world, POST /api/sim/boxes, DELETE /api/sim/boxes/{id}, POST /api/sim/boxes/clear,
+/api/sim/world, POST /api/sim/boxes, DELETE /api/sim/boxes/{id}, DELETE /api/sim/boxes (all),
 checked against what the simulator itself holds (world_get), across a restart of the simulator
 and a new map, and told to /ws viewers."""
 
@@ -55,7 +55,7 @@ def test_boxes_are_added_listed_and_removed_in_the_simulator(rig: Rig) -> None:
     assert [b["id"] for b in told[-1]["boxes"]] == ["box-1", "box-2"]
     gone = rig.client.delete("/api/sim/boxes/crate")
     assert gone.status_code == 404 and "no box 'crate'" in gone.json()["detail"]
-    cleared = rig.client.post("/api/sim/boxes/clear")
+    cleared = rig.client.delete("/api/sim/boxes")
     assert cleared.status_code == 200 and sorted(cleared.json()["removed"]) == ["box-1", "box-2"]
     assert held(rig.sim) == {}
     assert told[-1]["boxes"] == [] and len(told) == 4
@@ -64,7 +64,8 @@ def test_boxes_are_added_listed_and_removed_in_the_simulator(rig: Rig) -> None:
 @pytest.mark.parametrize(
     ("box", "words"),
     [
-        ({**CRATE, "sx": -0.1}, "boxes.1.sx: Input should be greater than 0"),
+        ({**CRATE, "sx": -0.1}, "boxes.1.sx: Input should be greater than or equal to 0.01"),
+        ({**CRATE, "y": False}, "boxes.1.y: Input should be a valid number"),
         ({**CRATE, "colour": "red"}, "boxes.1.colour: String should match pattern"),
         ({**CRATE, "weight": 3}, "boxes.1.weight: Extra inputs are not permitted"),
         ({"x": 1.0, "sx": 0.2, "sy": 0.2}, "boxes.1.y: Field required"),
@@ -121,7 +122,7 @@ def test_a_real_cart_has_no_simulated_world(tmp_path: Path) -> None:
                 client.get("/api/sim/world"),
                 client.post("/api/sim/boxes", json={"boxes": [CRATE]}),
                 client.delete("/api/sim/boxes/crate"),
-                client.post("/api/sim/boxes/clear"),
+                client.delete("/api/sim/boxes"),
             ):
                 assert answer.status_code == 404 and "real cart" in answer.json()["detail"], answer.text
     finally:

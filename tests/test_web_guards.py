@@ -96,7 +96,7 @@ ATTACKS: dict[str, bytes] = {
     # a box in the cart's way, or the boxes taken away
     "POST /api/sim/boxes": b'{"boxes": [{"x": 0.6, "y": 0.0, "sx": 0.2, "sy": 0.6}]}',
     "DELETE /api/sim/boxes/{box_id}": b"",
-    "POST /api/sim/boxes/clear": b"",
+    "DELETE /api/sim/boxes": b"",
     # a wall of perceived cells across the arena, or perception off
     "PUT /api/perception": b'{"enabled": false, "cells": [[1.0, 0.0, 1.0], [1.0, 0.2, 1.0]]}',
     "POST /api/perception/clear": b"",

@@ -18,14 +18,19 @@ from cart2d.simulator import SimulatorError
 
 NO_SIMULATOR = "there is no simulator: this gateway drives a real cart; boxes exist only in simulation"
 MAX_BOXES_PER_REQUEST = 1000
+MIN_SIZE_M = 0.01
 MAX_COORDINATE_M = 1e5  # what the simulator takes (sim/src/world_change.cpp, kMaxCoordinateM)
 
 
 class BoxIn(BoxSpec):
-    """A mission's box (BoxSpec), within the simulator's reach, its id fit for a URL path."""
+    """A mission's box (BoxSpec), within the simulator's reach, at least 1 cm across, its id fit
+    for a URL path; numbers must be numbers (strict: no true for 1)."""
 
+    model_config = ConfigDict(extra="forbid", strict=True)
     x: float = Field(ge=-MAX_COORDINATE_M, le=MAX_COORDINATE_M, allow_inf_nan=False)
     y: float = Field(ge=-MAX_COORDINATE_M, le=MAX_COORDINATE_M, allow_inf_nan=False)
+    sx: float = Field(ge=MIN_SIZE_M, le=100.0, allow_inf_nan=False)
+    sy: float = Field(ge=MIN_SIZE_M, le=100.0, allow_inf_nan=False)
     id: str | None = Field(None, min_length=1, max_length=100, pattern=r"^[A-Za-z0-9_.~-]+$")
 
 
@@ -84,8 +89,8 @@ def add_sim_world_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> No
         except KeyError as exc:
             raise HTTPException(404, f"there is no box {box_id!r} in the simulated world") from exc
 
-    @app.post(
-        "/api/sim/boxes/clear",
+    @app.delete(
+        "/api/sim/boxes",
         dependencies=[guarded],
         summary="remove every box from the simulated world; the walls stay (simulation only)",
         responses=errors(400, 401, 404, 503),

@@ -35,7 +35,7 @@ const ROUTES: [string, string, string][] = [
   ["PUT", "/api/sim/faults", '{"uart_rx_drop": 1}'],
   ["POST", "/api/sim/boxes", '{"boxes": [{"x": 0.6, "y": 0.0, "sx": 0.2, "sy": 0.6}]}'],
   ["DELETE", "/api/sim/boxes/box-1", ""],
-  ["POST", "/api/sim/boxes/clear", ""],
+  ["DELETE", "/api/sim/boxes", ""],
   ["PUT", "/api/perception", '{"enabled": false, "cells": [[1.0, 0.0, 1.0], [1.0, 0.2, 1.0]]}'],
   ["POST", "/api/perception/clear", ""],
   ["PUT", "/api/settings/camera", '{"stream_url": "http://127.0.0.1:9/stream"}'],
