@@ -99,3 +99,25 @@ test("boxes added through the API reach the map; Clear boxes takes them all away
   await expect(page.locator("#sim-world-msg")).toHaveText("0 boxes stand in the world.");
   expect(await worldBoxes(page.request)).toEqual([]);
 });
+
+test("boxes standing before the page opens are drawn at once", async ({ page }) => {
+  const r = await page.request.post(`${BASE}/api/sim/boxes`, { data: { boxes: [{ x: 0.9, y: 1.5, sx: 0.2, sy: 0.2, id: "early" }] } });
+  expect(r.ok(), await r.text()).toBe(true);
+  await open(page);
+  await expect(page.locator("#map")).toHaveAttribute("data-boxes", "1");
+  await clearBoxes(page.request);
+  await expect(page.locator("#map")).toHaveAttribute("data-boxes", "0"); // told on /ws
+});
+
+test("on a real cart (GET answers 404) the Box mode, its legend and Clear boxes stay hidden", async ({ page }) => {
+  await page.route("**/api/sim/world", (route) =>
+    route.fulfill({ status: 404, contentType: "application/json", body: JSON.stringify({ detail: "there is no simulator" }) }),
+  );
+  const asked = page.waitForResponse("**/api/sim/world");
+  const w = await open(page);
+  expect((await asked).status()).toBe(404);
+  await expect(page.locator("#sim-world")).toHaveAttribute("data-loaded", "true");
+  for (const id of ["#sim-world", "#map-mode-box", "#legend-box"]) await expect(page.locator(id)).toBeHidden();
+  await expect(page.locator("#messages")).not.toContainText("simulator");
+  expect(w.pageErrors).toEqual([]);
+});
