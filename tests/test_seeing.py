@@ -95,3 +95,13 @@ def test_blind_the_same_mission_drives_into_the_box(tmp_path: Path) -> None:
     assert not report["goals"][0]["reached"]
     assert report["box_contacts"] >= 1
     assert "perception" not in report
+
+
+def test_the_readmes_example_world_is_crossed_without_touching_a_box(tmp_path: Path) -> None:
+    world = json.loads(Path(__file__).parent.parent.joinpath("docs", "examples", "boxes.json").read_text())
+    spec = MissionSpec.model_validate(
+        {"start": [0.0, 0.0, 0.0], "goals": [[1.6, 0.3]], "world": world, "timeout_s": 60.0}
+    )
+    report = run_mission(spec, base_dir=tmp_path)
+    assert report["goals"][0]["reached"], report["goals"][0].get("reason")
+    assert report["box_contacts"] == 0 and report["collisions"] == 0
