@@ -26,6 +26,8 @@ SECTIONS = (
     "streaming",
     "live_map",
     "perception",
+    "camera_stream",
+    "recording",
     "safety",
     "drivetrain",
     "serial",

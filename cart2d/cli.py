@@ -20,13 +20,15 @@ from cart2d.calibrate import add_arguments as add_calibrate_arguments
 from cart2d.calibrate import main_calibrate
 from cart2d.gateway import Gateway
 from cart2d.gateway.camera import CameraFeed
+from cart2d.gateway.live_map import world_for
+from cart2d.gateway.sim_world import with_boxes, world_file_boxes
 from cart2d.link import Link, LinkError, ports
 from cart2d.perception.calibrate_command import add_arguments as add_camera_calibrate_arguments
 from cart2d.perception.calibrate_command import main_camera_calibrate
 from cart2d.recording import cli as recording_cli
 from cart2d.server import addresses, create_app, is_loopback, serving
 from cart2d.simulation.camera import SimCameraServer
-from cart2d.simulator import SimOptions, Simulator, SimulatorError, default_bootloader
+from cart2d.simulator import SimOptions, Simulator, SimulatorError, World, default_bootloader
 from cart2d.store import Store
 
 log = logging.getLogger("cart2d")
@@ -159,6 +161,8 @@ def _fault_options(options: list[str]) -> tuple[dict[str, float], list[str]]:
 def cmd_sim(args: argparse.Namespace) -> int:
     faults, problems = _fault_options(args.fault)
     problems += [p for p in [recording_cli.record_problem(args)] if p]
+    boxes, world_problems = world_file_boxes(args.world) if args.world else ([], [])
+    problems += world_problems
     for problem in problems:
         print(f"cart2d sim: {problem}", file=sys.stderr)
     if problems:
@@ -176,6 +180,8 @@ def cmd_sim(args: argparse.Namespace) -> int:
             pty_link=store.directory / "sim-tty",
             faults=faults,
             bootloader=default_bootloader() if args.optiboot else None,
+            # the map's walls and the --world boxes, placed again at every restart (sim_world.py)
+            world=with_boxes(world_for(where.settings.map), World(tuple(boxes))) if boxes else None,
         )
         try:
             sim = Simulator(options).start()
@@ -193,6 +199,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
                     args.camera = camera.url  # the simulated ESP32-CAM, read as a real one is
                 _attach_camera(gateway, args)
                 on = f"; faults: {', '.join(f'{k}={v:g}' for k, v in faults.items())}" if faults else ""
+                on += f"; {len(boxes)} boxes from {args.world}" if args.world else ""
                 print(
                     f"simulator running ({args.speed}x real time{on}), robot serial port {sim.pty}, "
                     f"side channel {sim.control_address}",
@@ -329,6 +336,13 @@ def build_parser() -> argparse.ArgumentParser:
         "(default 8180)",
     )
     sim.add_argument("--no-camera", action="store_true", help="run without the simulated camera")
+    sim.add_argument(
+        "--world",
+        type=Path,
+        metavar="FILE.json",
+        help='boxes standing in the simulated world, as a mission\'s "world": {"boxes": [{"x", "y", "sx", '
+        '"sy", "height", "colour", "id"}, ...]} (m); the panel\'s Box mode and /api/sim/boxes change them',
+    )
     _camera_args(sim)
     sim.set_defaults(run=cmd_sim)
 

@@ -45,10 +45,10 @@ SEED = 20261121
 # beyond the current arena's walls; a settings file whose obstacles lie off its own grid; a HEX file
 # with bad records or checksums; a map whose image or YAML cannot be read; a network host that is
 # neither an IP address nor a host name (the schema's pattern gives only its characters); a camera
-# URL whose bracketed IPv6 address is none (the pattern gives only its characters). Only for
-# these does positive_data_acceptance take 422 as well (its defaults, plus 422); every other check,
-# including that the 422 is documented and its body matches the documented schema, applies as
-# everywhere.
+# URL whose bracketed IPv6 address is none (the pattern gives only its characters); a simulated box
+# under the cart where it stands now. Only for these does positive_data_acceptance take 422 as well
+# (its defaults, plus 422); every other check, including that the 422 is documented and its body
+# matches the documented schema, applies as everywhere.
 SEMANTIC_REFUSALS = [
     "POST /api/goto",
     "POST /api/pose",
@@ -58,6 +58,7 @@ SEMANTIC_REFUSALS = [
     "POST /api/firmware/update",
     "PUT /api/settings/network",
     "PUT /api/settings/camera",
+    "POST /api/sim/boxes",  # a box under the cart, where the cart is now
 ]
 POSITIVE_DATA_STATUSES = ["2xx", "3xx", "401", "403", "404", "409", "422", "429", "5xx"]
 

@@ -16,6 +16,8 @@ import pytest
 from cart2d.gateway.seeing import PoseHistory
 from cart2d.mission import MissionSpec, run_mission
 from cart2d.perception.occupancy import LogOddsGrid
+from cart2d.recording.channels import TOPIC_CAMERA
+from tests.test_recording import Read
 
 
 def test_the_pose_at_a_time_between_two_frames_is_interpolated_the_short_way_round() -> None:
@@ -71,7 +73,7 @@ def mission(**extra: Any) -> MissionSpec:
 
 
 def test_a_box_the_map_does_not_show_is_seen_mapped_and_driven_around(tmp_path: Path) -> None:
-    report = run_mission(mission(), base_dir=tmp_path)
+    report = run_mission(mission(), base_dir=tmp_path, mcap_path=tmp_path / "run.mcap")
     goal = report["goals"][0]
     assert goal["reached"], goal.get("reason")
     assert report["box_contacts"] == 0 and report["collisions"] == 0
@@ -87,6 +89,10 @@ def test_a_box_the_map_does_not_show_is_seen_mapped_and_driven_around(tmp_path: 
         np.abs(cells[:, 1] - BOX["y"]) <= 0.2 + 0.2 + 0.05
     )
     assert near_box.mean() >= 0.8, cells
+    # the camera's frames, with what perception drew on them, are in the recording
+    frames = Read(tmp_path / "run.mcap").on(TOPIC_CAMERA)
+    assert len(frames) >= report["perception"]["frames"] // 2
+    assert all(f.data for f in frames)
 
 
 def test_blind_the_same_mission_drives_into_the_box(tmp_path: Path) -> None:
@@ -94,3 +100,13 @@ def test_blind_the_same_mission_drives_into_the_box(tmp_path: Path) -> None:
     assert not report["goals"][0]["reached"]
     assert report["box_contacts"] >= 1
     assert "perception" not in report
+
+
+def test_the_readmes_example_world_is_crossed_without_touching_a_box(tmp_path: Path) -> None:
+    world = json.loads(Path(__file__).parent.parent.joinpath("docs", "examples", "boxes.json").read_text())
+    spec = MissionSpec.model_validate(
+        {"start": [0.0, 0.0, 0.0], "goals": [[1.6, 0.3]], "world": world, "timeout_s": 60.0}
+    )
+    report = run_mission(spec, base_dir=tmp_path)
+    assert report["goals"][0]["reached"], report["goals"][0].get("reason")
+    assert report["box_contacts"] == 0 and report["collisions"] == 0

@@ -48,6 +48,7 @@ class LiveGateway(GatewayProcess):
             "firmware update": self.get_json("/api/firmware/update")["state"],
             "firmware settings": self.get_json("/api/firmware/settings"),
             "simulator faults": self.side.request({"type": "faults"})["faults"],
+            "simulated boxes": self.side.request({"type": "world_get"})["world"]["boxes"],
             "restarts noticed": status["reset"]["noticed"],
             "pose trusted": status["pose_trust"]["trusted"],
             "mission": status["mission"]["state"],
@@ -92,6 +93,10 @@ ATTACKS: dict[str, bytes] = {
     "POST /api/settings/file": b'{"version": 1, "network": {"host": "0.0.0.0", "port": 8080}, '
     b'"map": {"cols": 10, "rows": 10, "step_m": 0.2, "obstacles": []}}',
     "PUT /api/sim/faults": b'{"uart_rx_drop": 1}',  # would cut the robot off
+    # a box in the cart's way, or the boxes taken away
+    "POST /api/sim/boxes": b'{"boxes": [{"x": 0.6, "y": 0.0, "sx": 0.2, "sy": 0.6}]}',
+    "DELETE /api/sim/boxes/{box_id}": b"",
+    "DELETE /api/sim/boxes": b"",
     # a wall of perceived cells across the arena, or perception off
     "PUT /api/perception": b'{"enabled": false, "cells": [[1.0, 0.0, 1.0], [1.0, 0.2, 1.0]]}',
     "POST /api/perception/clear": b"",

@@ -37,6 +37,7 @@ from typing import Any
 
 from cart2d.gateway.live_map import Replan, RouteAhead, arena, planner_for, world_for
 from cart2d.gateway.perceived import PerceptionMixin, with_perceived
+from cart2d.gateway.sim_world import SimWorldMixin, with_boxes
 from cart2d.gateway.state import (
     BUSY_POLL_S,
     RESET_POSE_SETTINGS,
@@ -80,7 +81,7 @@ def _walls_of(m: MapSettings) -> tuple[object, ...]:
     return (m.floor_plan, m.cols, m.rows, m.step_m, m.origin_m)
 
 
-class Gateway(PerceptionMixin):  # the perceived layer and the camera: perceived.py
+class Gateway(PerceptionMixin, SimWorldMixin):  # perceived.py: perception; sim_world.py: sim boxes
     def __init__(
         self, link: Link, store: Store, settings: GatewaySettings, sim: Simulator | None = None
     ) -> None:
@@ -305,7 +306,7 @@ class Gateway(PerceptionMixin):  # the perceived layer and the camera: perceived
         """The simulator's walls follow the map (and do so again after a restart)."""
         if self.sim is None:
             return
-        world = world_for(self.settings.map)
+        world = with_boxes(world_for(self.settings.map), self.sim.options.world)  # boxes stay
         self.sim.options.world = world
         if self.sim.running():
             try:

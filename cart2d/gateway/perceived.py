@@ -22,14 +22,14 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
-from cart2d.gateway.camera import CameraFeed
+from cart2d.gateway.camera import CameraFeed, Shown
 from cart2d.gateway.live_map import planner_for
 from cart2d.gateway.seeing import Seeing, seeing_for
 from cart2d.planning import EPS, Grid, Planner
@@ -126,6 +126,7 @@ class PerceptionMixin:
 
     camera: CameraFeed | None = None  # use_camera(): the command line, set_camera(), update_settings()
     seeing: Seeing | None = None  # the camera's frames into the perceived layer (seeing.py)
+    _camera_sinks: dict[Callable[[Shown], None], Callable[[], None] | None] | None = None  # sink: unsubscribe
     perceived: PerceivedLayer = PerceivedLayer()
     _perceived_sent_s = 0.0
     _perceived_timer: threading.Timer | None = None
@@ -158,6 +159,28 @@ class PerceptionMixin:
         if feed is not None and feed is not old:
             self.seeing = seeing_for(self)  # type: ignore[arg-type]  # self is the Gateway
             feed.add_processor(self.seeing)
+            sinks = self._sinks()
+            for sink in sinks:
+                sinks[sink] = feed.subscribe(sink)
+
+    def _sinks(self) -> dict[Callable[[Shown], None], Callable[[], None] | None]:
+        if self._camera_sinks is None:
+            self._camera_sinks = {}  # this gateway's own
+        return self._camera_sinks
+
+    def add_camera_sink(self, sink: Callable[[Shown], None]) -> Callable[[], None]:
+        """sink(shown) for every frame shown of whichever camera the gateway reads, now and after
+        a change of camera (a recording, the Foxglove view); returns what stops it."""
+        with self._lock:
+            self._sinks()[sink] = self.camera.subscribe(sink) if self.camera is not None else None
+
+        def remove() -> None:
+            with self._lock:
+                unsubscribe = self._sinks().pop(sink, None)
+                if unsubscribe is not None:
+                    unsubscribe()
+
+        return remove
 
     def set_camera(self, camera: CameraSettings) -> None:
         """Saves `camera` and reads it from now on (also when the saved one was the same but the

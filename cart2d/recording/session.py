@@ -6,7 +6,8 @@ from __future__ import annotations
 import contextlib
 import datetime
 import logging
-from collections.abc import Iterator
+import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -106,13 +107,21 @@ def open_recording(
         yield None
         return
     recording = Recording(gateway)
+    add_camera_sink = getattr(gateway, "add_camera_sink", None)  # a gateway that may have a camera
+    stop_camera: Callable[[], None] | None = None
     try:
         if mcap_path is not None:
             recording.record_to(mcap_path, overwrite)
         if foxglove_port is not None:
             recording.serve(foxglove_port, host)
+        if add_camera_sink is not None:
+            stop_camera = add_camera_sink(
+                lambda shown: recording.publish_camera_jpeg(shown.jpeg, time.time_ns())
+            )
         yield recording.start()
     finally:
+        if stop_camera is not None:
+            stop_camera()
         recording.close()
 
 

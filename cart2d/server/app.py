@@ -46,6 +46,7 @@ from cart2d.server.models import (
 )
 from cart2d.server.motion import MotionTokens, motion_token
 from cart2d.server.panel import MINIMAL_PAGE, PANEL_DIR, PanelFiles
+from cart2d.server.sim_world import add_sim_world_routes
 from cart2d.spec import load_spec
 
 log = logging.getLogger(__name__)
@@ -385,6 +386,7 @@ def create_app(
 
     add_admin_routes(app, gateway, Guarded)
     add_camera_routes(app, gateway, Guarded)
+    add_sim_world_routes(app, gateway, Guarded)
 
     # -- live data ---------------------------------------------------------------------------
     @app.websocket("/ws")

@@ -174,7 +174,28 @@ export type LiveMessage =
   | ({ type: "routine" } & RoutineView)
   | { type: "map"; version: number; why: string }
   | PerceivedMessage
-  | CameraMessage;
+  | CameraMessage
+  | SimWorldMessage;
+
+/** A box standing in the simulated world (GET /api/sim/world): centre and size, m; height, m. */
+export interface SimBox {
+  id: string;
+  x: number;
+  y: number;
+  sx: number;
+  sy: number;
+  height: number;
+  colour: string;
+  solid?: boolean;
+}
+
+/** The simulated world's boxes (GET /api/sim/world; /ws "sim_world" when they change). */
+export interface SimWorldView {
+  version: number | null;
+  boxes: SimBox[];
+}
+
+export type SimWorldMessage = { type: "sim_world" } & SimWorldView;
 
 /** The live map's perceived layer (GET /api/perception, /ws "perceived"): [x, y, p_occupied]. */
 export interface PerceivedMessage {

@@ -21,6 +21,7 @@ import { CameraCard } from "./camera";
 import { byId as $, say } from "./dom";
 import { Driver } from "./drive";
 import { SimFaults } from "./faults";
+import { SimWorld } from "./sim_world";
 import { age, count } from "./format";
 import { FlagBadges, TelemetryClock } from "./health";
 import { LiveMap, type MapMode, type Pose } from "./map";
@@ -158,18 +159,21 @@ const liveMap = new LiveMap(
   $("map-cursor"),
 );
 new CameraCard(ctx, liveMap);
+const simWorld = new SimWorld(ctx, liveMap);
 let mapMode: MapMode = "obstacle";
 let missionState = "";
 const MAP_HINTS: Record<MapMode, string> = {
   obstacle: "Click a node to add or remove an obstacle. Wheel or pinch to zoom, drag to pan.",
   goto: "Click a point to send the robot there (planned around the obstacles).",
   pose: "Press where the cart is and drag the way it faces, then release: that sets its pose.",
+  box: "Click to drop a 0.2 × 0.2 m box in the simulated world; click a box to take it away.",
 };
+const MAP_MODES: readonly MapMode[] = ["obstacle", "goto", "pose", "box"];
 
 for (const radio of document.querySelectorAll<HTMLInputElement>('input[name="map-mode"]')) {
   radio.addEventListener("change", () => {
     if (!radio.checked) return;
-    mapMode = radio.value === "goto" || radio.value === "pose" ? radio.value : "obstacle";
+    mapMode = MAP_MODES.find((m) => m === radio.value) ?? "obstacle";
     liveMap.mode = mapMode;
     canvas.dataset["mode"] = mapMode;
     $("map-hint").textContent = MAP_HINTS[mapMode];
@@ -228,6 +232,10 @@ async function mapClick(world: Point, node: Point | null): Promise<void> {
   if (replaying) return;
   if (mapMode === "goto") {
     await goTo(Math.round(world[0] * 1000) / 1000, Math.round(world[1] * 1000) / 1000);
+    return;
+  }
+  if (mapMode === "box") {
+    await simWorld.click(world);
     return;
   }
   if (!node) {
@@ -372,6 +380,9 @@ function onMessage(msg: LiveMessage): void {
     case "camera":
       liveMap.setCamera(msg.fov, msg.hits);
       break;
+    case "sim_world":
+      simWorld.show(msg);
+      break;
   }
 }
 
@@ -480,6 +491,7 @@ void commandForm.load();
 void tuning.load();
 void gatewayPanel.load();
 void simFaults.load();
+void simWorld.load();
 void pollStatus();
 window.setInterval(() => void pollStatus(), 1000);
 connect();

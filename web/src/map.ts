@@ -4,14 +4,17 @@
 // footprint from odometry with its trail, and, in simulation, the true pose and its trail.
 // Axes in metres; zoom and pan with the wheel, a drag, a pinch or the buttons; fit-to-map; the
 // cursor's x, y; in "pose" mode a drag sets the pose (where the cart is, then the way it faces),
-// as RViz's 2D Pose Estimate.
+// as RViz's 2D Pose Estimate. In simulation, the world's boxes (physical, not the map: GET
+// /api/sim/world) are drawn as what they are, in their colour and outlined; in "box" mode a click
+// drops one or picks one up (sim_world.ts).
 //
 // The canvas publishes its world-to-screen transform as data attributes (data-origin-x,
 // data-origin-y: CSS pixels of the world's (0, 0); data-scale: CSS pixels per metre), updated at
 // every zoom and pan, so tools and tests can find a node without reverse-engineering the drawing;
-// data-arena is the walls it draws ("x_min y_min x_max y_max", metres).
+// data-arena is the walls it draws ("x_min y_min x_max y_max", metres); data-boxes the number of
+// simulated boxes drawn.
 
-import type { Arena, MapView, Plan, Point } from "./api";
+import type { Arena, MapView, Plan, Point, SimBox } from "./api";
 import { cssVar } from "./dom";
 import { AXIS_BOTTOM_PX, Viewport, drawAxes } from "./map_view";
 
@@ -21,7 +24,7 @@ export interface Pose {
   theta: number;
 }
 
-export type MapMode = "obstacle" | "goto" | "pose";
+export type MapMode = "obstacle" | "goto" | "pose" | "box";
 
 export interface MapActions {
   click: (world: Point, node: Point | null) => void;
@@ -64,6 +67,7 @@ export class LiveMap {
   private obstacleKeys = new Set<string>();
   private perceived: { resolution: number; cells: [number, number, number][] } = { resolution: 0.05, cells: [] };
   private fov: Point[] = [];
+  private boxes: SimBox[] = [];
   private hits: Point[] = [];
   private readonly view = new Viewport();
   private cssW = 200;
@@ -138,6 +142,22 @@ export class LiveMap {
     this.hits = hits;
     this.canvas.dataset["fov"] = String(fov.length);
     this.invalidate();
+  }
+
+  /** The simulated world's boxes (what is physically there), drawn apart from the map. */
+  setBoxes(boxes: SimBox[]): void {
+    this.boxes = boxes;
+    this.canvas.dataset["boxes"] = String(boxes.length);
+    this.invalidate();
+  }
+
+  /** The id of the simulated box under `p` (the topmost drawn), or null. */
+  boxAt(p: Point): string | null {
+    for (let k = this.boxes.length - 1; k >= 0; k--) {
+      const b = this.boxes[k];
+      if (b && Math.abs(p[0] - b.x) <= b.sx / 2 && Math.abs(p[1] - b.y) <= b.sy / 2) return b.id;
+    }
+    return null;
   }
 
   hasObstacle(node: Point): boolean {
@@ -461,6 +481,7 @@ export class LiveMap {
     };
 
     if (m) this.drawMap(ctx, m, s, colors);
+    this.drawBoxes(ctx, s);
     this.drawPerception(ctx, s, colors);
     this.drawPaths(ctx, colors);
 
@@ -552,6 +573,30 @@ export class LiveMap {
       ctx.strokeStyle = colors["robot"] ?? "";
       ctx.lineWidth = 1.5;
       ctx.strokeRect(px - half - 2, py - half - 2, 2 * half + 4, 2 * half + 4);
+    }
+  }
+
+  /** The simulator's boxes: their own colour, half see-through, outlined solid and crossed, so they
+   * read as physical things rather than the map's obstacle cells or the camera's perceived ones. */
+  private drawBoxes(ctx: CanvasRenderingContext2D, s: number): void {
+    for (const b of this.boxes) {
+      const [px, py] = this.toScreen(b.x - b.sx / 2, b.y + b.sy / 2);
+      const w = Math.max(2, b.sx * s);
+      const h = Math.max(2, b.sy * s);
+      ctx.fillStyle = b.colour;
+      ctx.globalAlpha = 0.55;
+      ctx.fillRect(px, py, w, h);
+      ctx.globalAlpha = 1;
+      ctx.strokeStyle = b.colour;
+      ctx.lineWidth = 2;
+      ctx.strokeRect(px, py, w, h);
+      ctx.beginPath(); // a crate's cross: what stands there, not a cell of the map
+      ctx.moveTo(px, py);
+      ctx.lineTo(px + w, py + h);
+      ctx.moveTo(px + w, py);
+      ctx.lineTo(px, py + h);
+      ctx.lineWidth = 1;
+      ctx.stroke();
     }
   }
 

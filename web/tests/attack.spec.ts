@@ -33,6 +33,9 @@ const ROUTES: [string, string, string][] = [
   ["POST", "/api/drive", '{"v": 0.3, "omega": 0.0}'],
   ["POST", "/api/stop", ""],
   ["PUT", "/api/sim/faults", '{"uart_rx_drop": 1}'],
+  ["POST", "/api/sim/boxes", '{"boxes": [{"x": 0.6, "y": 0.0, "sx": 0.2, "sy": 0.6}]}'],
+  ["DELETE", "/api/sim/boxes/box-1", ""],
+  ["DELETE", "/api/sim/boxes", ""],
   ["PUT", "/api/perception", '{"enabled": false, "cells": [[1.0, 0.0, 1.0], [1.0, 0.2, 1.0]]}'],
   ["POST", "/api/perception/clear", ""],
   ["PUT", "/api/settings/camera", '{"stream_url": "http://127.0.0.1:9/stream"}'],
@@ -47,6 +50,7 @@ interface Snapshot {
   mission: string;
   firmwareSettings: unknown;
   simFaults: unknown;
+  simWorld: unknown;
   truePose: number[];
   simTime: number;
 }
@@ -69,6 +73,7 @@ async function snapshot(gw: Gateway): Promise<Snapshot> {
     mission: status.mission.state,
     firmwareSettings: await get("/api/firmware/settings"),
     simFaults: await get("/api/sim/faults"),
+    simWorld: ((await get("/api/sim/world")) as { boxes: unknown }).boxes,
     truePose: ["x", "y", "theta"].map((k) => Math.round((truth[k] ?? NaN) * 1e4) / 1e4),
     simTime: truth["t"] ?? NaN,
   };
