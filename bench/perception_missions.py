@@ -75,17 +75,22 @@ BOX_HEIGHT_M = 0.3
 BOX_COLOUR = "#b8742f"  # cardboard
 RECALL_RANGE_M = 1.5  # the detector's max_range_m
 FALSE_MARGIN_M = 0.1
-QUICK_SCENES = (("1.8 m", "wall with a gap"), ("4 m", "slalom"))
 LATENCY_BOX = {"x": 0.9, "y": 0.9, "sx": 0.2, "sy": 0.4, "height": 0.3, "colour": "#3050c0"}
 
 Rect = tuple[float, float, float, float]  # centre x, y and half sizes
 Mask = npt.NDArray[np.bool_]
 
 
+# A box stands inside its node's cell, 1 cm in from each edge: real obstacles do not sit on the
+# planner's cell edges, and a face exactly on one makes a 1 mm error in its place decide which of
+# two planner cells it blocks. The known map still blocks the whole cell.
+BOX_INSET_M = 0.01
+
+
 def boxes_of(scene: Scene) -> list[dict[str, Any]]:
-    step = scene.grid.step_m
+    size = scene.grid.step_m - 2 * BOX_INSET_M
     return [
-        {"x": x, "y": y, "sx": step, "sy": step, "height": BOX_HEIGHT_M, "colour": BOX_COLOUR}
+        {"x": x, "y": y, "sx": size, "sy": size, "height": BOX_HEIGHT_M, "colour": BOX_COLOUR}
         for x, y in (scene.grid.node_xy(i, j) for i, j in sorted(scene.obstacles))
     ]
 
@@ -389,7 +394,9 @@ def _fmt(value: float | None, fmt: str = ".2f") -> str:
 def measure(out: Path, quick: bool, mount: Mount) -> tuple[str, dict[str, Any], list[tuple[str, bool]]]:
     """The unknown-arena missions, their mapping and the frame-to-replan latency: Markdown, data,
     the checks."""
-    chosen = [s for s in scenes() if (s.arena, s.name) in QUICK_SCENES] if quick else scenes()
+    # The unknown-arena missions run in real time (perception runs on the wall clock): only the
+    # full benchmark has them; the quick run measures the latency mission.
+    chosen = [] if quick else scenes()
     with tempfile.TemporaryDirectory() as tmp:
         calibration, calibration_s = calibration_file(Path(tmp), mount)
         rows = [scene_row(s, calibration, seed=1) for s in chosen]
@@ -449,13 +456,16 @@ def measure(out: Path, quick: bool, mount: Mount) -> tuple[str, dict[str, Any], 
         names = [f"{r['arena']} {r['scene']}" for r in rows if not ok(r)]
         return f"unknown arenas: {what}" + (f" (missed: {', '.join(names)})" if names else ""), not names
 
-    checks = [
+    arenas = [
         missed("every goal reached", lambda r: r["reached"]),
         missed("0 collisions and box contacts", lambda r: r["collisions"] == 0 and r["box_contacts"] == 0),
         missed(
             f"time <= {TIME_TARGET} x the known map's (where reached)",
             lambda r: not r["reached"] or (r["time_ratio"] is not None and r["time_ratio"] <= TIME_TARGET),
         ),
+    ]
+    checks = [
+        *(arenas if rows else []),
         (
             "frame-to-replan latency measured (a box coming into view caused a replan)",
             all("in_view_to_firmware_s" in x for x in latency),
@@ -464,7 +474,7 @@ def measure(out: Path, quick: bool, mount: Mount) -> tuple[str, dict[str, Any], 
     markdown = (
         (__doc__ or "").strip()
         + f"\n\nCalibration in the simulator: {calibration_s:.1f} s. Seed 1 per scene.\n\n"
-        + table(header, body)
+        + (table(header, body) if rows else "Quick run: unknown arenas in the full run only.\n")
         + "\nFrame-to-replan latency (simulated s), test_seeing's mission per simulator seed:\n\n"
         + table(
             [
