@@ -42,6 +42,10 @@ GRID_RESOLUTION_M = 0.05
 # (0.2 m spilled sideways into gaps beside a wall's end on the benchmark, bench/perception_missions.py).
 OBSTACLE_DEPTH_M = 0.1
 FRAME_LOG_LENGTH = 10_000  # about 11 minutes at 15 fps
+# A cell goes on the map once its p(occupied) is above this: two hits more than misses (each hit
+# adds 0.85 to the log-odds, each ray through it takes 0.4). One stray hit in the cell in front
+# of a face (JPEG ringing, a pixel of noise) then never closes a passage beside it.
+BELIEVED_P = 0.8
 SEND_INTERVAL_S = 0.5  # the perceived layer is refreshed at least this often while its cells' p change
 
 
@@ -167,7 +171,7 @@ class Seeing:
         """The grid's occupied cells to the live map: at once when the set of cells changed (a
         replan may be due), else every SEND_INTERVAL_S while there are cells (their confidence).
         What it told the map ('' if nothing): a replan it caused has it in its reason."""
-        cells = perception.cells(0.5)
+        cells = perception.cells(BELIEVED_P)
         r = self.resolution_m
         key = frozenset((math.floor(x / r), math.floor(y / r)) for x, y, _ in cells)
         now = time.monotonic()
