@@ -179,8 +179,10 @@ class SimOptions:
     # Faults (sim/README.md, "Fault keys"; cart2d/faults.py checks them), set before the firmware
     # runs and again at every restart.
     faults: dict[str, float] = field(default_factory=dict)
-    # Optiboot in the boot section (--bootloader): resets start it, avrdude flashes through the pty.
-    bootloader: Path | None = None
+    # Optiboot in the boot section (--bootloader), as on every Nano: resets start it, and avrdude
+    # (the gateway's firmware update) flashes through the pty. None: the bare chip, the firmware
+    # at the reset vector (tests of the chip itself; no firmware update is possible then).
+    bootloader: Path | None = field(default_factory=default_bootloader)
 
 
 class SideChannel:
@@ -299,7 +301,10 @@ class Simulator(CameraControls):
 
     def start(self) -> Simulator:
         o = self.options
-        for path, what in ((o.binary, "simulator (make sim)"), (o.firmware, "firmware (make firmware)")):
+        needed = [(o.binary, "simulator (make sim)"), (o.firmware, "firmware (make firmware)")]
+        if o.bootloader is not None:
+            needed.append((o.bootloader, "bootloader (make sim builds Optiboot)"))
+        for path, what in needed:
             if not Path(path).exists():
                 raise SimulatorError(f"the {what} is not built: {path}")
         cmd = [str(o.binary), "--firmware", str(o.firmware), "--speed", o.speed, "--seed", str(o.seed)]
