@@ -370,6 +370,13 @@ class Simulator(CameraControls):
     def running(self) -> bool:
         return self.process is not None and self.process.poll() is None
 
+    def boot_s(self) -> float:
+        """Simulated seconds from an external reset (the button, the port opening) until the
+        firmware runs when nothing is sent: the reset time-out (65 ms) and the firmware's start;
+        behind Optiboot also its LED flashes (375 ms) and its 1 s wait for a programmer, which
+        ends in a watchdog reset (65 ms). docs/firmware.md, "Start-up time after a reset"."""
+        return 1.6 if self.options.bootloader is not None else 0.1
+
     def subscribe_truth(self, listener: Callable[[dict[str, Any]], None]) -> None:
         """Calls listener(message) for every truth message, from the side channel's reader
         thread, across restarts of the simulator."""
