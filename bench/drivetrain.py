@@ -83,7 +83,7 @@ def started(tmp: Path, start: tuple[float, float, float]) -> tuple[Simulator, Li
     sim.start()
     link = Link(sim.pty, timeout_s=2.0).open()
     time.sleep(0.05)  # the simulator has seen the port open: the DTR reset, at t = 0 while paused
-    sim.run_for(0.5)  # the reset's time-out and the boot
+    sim.run_for(sim.boot_s() + 0.4)  # the reset's time-out and the boot (through Optiboot)
     recorder = Recorder()
     assert sim.side is not None
     sim.side.subscribe(recorder)

@@ -497,7 +497,7 @@ def measure_run(k: int, with_profile: bool, probe: Probe | None = None) -> Run:
     errors: dict[str, float] = {}
     with tempfile.TemporaryDirectory() as tmp, paused_sim(tmp) as sim:
         port = Port(sim.pty, seed=k)
-        sim.run_for(0.1)  # the firmware starts
+        sim.run_for(sim.boot_s())  # the firmware starts (the open reset it)
         if with_profile:
             sim.control("profile", enable=True)
         for route in (square_route(k), circle_route(k), streamed_route(k)):
@@ -681,7 +681,7 @@ def run_variant(counts: int) -> Variant:
         elf, hz = build_variant(counts, Path(tmp))
         with paused_sim(tmp, elf) as sim:
             port = Port(sim.pty, seed=0)
-            sim.run_for(0.1)  # the firmware starts
+            sim.run_for(sim.boot_s())  # the firmware starts (the open reset it)
             sim.control("stats", reset=True)
             error = 0.0
             for route in (square_route(0), circle_route(0)):

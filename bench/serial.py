@@ -54,7 +54,7 @@ def run_burst(burst: Burst) -> dict[str, Any]:
     spec = load_spec()
     with tempfile.TemporaryDirectory() as tmp, paused_sim(tmp) as sim:
         port = Port(sim.pty, seed=0)  # the open resets the MCU (DTR), at t = 0 while paused
-        sim.run_for(0.2)
+        sim.run_for(sim.boot_s() + 0.1)
         if burst.driving:
             call(sim, port, "GOTO", 1.5, 0.3)
             sim.run_for(0.3)
@@ -105,7 +105,7 @@ def round_trip_ms(adapter: dict[str, Any], command: str = "STATUS", tries: int =
         options = SimOptions(speed="max", eeprom=Path(tmp) / "eeprom.bin", quiet=True, paused=True, **adapter)
         with Simulator(options) as sim:
             port = Port(sim.pty, seed=0)
-            sim.run_for(0.2)
+            sim.run_for(sim.boot_s() + 0.1)
             for k in range(tries):
                 sim.run_for(0.0037 * (k + 1))  # a different phase of the ticks and timers each time
                 start = sim.control("stats")["stats"]["cycles"]

@@ -586,7 +586,7 @@ def calibrate_in_sim(
             quiet=True,
         )
         with Simulator(options) as sim, Link(sim.pty) as link:
-            firmware.check_compatible(firmware.read_version(link))
+            firmware.check_compatible(firmware.wait_for_version(link))
             if faults:
                 sim.control("faults", **faults)
             runner = SimRunner(sim, link, side_m, start_ccw, start_cw)
@@ -684,7 +684,7 @@ def _print_summary(result: Calibration, say: Callable[[str], None]) -> None:
 
 def _run_serial(args: argparse.Namespace, passes: int, say: Callable[[str], None]) -> Calibration:
     with Link(args.serial, args.baud) as link:
-        firmware.check_compatible(firmware.read_version(link))
+        firmware.check_compatible(firmware.wait_for_version(link))
         runner = SerialRunner(link, args.side, say=say)
         say(
             f"UMBmark: a {args.side:g} m square; per pass, {args.runs} run(s) clockwise and "

@@ -179,7 +179,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
             eeprom=store.directory / "sim-eeprom.bin",
             pty_link=store.directory / "sim-tty",
             faults=faults,
-            bootloader=default_bootloader() if args.optiboot else None,
+            bootloader=None if args.no_bootloader else default_bootloader(),
             # the map's walls and the --world boxes, placed again at every restart (sim_world.py)
             world=with_boxes(world_for(where.settings.map), World(tuple(boxes))) if boxes else None,
         )
@@ -314,10 +314,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sim.add_argument("--seed", type=cli_args.seed, default=1, help="seed of the simulator's random faults")
     sim.add_argument(
-        "--optiboot",
+        "--no-bootloader",
         action="store_true",
-        help="run Optiboot in the simulated Nano's boot section (built by make sim): resets start it, and "
-        "firmware updates go through avrdude as on the real cart",
+        help="a bare chip: no Optiboot in the simulated Nano's boot section (by default it runs there, as on "
+        "every Nano: resets start it, and firmware updates go through avrdude as on the real cart); the "
+        "firmware then starts right after a reset, and cannot be updated from the panel",
     )
     sim.add_argument(
         "--fault",

@@ -382,7 +382,7 @@ def run_mission(
             sim.change_obstacles(add=points, step=grid.step_m)  # virtual: counted, not felt
             recorder = Recorder()
             gateway.subscribe(recorder)
-            gateway.check_firmware()
+            gateway.wait_for_firmware(10.0, 0.1)  # the open reset the Nano into Optiboot
             if spec.behaviour == "seed":
                 _apply_settings(link, SEED_SETTINGS)
             _apply_settings(link, spec.settings)

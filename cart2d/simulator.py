@@ -179,8 +179,10 @@ class SimOptions:
     # Faults (sim/README.md, "Fault keys"; cart2d/faults.py checks them), set before the firmware
     # runs and again at every restart.
     faults: dict[str, float] = field(default_factory=dict)
-    # Optiboot in the boot section (--bootloader): resets start it, avrdude flashes through the pty.
-    bootloader: Path | None = None
+    # Optiboot in the boot section (--bootloader), as on every Nano: resets start it, and avrdude
+    # (the gateway's firmware update) flashes through the pty. None: the bare chip, the firmware
+    # at the reset vector (tests of the chip itself; no firmware update is possible then).
+    bootloader: Path | None = field(default_factory=default_bootloader)
 
 
 class SideChannel:
@@ -299,7 +301,10 @@ class Simulator(CameraControls):
 
     def start(self) -> Simulator:
         o = self.options
-        for path, what in ((o.binary, "simulator (make sim)"), (o.firmware, "firmware (make firmware)")):
+        needed = [(o.binary, "simulator (make sim)"), (o.firmware, "firmware (make firmware)")]
+        if o.bootloader is not None:
+            needed.append((o.bootloader, "bootloader (make sim builds Optiboot)"))
+        for path, what in needed:
             if not Path(path).exists():
                 raise SimulatorError(f"the {what} is not built: {path}")
         cmd = [str(o.binary), "--firmware", str(o.firmware), "--speed", o.speed, "--seed", str(o.seed)]
@@ -364,6 +369,13 @@ class Simulator(CameraControls):
 
     def running(self) -> bool:
         return self.process is not None and self.process.poll() is None
+
+    def boot_s(self) -> float:
+        """Simulated seconds from an external reset (the button, the port opening) until the
+        firmware runs when nothing is sent: the reset time-out (65 ms) and the firmware's start;
+        behind Optiboot also its LED flashes (375 ms) and its 1 s wait for a programmer, which
+        ends in a watchdog reset (65 ms). docs/firmware.md, "Start-up time after a reset"."""
+        return 1.6 if self.options.bootloader is not None else 0.1
 
     def subscribe_truth(self, listener: Callable[[dict[str, Any]], None]) -> None:
         """Calls listener(message) for every truth message, from the side channel's reader

@@ -22,7 +22,10 @@ from cart2d.spec import load_spec
 from tests.conftest import high_rate_truth, start_sim, wait_idle
 
 SPEC = load_spec()
-BOOT_S = 0.3  # the MCU's start-up (and the reset a Nano does when its port opens)
+# The MCU's start-up after the reset a Nano does when its port opens: the reset time-out (65 ms),
+# then Optiboot's LED flashes (375 ms) and its 1 s wait for a programmer, which ends in a watchdog
+# reset (65 ms) that starts the firmware (nothing is sent meanwhile): docs/firmware.md.
+BOOT_S = 1.7
 
 
 class RawPort:
@@ -204,7 +207,9 @@ def test_an_external_reset_is_reported_and_the_pose_kept(tmp_path: Path) -> None
                 time.sleep(0.05)
             pose = link.call("POSE")
             truth = sim.truth()
-        assert after.reset_cause == ["EXTERNAL"]
+        # Behind Optiboot 4.4 (MCUSR cleared, nothing passed on) the button reaches the firmware
+        # through Optiboot's watchdog time-out: a reset that kept the RAM (docs/firmware.md).
+        assert after.reset_cause == ["EXTERNAL", "WATCHDOG"]
         assert after.boot_count == before.boot_count + 1
         assert after.has("POSE_RESTORED") and after.mode == "IDLE"
         # The pose it had at the reset: the cart coasted a little since (the encoders are blind

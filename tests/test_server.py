@@ -40,7 +40,8 @@ class Rig:
         self.link = Link(self.sim.pty, timeout_s=0.2).open()
         self.store = Store(tmp_path / "gateway")
         self.gateway = Gateway(self.link, self.store, self.store.load(), self.sim)
-        self.gateway.check_firmware()
+        # Opening the port reset the Nano into Optiboot: the firmware answers once it has left it.
+        self.gateway.wait_for_firmware(10.0, 0.1)
         self.gateway.start()
         # What the panel sends: its own Host, and every change as JSON (the guards refuse others).
         self.client = TestClient(create_app(self.gateway, bind_host, token), base_url=BASE_URL, headers=JSON)

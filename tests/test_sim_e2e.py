@@ -217,8 +217,8 @@ def test_manual_drive_stops_without_refresh(tmp_path: Path) -> None:
 
 def test_same_seed_and_inputs_give_the_same_trajectory(tmp_path: Path) -> None:
     """Deterministic: both runs start paused, open the port (which resets the MCU, as on a
-    Nano), boot for 0.1 s, get the command queued while paused, and run exactly 6 s more of
-    simulated time; seeded faults included."""
+    Nano), boot through Optiboot for 1.6 s, get the command queued while paused, and run
+    exactly 6 s more of simulated time; seeded faults included."""
     endings = []
     for run in range(2):
         sim = start_sim(tmp_path / str(run), seed=7, paused=True)
@@ -226,7 +226,9 @@ def test_same_seed_and_inputs_give_the_same_trajectory(tmp_path: Path) -> None:
             sim.control("faults", enc_miss_prob=0.001, enc_radius_scale_l=1.01)
             with serial.Serial(sim.pty, 115200) as port:
                 wait_for_event(sim, "host_open")
-                sim.run_for(0.1)  # boot: before its UART is enabled the MCU would drop the bytes
+                # Boot: the reset time-out, Optiboot's LED flashes and 1 s wait, its watchdog reset
+                # (~1.53 s); a byte sent before would end Optiboot's wait, and be lost with it.
+                sim.run_for(1.6)
                 port.write(encode_request(1, SPEC.code("GOTO"), [1.0, 0.5]))
                 port.flush()
                 time.sleep(0.1)  # the simulator has read the bytes before it runs
@@ -234,6 +236,6 @@ def test_same_seed_and_inputs_give_the_same_trajectory(tmp_path: Path) -> None:
         finally:
             sim.stop()
     a, b = endings
-    assert a["t"] == b["t"] and abs(a["t"] - 6.1) < 1e-6  # to the instruction
+    assert a["t"] == b["t"] and abs(a["t"] - 7.6) < 1e-6  # to the instruction
     assert (a["x"], a["y"], a["theta"]) == (b["x"], b["y"], b["theta"])
     assert math.hypot(a["x"] - 1.0, a["y"] - 0.5) < 0.05  # and it did drive there

@@ -33,9 +33,13 @@ def stats(sim: Simulator) -> dict[str, Any]:
 def test_reboot_leaves_the_cart_drivable(sim: Simulator, link: Link) -> None:
     """COMMAND_REBOOT ends in a watchdog reset inside simavr, which cleared every cycle timer:
     the physics step, the encoders and the ground truth stopped, and the cart never moved again."""
-    link.call("REBOOT")  # (opening the port reset the MCU once already: DTR, "external")
-    wait_for(lambda: any(e["cause"] == "watchdog" for e in events(sim, "mcu_reset")))
-    (watchdog,) = [e for e in events(sim, "mcu_reset") if e["cause"] == "watchdog"]
+    # Opening the port reset the MCU (DTR, "external"); the request's first byte made Optiboot
+    # leave for the firmware through a watchdog reset of its own. Only the REBOOT's counts here.
+    link.call("HEARTBEAT")
+    booted = len(sim.side.events) if sim.side else 0
+    link.call("REBOOT")
+    wait_for(lambda: any(e["cause"] == "watchdog" for e in events(sim, "mcu_reset", booted)))
+    (watchdog,) = [e for e in events(sim, "mcu_reset", booted) if e["cause"] == "watchdog"]
     sim.wait_running()
     link.call("HEARTBEAT")  # the firmware answers again
     assert read_status(link).reset_cause == ["WATCHDOG", "REBOOT"]
@@ -46,7 +50,7 @@ def test_reboot_leaves_the_cart_drivable(sim: Simulator, link: Link) -> None:
     pushed = sim.side.truth  # sent from the physics step: truth keeps arriving
     assert abs(pushed["x"] - 0.5) < 0.01
     assert pushed["t"] > watchdog["t"] + 0.5
-    assert stats(sim)["resets"]["watchdog"] == 1
+    assert len(events(sim, "mcu_reset", booted)) == 1  # Optiboot starts the firmware at once after WDRF
 
 
 def test_save_takes_the_eeprom_programming_time(tmp_path: Path) -> None:
@@ -99,7 +103,10 @@ def save_then_reset_mid_write(sim: Simulator, tolerance: float) -> None:
     begun, 2 ms more, and resets."""
     sim.control("pause")
     with serial.Serial(sim.pty, 115200) as port:
-        sim.run_for(0.2)  # opening the port reset the MCU (DTR): its time-out and boot
+        # Opening the port reset the MCU (DTR): its time-out, then Optiboot, which after an
+        # external reset flashes the LED (375 ms) and waits 1 s for a programmer before its
+        # watchdog starts the firmware (docs/firmware.md, "Start-up time after a reset").
+        sim.run_for(1.7)
         port.write(encode_request(76, SPEC.code("TOL_SET"), [tolerance]))
         port.flush()
         time.sleep(0.1)  # the simulator has read the bytes before it runs
@@ -172,5 +179,7 @@ def test_a_hung_main_loop_is_stopped_by_the_watchdog(tmp_path: Path) -> None:
     stopped = [t["t"] for t in after if t["duty_l"] == 0.0 and t["duty_r"] == 0.0]
     assert stopped and stopped[0] - began <= 0.1, "the motors ran on after the hang"
     assert [e["cause"] for e in resets] == ["watchdog"]
-    assert status.reset_cause == ["WATCHDOG"]  # a hang, not a REBOOT
+    # Not a REBOOT (the firmware's marker is absent). Behind Optiboot 4.4 (MCUSR cleared, nothing
+    # passed on) a watchdog reset that kept the RAM cannot be told from the button: docs/firmware.md.
+    assert status.reset_cause == ["EXTERNAL", "WATCHDOG"]
     assert status.mode == "IDLE"

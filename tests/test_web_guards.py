@@ -34,7 +34,8 @@ class LiveGateway(GatewayProcess):
     """The gateway attacked: what an attack must not change."""
 
     def snapshot(self) -> dict[str, Any]:
-        """What an attack must not change. A firmware update restarts the simulator: another
+        """What an attack must not change. A firmware update flashes the simulated Nano through
+        avrdude and restarts its MCU (restarts noticed); a restart of the simulator is another
         process, its time from 0."""
         truth = self.side.request({"type": "truth"})["truth"]
         simulators = [p.pid for p in psutil.Process(self.process.pid).children() if "sim" in p.name()]

@@ -934,10 +934,10 @@ class Gateway(PerceptionMixin, SimWorldMixin):  # perceived.py: perception; sim_
     def _restart_simulator(self, exited: subprocess.Popen[str], how: str) -> None:
         sim = self.sim
         assert sim is not None
-        self.flasher.wait(UPDATE_WAIT_S)  # an update under way restarts the simulator itself
+        self.flasher.wait(UPDATE_WAIT_S)  # an update under way ends first (its avrdude lost the port)
         error, answered = "", False
         with sim.lifecycle:
-            if sim.process is exited or not sim.running():  # else restarted meanwhile (an update)
+            if sim.process is exited or not sim.running():  # else restarted meanwhile
                 error, answered = self._start_simulator_again(sim, how)
         with self._lock:
             restarts = self.simulator.restarts + (0 if error else 1)

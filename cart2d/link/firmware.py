@@ -175,6 +175,23 @@ def read_version(link: Link) -> Version:
     )
 
 
+# A Nano resets when its port opens and the firmware answers once Optiboot has let it go: ~0.5 s
+# when requests come at once, 1.5 s at most (docs/firmware.md, "Start-up time after a reset").
+FIRST_ANSWER_S = 10.0
+
+
+def wait_for_version(link: Link, wait_s: float = FIRST_ANSWER_S) -> Version:
+    """VERSION, asked again until the firmware answers or wait_s have passed (then LinkError)."""
+    deadline = time.monotonic() + wait_s
+    while True:
+        try:
+            return read_version(link)
+        except LinkError:
+            if time.monotonic() > deadline:
+                raise
+            time.sleep(0.1)
+
+
 def check_compatible(version: Version) -> None:
     """Refuses a firmware that speaks another protocol table (Klipper's dictionary idea)."""
     spec = load_spec()

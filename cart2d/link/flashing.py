@@ -1,14 +1,18 @@
 """Firmware updates: an uploaded Intel HEX file, checked (cart2d/link/firmware_files.py), then
 flashed with avrdude through the Nano's bootloader (the link lends it the port): the real cart's,
-or the simulator's when it runs Optiboot (SimOptions.bootloader), one code path for both. A
-simulator without a bootloader is restarted on the file instead. Runs as a background job whose
-state and log the panel polls.
+or the simulator's, which runs Optiboot as every Nano does (SimOptions.bootloader): one code path
+for both. Runs as a background job whose state and log the panel polls.
 
 The robot is never left on a program that does not speak the protocol: after flashing, the new
 firmware must answer VERSION (and be compatible) within CHECK_S; if it does not, or a stop comes
 first (hurry(): a cart moving under a program that does not answer is the reason to press it),
 the last firmware that answered is flashed back (kept by content, so it is that program and no
-later upload), and checked in turn."""
+later upload), and checked in turn.
+
+avrdude takes a device path or `net:HOST:PORT` (raw TCP): a link on `socket://HOST:PORT` is
+flashed through `net:HOST:PORT`; one on `rfc2217://` cannot be (avrdude 7.1 has no RFC 2217),
+and an update is refused before anything starts (docs/firmware.md, "Flashing over a network
+link")."""
 
 from __future__ import annotations
 
@@ -21,14 +25,17 @@ from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
+from urllib.parse import urlsplit
 
 from cart2d.link.firmware_files import FirmwareArchive, check_hex, copy_into
 from cart2d.link.transport import Link
 from cart2d.simulator import Simulator, default_firmware
 
-# How long a new firmware has to answer: a simulator answers within half a second of its start;
-# a Nano after avrdude resets again when the link reopens its port and waits in its bootloader.
-CHECK_S = {"simulator": 3.0, "avrdude": 8.0}
+# How long a new firmware has to answer once the link has its port back. Opening the port resets
+# the Nano again (DTR) and Optiboot waits in its bootloader: about 0.5 s when requests come at once
+# (its first non-STK500 byte ends the wait), 1.5 s at most (LED flashes and its 1 s watchdog,
+# docs/firmware.md, "Start-up time after a reset"); the rest is the link's retries.
+CHECK_S = 5.0
 AVRDUDE_TIMEOUT_S = 120.0
 HURRIED_CHECK_S = 1.0  # after a stop: the last chance to answer before the rollback
 
@@ -53,6 +60,10 @@ class UpdateJob:
             if self.started_s
             else 0.0,
         }
+
+
+class UpdateRefused(RuntimeError):
+    """No update can be made on this link (nothing started); the sentence says what to do."""
 
 
 class Flasher:
@@ -100,6 +111,15 @@ class Flasher:
     def running(self) -> bool:
         return self.job.state == "running"
 
+    def refusal(self) -> None:
+        """Raises UpdateRefused if avrdude cannot reach the robot's bootloader from here."""
+        if self.sim is not None and self.sim.options.bootloader is None:
+            raise UpdateRefused(
+                "the simulator runs without a bootloader (cart2d sim --no-bootloader), so nothing can flash "
+                "it: start it without --no-bootloader to update its firmware"
+            )
+        avrdude_port(self.link.port)
+
     def hurry(self) -> None:
         """A stop: a new firmware that has not answered yet gets HURRIED_CHECK_S more, then it
         is rolled back."""
@@ -115,7 +135,9 @@ class Flasher:
 
     # -- the job ---------------------------------------------------------------------------------
     def start(self, data: bytes) -> UpdateJob:
-        """Checks the file now (ValueError if bad, nothing started) and flashes it in the background."""
+        """Checks the file now (ValueError if bad, nothing started) and flashes it in the background.
+        UpdateRefused if nothing can flash the robot on this link."""
+        self.refusal()
         size = check_hex(data)
         with self._lock:
             if self.running():
@@ -150,7 +172,7 @@ class Flasher:
         good = self.good_firmware()
         try:
             self._flash(path, job)
-            self._check(job, CHECK_S[self._way()])
+            self._check(job, CHECK_S)
         except Exception as exc:
             if good is None:
                 raise RuntimeError(
@@ -160,25 +182,17 @@ class Flasher:
             job.log.append(f"the new firmware does not answer ({exc}): restoring the previous one")
             self._hurry.clear()  # the previous firmware answered before: give it its full time
             self._flash(good, job)
-            self._check(job, CHECK_S[self._way()])
+            self._check(job, CHECK_S)
             raise RuntimeError("the new firmware was rejected; the previous firmware runs again") from exc
 
-    def _way(self) -> str:
-        return "simulator" if self.sim is not None and self.sim.options.bootloader is None else "avrdude"
-
     def _flash(self, path: Path, job: UpdateJob) -> None:
-        if self._way() == "simulator":
-            job.log.append(f"restarting the simulator with {path.name}")
-            self.current = path
-            self.sim.restart(path)  # type: ignore[union-attr]
-        else:
-            self.current = None  # unknown until avrdude has written it
-            self._avrdude(path, job)
-            self.current = path
-            if self.sim is not None:
-                # The flash is in the simulated chip now; a restart of the simulator (a power
-                # cycle) must come back with it, as a Nano's flash does.
-                self.sim.options.firmware = path
+        self.current = None  # unknown until avrdude has written it
+        self._avrdude(path, job)
+        self.current = path
+        if self.sim is not None:
+            # The flash is in the simulated chip now; a restart of the simulator (a power
+            # cycle) must come back with it, as a Nano's flash does.
+            self.sim.options.firmware = path
 
     def _check(self, job: UpdateJob, wait_s: float) -> None:
         if self.check is not None:
@@ -203,7 +217,7 @@ class Flasher:
         avrdude = shutil.which("avrdude")
         if avrdude is None:
             raise RuntimeError("avrdude is not installed (Debian package avrdude)")
-        cmd = avrdude_command(avrdude, self.link.port, self.baud, path)
+        cmd = avrdude_command(avrdude, avrdude_port(self.link.port), self.baud, path)
         job.log.append(" ".join(cmd))
         with self.link.released(), self._real_time():
             done = run_avrdude(cmd, job.log.append)
@@ -220,6 +234,27 @@ def avrdude_command(avrdude: str, port: str, baud: int, path: Path) -> list[str]
     firmware a simulator was started on, which a rollback may write back, can be the ELF (`:e`)."""
     flash = f"flash:w:{path}:{'e' if is_elf(path) else 'i'}"
     return [avrdude, "-p", "m328p", "-c", "arduino", "-P", port, "-b", str(baud), "-D", "-U", flash]
+
+
+def avrdude_port(port: str) -> str:
+    """avrdude's -P for the link's port: a device path as it is, `socket://HOST:PORT` as
+    `net:HOST:PORT` (avrdude's raw TCP; what resets the Nano is the bridge opening its serial
+    device). UpdateRefused, in one sentence saying what to do, for a port avrdude cannot use."""
+    if "://" not in port:
+        return port
+    parts = urlsplit(port)
+    if parts.scheme == "socket" and parts.hostname and parts.port:
+        return f"net:{parts.hostname}:{parts.port}"
+    if parts.scheme == "rfc2217":
+        raise UpdateRefused(
+            f"avrdude cannot flash through {port} because it does not speak RFC 2217: give the bridge a raw "
+            "TCP port (ser2net's tcp accepter, ESPHome's stream_server), connect the gateway to it with "
+            "socket://HOST:PORT and update again"
+        )
+    raise UpdateRefused(
+        f"avrdude cannot flash through {port}: connect the gateway with a serial device path or a raw TCP "
+        "bridge (socket://HOST:PORT) and update again"
+    )
 
 
 def is_elf(path: Path) -> bool:

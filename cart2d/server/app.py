@@ -362,7 +362,10 @@ def create_app(
         "/api/firmware/update",
         dependencies=[Guarded],
         status_code=202,
-        summary="upload an Intel HEX file: avrdude on a real port, a restart in the simulator",
+        summary="upload an Intel HEX file: avrdude flashes it through the Nano's bootloader (simulated too)",
+        description="409 with a sentence saying what to do when nothing can flash the robot on this link "
+        "(rfc2217://, which avrdude does not speak; a simulator started with --no-bootloader) or an update "
+        "is already running; 422 when the file is refused.",
         responses=errors(401, 409, 422),
         openapi_extra={
             "requestBody": {

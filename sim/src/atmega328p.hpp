@@ -34,6 +34,7 @@ constexpr int kUPM01 = 5;   // UCSR0C: parity enabled when set
 constexpr uint16_t kMCUSR = 0x54, kWDTCSR = 0x60;
 constexpr uint8_t kPORF = 1u << 0, kEXTRF = 1u << 1, kBORF = 1u << 2, kWDRF = 1u << 3;
 constexpr uint8_t kWDE = 1u << 3, kWDIE = 1u << 6;
+constexpr uint8_t kWDP = 0x27;  // WDP3 (bit 5) and WDP2..0: the time-out, 2K << WDP cycles at 128 kHz
 // Interrupt flag registers a held reset keeps at their reset value (§12.2.4, §12.2.6).
 constexpr uint16_t kPCIFR = 0x3B, kEIFR = 0x3C;
 

@@ -96,6 +96,7 @@ class Mcu {
   static void sleep_callback(avr_t* avr, uint64_t how_long);
   static void on_avr_reset(avr_io_t* io);
   static void on_mcusr_write(avr_t* avr, uint16_t addr, uint8_t v, void* param);
+  static void on_wdtcsr_write(avr_t* avr, uint16_t addr, uint8_t v, void* param);
   // mcu_reset.cpp: the one path every reset takes once simavr's avr_reset() has returned.
   void watch_resets();
   void after_reset(ResetCause cause, uint64_t off_cycles);
@@ -126,6 +127,8 @@ class Mcu {
   bool holding_ = false;
   uint64_t release_cycle_ = 0;
   uint8_t held_wdt_bits_ = 0;    // WDE/WDIE, kept off while the chip is held in reset
+  avr_io_write_t simavr_wdtcsr_write_ = nullptr;  // simavr's WDTCSR writer, which ours wraps
+  void* simavr_wdtcsr_param_ = nullptr;
   uint64_t resets_[kResetCauseCount] = {};
 
   bool bootloader_ = false;

@@ -67,6 +67,28 @@ void Mcu::watch_resets() {
   // MCUSR's flags are cleared only by writing zeros to them (§11.9.1), and they must outlive
   // avr_reset(), which zeroes every I/O register: software writes go through us.
   avr_register_io_write(avr_, m328p::kMCUSR, on_mcusr_write, this);
+  // Wrapped in place, not registered beside simavr's writer (a shared slot of its four).
+  auto& w = avr_->io[AVR_DATA_TO_IO(m328p::kWDTCSR)].w;
+  simavr_wdtcsr_write_ = w.c;
+  simavr_wdtcsr_param_ = w.param;
+  w.c = on_wdtcsr_write;
+  w.param = this;
+}
+
+// A new watchdog time-out takes effect at once (§11.9.2: the timed sequence, WDCE then the new
+// WDP bits). simavr 1.6's avr_watchdog_write() reads the "old" prescaler after storing the new
+// one, sees no change and leaves its timer at the old period: Optiboot's verifySpace(), which
+// shortens its 1 s to 16 ms to start the application when a byte is not STK500, then ran on for
+// up to 1 s. The timer restarts from the change with the new period: the chip's counter goes
+// on from the last WDR instead, the same for Optiboot, which changes it just after one (getch()).
+void Mcu::on_wdtcsr_write(avr_t* avr, uint16_t addr, uint8_t v, void* param) {
+  Mcu* self = static_cast<Mcu*>(param);
+  const uint8_t wdp_before = avr->data[addr] & m328p::kWDP;
+  if (self->simavr_wdtcsr_write_) self->simavr_wdtcsr_write_(avr, addr, v, self->simavr_wdtcsr_param_);
+  else avr->data[addr] = v;
+  const uint8_t now = avr->data[addr];
+  if ((now & m328p::kWDP) != wdp_before && (now & (m328p::kWDE | m328p::kWDIE)))
+    avr_ioctl(avr, AVR_IOCTL_WATCHDOG_RESET, nullptr);  // its timer from now, at the new period
 }
 
 void Mcu::on_avr_reset(avr_io_t* io) { reinterpret_cast<ResetWatch*>(io)->mcu->avr_reset_seen_ = true; }

@@ -123,6 +123,25 @@ TEST_F(Bootloader, ExternalResetWaitsForTheProgrammerThenTheWatchdogStartsTheApp
   EXPECT_GT(output().size(), 100u);
 }
 
+TEST_F(Bootloader, AByteThatIsNotStk500StartsTheApplicationAfter16Ms) {
+  init(true);
+  run_to_release();
+  rig_.reset_mcu(ResetCause::kExternal);
+  run_to_release();
+  run_s(0.4);  // past the LED flashes: Optiboot reads the UART
+  // A gateway's request (docs/protocol.md: 0x7E, LEN, ...): 0x7E is no STK500 command, so
+  // verifySpace() wants CRC_EOP next, gets LEN, shortens the watchdog to 16 ms (WDP = 0) and
+  // spins. simavr 1.6 kept the 1 s period until Mcu::on_wdtcsr_write.
+  const double sent_s = rig_.time_s();
+  rig_.uart().inject(std::string("\x7E\x03", 2));
+  while (rig_.mcu().reset_count(ResetCause::kWatchdog) == 0 && rig_.time_s() - sent_s < 1.5) run_s(0.0005);
+  const double bitten_s = rig_.time_s() - sent_s;
+  EXPECT_GT(bitten_s, 0.016);  // 2K cycles at 128 kHz, after the two bytes' 170 us
+  EXPECT_LT(bitten_s, 0.020);
+  run_to_release();
+  EXPECT_LT(cycles_until_application(1000), 60u);
+}
+
 TEST_F(Bootloader, APageWriteTakesTheProgrammingTime) {
   init(true);
   run_to_release();
