@@ -58,7 +58,7 @@ interface Snapshot {
 async function snapshot(gw: Gateway): Promise<Snapshot> {
   const get = async (path: string): Promise<unknown> => (await fetch(`${gw.base}${path}`)).json();
   const status = (await get("/api/status")) as { reset: { noticed: number }; mission: { state: string } };
-  // a firmware update restarts the simulator: its side channel may be gone, or start from t = 0
+  // a firmware update (avrdude through Optiboot) resets the MCU; the side channel may not answer then
   const truth = await simControl(gw.simulator(), { type: "truth" }).then(
     (ack) => ack["truth"] as Record<string, number>,
     (): Record<string, number> => ({ t: -1 }),

@@ -384,7 +384,8 @@ test("a restart of the controller: a notice says what happened and offers set, r
   await expect(notice).toBeVisible();
   await expect(page.locator("body")).toHaveAttribute("data-pose-trusted", "false");
   await expect(page.locator("#reset-notice-text")).toContainText(
-    "unexpectedly: the reset button, or the serial port was reopened (a Nano resets when its port opens).",
+    // behind Optiboot the reset button reaches the firmware through the bootloader's watchdog
+    "unexpectedly: a reset that kept the RAM: the reset button, the serial port reopened (a Nano resets when its port opens), or the watchdog after a hang",
   );
   await expect(page.locator("#reset-notice-text")).toContainText("The mission to (1.20, 1.20) failed.");
   await expect(page.locator("body")).toHaveAttribute("data-mission", "failed");
