@@ -41,18 +41,30 @@ async function stopChild(child: ChildProcess): Promise<void> {
   clearTimeout(timer);
 }
 
+export interface GatewayOptions {
+  /** The simulated camera and perception on every frame (off unless asked: the other specs do
+   * not look, and it costs the loaded test machine a core). */
+  camera?: boolean;
+  /** Run in its CART2D_HOME before the gateway starts (a camera calibration saved there). */
+  prepare?: (home: string) => Promise<void>;
+}
+
 // Starts `cart2d sim --speed 1` bound to `host` (127.0.0.1 unless given), with `extra` options.
 export async function startGateway(
   host = "127.0.0.1",
   prefix = "cart2d-panel-",
   extra: string[] = [],
+  options: GatewayOptions = {},
 ): Promise<Gateway> {
   const cart2d = join(ROOT, "build", "venv", "bin", "cart2d");
   if (!existsSync(cart2d)) throw new Error(`${cart2d} is missing: run make python-env sim firmware`);
   const home = mkdtempSync(join(tmpdir(), prefix));
+  await options.prepare?.(home);
   const port = await freePort();
   let output = "";
-  const child = spawn(cart2d, ["sim", "--speed", "1", "--host", host, "--port", String(port), ...extra], {
+  const args = ["sim", "--speed", "1", "--host", host, "--port", String(port), ...extra];
+  if (!options.camera) args.push("--no-camera");
+  const child = spawn(cart2d, args, {
     cwd: ROOT,
     env: { ...process.env, CART2D_HOME: home },
     stdio: ["ignore", "pipe", "pipe"],
