@@ -1,5 +1,6 @@
 // A real `cart2d sim` for the browser tests: the simulator and the gateway serving the built
-// panel, on a free port with a fresh CART2D_HOME; stopped gracefully (SIGINT, then SIGKILL).
+// panel, on a free port with a fresh CART2D_HOME, without the simulated camera unless asked;
+// stopped gracefully (SIGINT, then SIGKILL).
 
 import { type ChildProcess, spawn } from "node:child_process";
 import { existsSync, mkdtempSync, rmSync } from "node:fs";
@@ -28,6 +29,20 @@ function freePort(): Promise<number> {
       server.close(() => ok(port));
     });
   });
+}
+
+/** A free port whose next one is free too (the simulated ESP32-CAM's, its stream on port + 1). */
+async function freePortPair(): Promise<number> {
+  for (;;) {
+    const port = await freePort();
+    if (port >= 65535) continue;
+    const free = await new Promise<boolean>((ok) => {
+      const server = createServer();
+      server.once("error", () => ok(false));
+      server.listen(port + 1, "127.0.0.1", () => server.close(() => ok(true)));
+    });
+    if (free) return port;
+  }
 }
 
 async function stopChild(child: ChildProcess): Promise<void> {
@@ -63,7 +78,9 @@ export async function startGateway(
   const port = await freePort();
   let output = "";
   const args = ["sim", "--speed", "1", "--host", host, "--port", String(port), ...extra];
-  if (!options.camera) args.push("--no-camera");
+  // the simulated camera on ports of its own: its default (8180) may be another gateway's
+  if (options.camera) args.push("--camera-port", String(await freePortPair()));
+  else args.push("--no-camera");
   const child = spawn(cart2d, args, {
     cwd: ROOT,
     env: { ...process.env, CART2D_HOME: home },
