@@ -19,6 +19,7 @@ const WORLD = join(ROOT, "docs", "examples", "boxes.json");
 const GOAL: Point = [1.6, 0.3];
 // the blue box of boxes.json: centre (0.9, 0.25), 0.2 x 0.5 m
 const BLUE = { x: 0.9, y: 0.25, sx: 0.2, sy: 0.5 };
+const BLUE_RGB = [0x30, 0x50, 0xc0];
 const PERCEIVED_RGB = [0x93, 0x33, 0xea]; // --map-perceived
 const FOV_RGB = [0x08, 0x91, 0xb2]; // --map-fov
 
@@ -150,7 +151,9 @@ test("the cart sees the blue box, maps it, drives round it to the goal; Clear pe
 
   // the map: the three boxes, the blue one in its colour, and the camera's field of view
   await expect(map).toHaveAttribute("data-boxes", "3");
-  expect((await nearestColour(page, [[0.9, 0.35]], [0x30, 0x50, 0xc0]))[0]).toBeLessThan(90); // half see-through on the floor
+  // its outline in its colour (drawn over any cells the camera has found there already)
+  const outline: Point[] = [[BLUE.x - BLUE.sx / 2, BLUE.y], [BLUE.x + BLUE.sx / 2, BLUE.y], [BLUE.x, BLUE.y + BLUE.sy / 2]];
+  for (const d of await nearestColour(page, outline, BLUE_RGB, 2)) expect(d).toBeLessThan(40);
   await expect.poll(async () => Number((await map.getAttribute("data-fov")) ?? "0"), { timeout: 30_000 }).toBeGreaterThanOrEqual(3);
   await expect.poll(() => fov.length).toBeGreaterThanOrEqual(3);
   // its dashed outline: along each edge, most points have the FOV colour within 3 px
@@ -201,8 +204,7 @@ test("the cart sees the blue box, maps it, drives round it to the goal; Clear pe
   const drawn = await nearestColour(page, sure.map(([x, y]): Point => [x, y]), PERCEIVED_RGB);
   expect(drawn.filter((d) => d < 60).length).toBeGreaterThan(0.6 * sure.length);
   // and the box itself still shows through them: its outline, in its colour, drawn over the cells
-  const outline: Point[] = [[BLUE.x - BLUE.sx / 2, BLUE.y], [BLUE.x + BLUE.sx / 2, BLUE.y], [BLUE.x, BLUE.y + BLUE.sy / 2]];
-  for (const d of await nearestColour(page, outline, [0x30, 0x50, 0xc0], 2)) expect(d).toBeLessThan(40);
+  for (const d of await nearestColour(page, outline, BLUE_RGB, 2)) expect(d).toBeLessThan(40);
 
   // README's picture (docs/images/seeing.png): the map and the camera card at the drive's end
   for (const close of await page.locator("#messages .msg-close").all()) await close.click();
@@ -210,10 +212,19 @@ test("the cart sees the blue box, maps it, drives round it to the goal; Clear pe
   copyFileSync(`${SHOTS}/readme-seeing.png`, `${SHOTS}/seeing-arrived.png`);
 
   // Clear perceived: the gateway forgets them, the map stops drawing them
+  const cleared = page.waitForResponse("**/api/perception/clear");
   await page.locator("#clear-perceived").click();
+  expect(((await (await cleared).json()) as Perceived).cells).toEqual([]);
   await expect(page.locator("#perceived-msg")).toContainText("cleared");
+  // the camera keeps looking (a wall ahead may be seen again), but the box behind it stays forgotten
   const after = (await (await page.request.get(`${base}/api/perception`)).json()) as Perceived;
-  expect(after.cells).toEqual([]);
-  await expect(map).toHaveAttribute("data-perceived", "0");
+  expect(after.cells.filter(([x, y]) => fromBlue(x, y) < 0.3)).toEqual([]);
+  // and the map draws what the gateway now holds
+  await expect
+    .poll(async () => {
+      const now = ((await (await page.request.get(`${base}/api/perception`)).json()) as Perceived).cells.length;
+      return Number((await map.getAttribute("data-perceived")) ?? "-1") === now;
+    })
+    .toBe(true);
   expect(errors).toEqual([]);
 });
