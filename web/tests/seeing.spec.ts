@@ -148,6 +148,9 @@ test("the cart sees the blue box, maps it, drives round it to the goal; Clear pe
   });
   expect(spread).toBeGreaterThan(10);
   await expect(page.locator("#camera-state")).toContainText("fps");
+  // perception uses the calibration `cart2d camera calibrate --sim` saved, not the nominal model
+  const camera = (await (await page.request.get(`${base}/api/camera`)).json()) as { calibration: { calibrated: boolean } };
+  expect(camera.calibration.calibrated).toBe(true);
 
   // the map: the three boxes, the blue one in its colour, and the camera's field of view
   await expect(map).toHaveAttribute("data-boxes", "3");
