@@ -481,8 +481,9 @@ export class LiveMap {
     };
 
     if (m) this.drawMap(ctx, m, s, colors);
-    this.drawBoxes(ctx, s);
+    this.fillBoxes(ctx, s);
     this.drawPerception(ctx, s, colors);
+    this.outlineBoxes(ctx, s); // over the perceived cells: what stands there, against what was seen
     this.drawPaths(ctx, colors);
 
     const radius = (m?.footprint_radius_m ?? 0.17) * s;
@@ -578,15 +579,19 @@ export class LiveMap {
 
   /** The simulator's boxes: their own colour, half see-through, outlined solid and crossed, so they
    * read as physical things rather than the map's obstacle cells or the camera's perceived ones. */
-  private drawBoxes(ctx: CanvasRenderingContext2D, s: number): void {
+  private fillBoxes(ctx: CanvasRenderingContext2D, s: number): void {
     for (const b of this.boxes) {
-      const [px, py] = this.toScreen(b.x - b.sx / 2, b.y + b.sy / 2);
-      const w = Math.max(2, b.sx * s);
-      const h = Math.max(2, b.sy * s);
+      const [px, py, w, h] = this.boxOnScreen(b, s);
       ctx.fillStyle = b.colour;
       ctx.globalAlpha = 0.55;
       ctx.fillRect(px, py, w, h);
       ctx.globalAlpha = 1;
+    }
+  }
+
+  private outlineBoxes(ctx: CanvasRenderingContext2D, s: number): void {
+    for (const b of this.boxes) {
+      const [px, py, w, h] = this.boxOnScreen(b, s);
       ctx.strokeStyle = b.colour;
       ctx.lineWidth = 2;
       ctx.strokeRect(px, py, w, h);
@@ -598,6 +603,12 @@ export class LiveMap {
       ctx.lineWidth = 1;
       ctx.stroke();
     }
+  }
+
+  /** A box's top-left corner on screen and its size, px (2 at least: a small box stays visible). */
+  private boxOnScreen(b: SimBox, s: number): [number, number, number, number] {
+    const [px, py] = this.toScreen(b.x - b.sx / 2, b.y + b.sy / 2);
+    return [px, py, Math.max(2, b.sx * s), Math.max(2, b.sy * s)];
   }
 
   private drawPerception(ctx: CanvasRenderingContext2D, s: number, colors: Record<string, string>): void {

@@ -1,5 +1,6 @@
 // A real `cart2d sim` for the browser tests: the simulator and the gateway serving the built
-// panel, on a free port with a fresh CART2D_HOME; stopped gracefully (SIGINT, then SIGKILL).
+// panel, on a free port with a fresh CART2D_HOME, without the simulated camera unless asked;
+// stopped gracefully (SIGINT, then SIGKILL).
 
 import { type ChildProcess, spawn } from "node:child_process";
 import { existsSync, mkdtempSync, rmSync } from "node:fs";
@@ -30,6 +31,20 @@ function freePort(): Promise<number> {
   });
 }
 
+/** A free port whose next one is free too (the simulated ESP32-CAM's, its stream on port + 1). */
+async function freePortPair(): Promise<number> {
+  for (;;) {
+    const port = await freePort();
+    if (port >= 65535) continue;
+    const free = await new Promise<boolean>((ok) => {
+      const server = createServer();
+      server.once("error", () => ok(false));
+      server.listen(port + 1, "127.0.0.1", () => server.close(() => ok(true)));
+    });
+    if (free) return port;
+  }
+}
+
 async function stopChild(child: ChildProcess): Promise<void> {
   const exited = new Promise<void>((ok) => {
     if (child.exitCode !== null) ok();
@@ -41,18 +56,32 @@ async function stopChild(child: ChildProcess): Promise<void> {
   clearTimeout(timer);
 }
 
+export interface GatewayOptions {
+  /** The simulated camera and perception on every frame (off unless asked: the other specs do
+   * not look, and it costs the loaded test machine a core). */
+  camera?: boolean;
+  /** Run in its CART2D_HOME before the gateway starts (a camera calibration saved there). */
+  prepare?: (home: string) => Promise<void>;
+}
+
 // Starts `cart2d sim --speed 1` bound to `host` (127.0.0.1 unless given), with `extra` options.
 export async function startGateway(
   host = "127.0.0.1",
   prefix = "cart2d-panel-",
   extra: string[] = [],
+  options: GatewayOptions = {},
 ): Promise<Gateway> {
   const cart2d = join(ROOT, "build", "venv", "bin", "cart2d");
   if (!existsSync(cart2d)) throw new Error(`${cart2d} is missing: run make python-env sim firmware`);
   const home = mkdtempSync(join(tmpdir(), prefix));
+  await options.prepare?.(home);
   const port = await freePort();
   let output = "";
-  const child = spawn(cart2d, ["sim", "--speed", "1", "--host", host, "--port", String(port), ...extra], {
+  const args = ["sim", "--speed", "1", "--host", host, "--port", String(port), ...extra];
+  // the simulated camera on ports of its own: its default (8180) may be another gateway's
+  if (options.camera) args.push("--camera-port", String(await freePortPair()));
+  else args.push("--no-camera");
+  const child = spawn(cart2d, args, {
     cwd: ROOT,
     env: { ...process.env, CART2D_HOME: home },
     stdio: ["ignore", "pipe", "pipe"],
