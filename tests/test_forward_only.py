@@ -13,8 +13,12 @@ from pathlib import Path
 from typing import Any
 
 from cart2d.gateway.forward_only import REVERSE_ALLOWED, ReverseGuard
+from cart2d.link import firmware
 from cart2d.mission import MissionSpec, run_mission
+from cart2d.mission_camera import mission_camera
+from tests.conftest import wait_for
 from tests.test_recording import Read
+from tests.test_server import Rig
 
 # Between the cart and its goal, behind the cart, where its camera does not look: the map does
 # not show it, so the first plan runs straight through it, starting behind the cart.
@@ -104,3 +108,17 @@ def test_a_user_who_forbids_reversing_keeps_it_forbidden() -> None:
     guard.apply(link, seeing=True)  # type: ignore[arg-type]
     guard.apply(link, seeing=False)  # type: ignore[arg-type]
     assert link.value == 0.0 and link.writes == []
+
+
+def test_while_seeing_a_restart_of_the_mcu_does_not_let_its_saved_reversing_back(rig: Rig) -> None:
+    def reverse_allowed() -> float:
+        return firmware.read_setting(rig.link, REVERSE_ALLOWED)
+
+    assert reverse_allowed() == 1.0  # the default: the seed's behaviour
+    with mission_camera(rig.gateway, rig.sim, None):
+        assert reverse_allowed() == 0.0  # from the moment it sees
+        noticed = rig.gateway.resets_noticed
+        rig.sim.control("reset")  # the reset button: the firmware loads its settings (1) again
+        wait_for(lambda: rig.gateway.resets_noticed > noticed, 10)
+        assert reverse_allowed() == 0.0
+    assert reverse_allowed() == 1.0  # the camera gone, the user's value is back
