@@ -367,6 +367,7 @@ class Gateway(PerceptionMixin, SimWorldMixin):  # perceived.py: perception; sim_
         stops before the new path replaces it: an append of the old path must never reach the
         new one (docs/protocol.md, Paths and the waypoint window)."""
         self._cancel_stream()
+        self.forwards_only_while_seeing()
         self._stream = firmware.upload_path(self.link, plan.waypoints, token)
         self._frames_at_route = self.link.telemetry_count
 
@@ -763,6 +764,7 @@ class Gateway(PerceptionMixin, SimWorldMixin):  # perceived.py: perception; sim_
 
     def _on_restart(self, status: firmware.Status, reopened: bool) -> None:
         self.link.settings_may_change()  # the firmware loaded its settings from EEPROM again
+        self.forwards_only_while_seeing(certain=False)  # the saved reverse_allowed is back
         try:
             pose: tuple[float, float, float] | None = self._pose()
         except (LinkError, CommandRefused):

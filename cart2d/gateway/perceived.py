@@ -30,12 +30,14 @@ import numpy as np
 import numpy.typing as npt
 
 from cart2d.gateway.camera import CameraFeed, Shown
+from cart2d.gateway.forward_only import ReverseGuard
 from cart2d.gateway.live_map import planner_for
 from cart2d.gateway.seeing import Seeing, seeing_for
 from cart2d.planning import EPS, Grid, Planner
 
 if TYPE_CHECKING:
     from cart2d.gateway.state import Mission
+    from cart2d.link import Link
     from cart2d.store import CameraSettings, GatewaySettings
 
 MAX_PERCEIVED_CELLS = 100_000  # a 10 x 10 m room at 3 cm
@@ -131,9 +133,11 @@ class PerceptionMixin:
     _perceived_sent_s = 0.0
     _perceived_timer: threading.Timer | None = None
     _camera_sent_s = 0.0
+    _reverse_guard: ReverseGuard | None = None  # forwards only while seeing (forward_only.py)
 
     # what the Gateway has (core.py)
     _lock: threading.RLock
+    link: Link
     planner: Planner
     mission: Mission
     settings: GatewaySettings
@@ -162,6 +166,27 @@ class PerceptionMixin:
             sinks = self._sinks()
             for sink in sinks:
                 sinks[sink] = feed.subscribe(sink)
+        self.forwards_only_while_seeing(certain=False)
+
+    def sees(self) -> bool:
+        """Whether the camera's frames keep the perceived layer (then the cart drives forwards only)."""
+        return self.seeing is not None and self.perceived.enabled
+
+    def _guard(self) -> ReverseGuard:
+        if self._reverse_guard is None:
+            self._reverse_guard = ReverseGuard()  # this gateway's own
+        return self._reverse_guard
+
+    def forwards_only_while_seeing(self, certain: bool = True) -> None:
+        """Before a route and after an MCU restart: reverse_allowed = 0 in the firmware while the
+        gateway sees, the user's value back once it does not (forward_only.py). `certain`: LinkError
+        / CommandRefused if the firmware does not take it (else it is tried only)."""
+        with self._lock:
+            guard, seeing = self._guard(), self.sees()
+            if certain:
+                guard.apply(self.link, seeing)
+            else:
+                guard.try_apply(self.link, seeing)
 
     def _sinks(self) -> dict[Callable[[Shown], None], Callable[[], None] | None]:
         if self._camera_sinks is None:

@@ -99,7 +99,7 @@ __attribute__((noinline)) bool Cart::follow_path(float& v_mps, float& omega_radp
     safe_stop(0);
     return false;
   }
-  const PolarGains gains{setting(pos_rho_kp), setting(pos_phase_kp)};
+  const PolarGains gains{setting(pos_rho_kp), setting(pos_phase_kp), setting(reverse_allowed) > 0.5f};
   const MotionLimits limits{setting(v_max_mps), setting(w_max_radps), setting(a_max_mps2), stop_horizon_m_};
   const Pose& pose = odometry_.pose();
   const Heading heading{odometry_.cos_theta(), odometry_.sin_theta()};

@@ -18,8 +18,9 @@ static float capped_speed(float distance_m, float exit_speed_mps, const MotionLi
 
 // The aim point in the cart's frame: `along` ahead (negative: behind), `cross` to the left. The
 // seed's angle arithmetic becomes: heading error = atan2(cross, along), folded by pi when the
-// aim is behind (then the cart drives backwards).
-// Speeds follow the distance to the waypoint itself.
+// aim is behind (then the cart drives backwards). With reverse not allowed the aim behind is
+// steered for by its true heading error instead (over 90 deg: the speed factor is 0, the cart
+// turns on the spot). Speeds follow the distance to the waypoint itself.
 PolarOutput polar_control(const Pose& pose, const Heading& heading, const Approach& target,
                           const PolarGains& gains, const MotionLimits& limits) {
   const float dx = target.x_m - pose.x_m;
@@ -37,21 +38,28 @@ PolarOutput polar_control(const Pose& pose, const Heading& heading, const Approa
 
   PolarOutput out;
   out.behind = along_m < 0.0f;  // |heading error| > pi/2: the seed's reverse case
-  const float direction = out.behind ? -1.0f : 1.0f;
-  out.rho_m = direction * distance_m;
+  const float side = out.behind ? -1.0f : 1.0f;
+  const bool backwards = out.behind && gains.reverse_allowed;
+  const float direction = backwards ? -1.0f : 1.0f;  // of travel
+  out.rho_m = side * distance_m;
   out.stopping = target.final;
 
   // Only while the waypoint lies within 45 deg of the heading line (ahead or behind, i.e.
   // |cross-track| <= |along-track|): from further off to the side, closing along the heading
   // would stop the cart abeam of the waypoint, outside the tolerance, for ever. There it steers
-  // as usual and turns towards the waypoint first.
+  // as usual and turns towards the waypoint first. Even with reverse not allowed the cart
+  // closes these last 2 cm backwards when it overshot: it has just driven over them, and
+  // turning round for them would take seconds.
   if (target.final && distance_m < kFinalApproachRadius_m && fabsf(cross_m) <= fabsf(along_m)) {
-    out.v_mps = direction * fminf(gains.rho_kp * fabsf(along_m), capped_speed(fabsf(along_m), 0.0f, limits));
+    out.v_mps = side * fminf(gains.rho_kp * fabsf(along_m), capped_speed(fabsf(along_m), 0.0f, limits));
     out.omega_radps = 0.0f;
     return out;
   }
 
-  const float heading_error = atan2_right_half(direction * cross_m, direction * along_m);  // [-pi/2, pi/2]
+  // [-pi/2, pi/2]; [-pi, pi] when an aim behind must be faced (then beyond pi/2 by the angle
+  // between the aim and the tail; exactly behind, the cart turns left).
+  float heading_error = atan2_right_half(direction * cross_m, fabsf(along_m));
+  if (out.behind && !backwards) heading_error = (cross_m < 0.0f ? -kPi : kPi) - heading_error;
   // The fastest the cart may pass the waypoint: its exit speed, and no faster than it can still
   // stop from where the received points end (a streamed path): exit^2 <= 2 * 0.8 a * beyond.
   // Folded into the exit speed, the two caps cost one multiplication more than one; beyond the

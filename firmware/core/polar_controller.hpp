@@ -13,6 +13,10 @@ namespace core {
 struct PolarGains {
   float rho_kp;    // 1/s: v = rho_kp * distance
   float phase_kp;  // 1/s: omega = phase_kp * heading error
+  // false: a waypoint behind is not driven to backwards (the seed's reverse case); the cart
+  // turns on the spot to face it, then drives forwards. A forward-looking camera sees only
+  // where the cart goes forwards (setting reverse_allowed, config/robot.toml).
+  bool reverse_allowed = true;
 };
 
 struct MotionLimits {
@@ -53,7 +57,7 @@ struct PolarOutput {
   float v_mps;
   float omega_radps;
   float rho_m;             // signed distance to the waypoint (negative: it is behind)
-  bool behind;             // the waypoint is behind the cart (it drives backwards)
+  bool behind;             // the waypoint is behind the cart (it drives backwards, if allowed)
   // The cart has fewer points ahead than it needs to brake from v_max: the target is final (the
   // path's last, or the last received), or the received points end within that distance.
   bool stopping;

@@ -269,6 +269,28 @@ TEST(CartLoop, GotoBehindDrivesBackwards) {
   EXPECT_LT(max_abs_theta, 0.05);
 }
 
+TEST(CartLoop, GoalBehindWithReverseNotAllowedIsFacedThenDrivenForwards) {
+  // reverse_allowed = 0 (the gateway sets it while it sees with its forward-looking camera):
+  // the cart turns round on the spot and drives forwards, never backing up more than
+  // the final 2 cm of an overshoot.
+  Rig rig;
+  ASSERT_EQ(rig.settings.set(id::reverse_allowed, 0.0f), 0);
+  rig.cart.go_to(core::Point{-0.5f, 0.0f});
+  double backwards_m = 0.0, longest_backwards_m = 0.0, max_abs_theta = 0.0;
+  while (rig.cart.mode() == proto::MODE_PATH && rig.ticks < 3000) {
+    const double x = rig.plant.x, y = rig.plant.y;
+    rig.tick();
+    const double along = (rig.plant.x - x) * std::cos(rig.plant.theta) + (rig.plant.y - y) * std::sin(rig.plant.theta);
+    backwards_m = along < 0.0 ? backwards_m - along : 0.0;
+    longest_backwards_m = std::fmax(longest_backwards_m, backwards_m);
+    max_abs_theta = std::fmax(max_abs_theta, std::fabs(rig.plant.theta));
+  }
+  expect_stopped_on_arrival(rig);
+  EXPECT_LT(rig.truth_distance_to(-0.5, 0.0), rig.settings.get(id::tol_final_m) + 2.0 * kMetresPerCount);
+  EXPECT_GT(max_abs_theta, 3.0);           // it turned round
+  EXPECT_LT(longest_backwards_m, 0.02);    // and did not back up
+}
+
 TEST(CartLoop, GotoSideways) {
   // A target 90 deg to the left: the cart turns and drives there, ending within tolerance.
   Rig rig;

@@ -84,6 +84,57 @@ TEST(PolarController, TargetBehindToTheLeftSwingsTheTailLeft) {
   EXPECT_NEAR(out.omega_radps, -4.0 * std::atan2(0.2, 1.0), kOmegaTolerance);
 }
 
+// Reverse not allowed (setting reverse_allowed = 0, while the gateway sees with a camera that
+// looks forwards only): a waypoint behind is faced first, turning on the spot, never backed to.
+const core::PolarGains kForwardOnly{1.0f, 4.0f, false};
+
+TEST(PolarController, ForwardOnlyTurnsOnTheSpotTowardsATargetBehind) {
+  // Target (-1, 0.2): bearing 168.69 deg = 2.94419 rad to the left; 4 * 2.944 > w_max: +pi.
+  const core::PolarOutput left = core::polar_control(kOrigin, final_point(-1.0f, 0.2f), kForwardOnly, kLimits);
+  EXPECT_TRUE(left.behind);
+  EXPECT_EQ(left.v_mps, 0.0f);
+  EXPECT_NEAR(left.omega_radps, 3.14159265f, 1e-5f);
+  EXPECT_NEAR(left.rho_m, -std::hypot(1.0, 0.2), 1e-5);  // still reported as behind
+  // Mirrored: turns right.
+  const core::PolarOutput right =
+      core::polar_control(kOrigin, final_point(-1.0f, -0.2f), kForwardOnly, kLimits);
+  EXPECT_EQ(right.v_mps, 0.0f);
+  EXPECT_NEAR(right.omega_radps, -3.14159265f, 1e-5f);
+  // A via point behind (the replanned path's first) too, and exactly behind: it turns (left).
+  const core::PolarOutput via = core::polar_control(kOrigin, via_point(-0.5f, 0.0f, 0.5f), kForwardOnly, kLimits);
+  EXPECT_EQ(via.v_mps, 0.0f);
+  EXPECT_NEAR(via.omega_radps, 3.14159265f, 1e-5f);
+}
+
+TEST(PolarController, ForwardOnlyHeadingErrorBehindIsTheTrueAngle) {
+  // Below saturation (phase_kp 0.5 /s): omega = 0.5 * 2.94419 rad (bearing of (-1, 0.2)).
+  const core::PolarGains gentle{1.0f, 0.5f, false};
+  const core::PolarOutput out = core::polar_control(kOrigin, final_point(-1.0f, 0.2f), gentle, kLimits);
+  EXPECT_NEAR(out.omega_radps, 0.5 * std::atan2(0.2, -1.0), 0.5 * 2e-5);
+}
+
+TEST(PolarController, ForwardOnlyDrivesForwardsOnceFacingTheTarget) {
+  // Having turned to face (-1, 0.2) (heading 168.69 deg), it drives forwards towards it.
+  const core::Pose facing{0.0f, 0.0f, static_cast<float>(std::atan2(0.2, -1.0))};
+  const core::PolarOutput out = core::polar_control(facing, final_point(-1.0f, 0.2f), kForwardOnly, kLimits);
+  EXPECT_FALSE(out.behind);
+  EXPECT_NEAR(out.v_mps, 0.5f, 1e-5f);
+  EXPECT_NEAR(out.omega_radps, 0.0f, 1e-4f);
+  // Half way round (90 deg off, target to the left): still only turning, never backwards.
+  const core::Pose half{0.0f, 0.0f, static_cast<float>(std::atan2(0.2, -1.0) - kPiD / 2.0)};
+  const core::PolarOutput turning = core::polar_control(half, final_point(-1.0f, 0.2f), kForwardOnly, kLimits);
+  EXPECT_GE(turning.v_mps, 0.0f);
+  EXPECT_LT(turning.v_mps, 1e-3f);
+  EXPECT_GT(turning.omega_radps, 0.0f);
+}
+
+TEST(PolarController, ForwardOnlyStillClosesAnOvershootOfTheLastCentimetres) {
+  // 1 cm past the final waypoint, on the heading line: it creeps back over ground it just drove.
+  const core::PolarOutput out = core::polar_control(kOrigin, final_point(-0.01f, 0.0f), kForwardOnly, kLimits);
+  EXPECT_NEAR(out.v_mps, -0.01f, 1e-6f);
+  EXPECT_EQ(out.omega_radps, 0.0f);
+}
+
 TEST(PolarController, FoldingWorksAcrossThePiBoundary) {
   // Heading pi (facing -x), target at (+0.5, 0) is straight behind: backwards, no turn.
   const core::Pose pose{0.0f, 0.0f, static_cast<float>(kPiD)};
