@@ -56,7 +56,21 @@ for (const [what, viewport] of [
     const page = await context.newPage();
     const w = await open(page);
     const watched = ["#map", ".segmented", "#cmd-form", "#estop"];
-    const before = await Promise.all(watched.map((s) => box(page.locator(s))));
+    const measure = () => Promise.all(watched.map((s) => box(page.locator(s))));
+    // the layout has settled (the header's state after an earlier test's reset, say): what is
+    // measured is what the toasts do, not what the page was still doing
+    let before = await measure();
+    await expect
+      .poll(
+        async () => {
+          const now = await measure();
+          const settled = JSON.stringify(now) === JSON.stringify(before);
+          before = now;
+          return settled;
+        },
+        { intervals: [500], timeout: 20_000 },
+      )
+      .toBe(true);
     const height = await page.evaluate(() => document.documentElement.scrollHeight);
 
     await errors(page, 5, "number");
