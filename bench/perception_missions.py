@@ -352,6 +352,8 @@ def latency_run(calibration: Path, seed: int, mount: Mount) -> dict[str, Any]:
 
 
 def _plot(rows: list[dict[str, Any]], out: Path) -> None:
+    if not rows:  # the quick run has no unknown-arena missions
+        return
     cols = min(5, len(rows))
     n_rows = (len(rows) + cols - 1) // cols
     fig, axes = plt.subplots(n_rows, cols, figsize=(3.3 * cols, 3.4 * n_rows), squeeze=False)
@@ -493,7 +495,7 @@ def measure(out: Path, quick: bool, mount: Mount) -> tuple[str, dict[str, Any], 
             if cause_to_fw
             else "\n"
         )
-        + "\n![unknown arenas](perception_missions.png)\n"
+        + ("\n![unknown arenas](perception_missions.png)\n" if rows else "")
     )
     data = {
         "missions": [

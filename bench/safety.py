@@ -81,7 +81,7 @@ def open_bench(tmp: str, start: tuple[float, float, float], seed: int) -> Bench:
     sim.side.subscribe(samples.append)
     sim.control("truth_rate", hz=TRUTH_HZ)
     bench = Bench(sim, port, samples)
-    bench.run(0.3)  # the time-out after the reset that opening the port causes, and the boot
+    bench.run(sim.boot_s() + 0.3)  # the reset that opening the port causes, the boot through Optiboot
     call(sim, port, "SET_POSE", *start)
     return bench
 
