@@ -24,7 +24,7 @@ from cart2d.link.transport import STALL_S
 from cart2d.simulator import Simulator
 from cart2d.store import Store
 from tests.conftest import start_sim, wait_for
-from tests.ser2net import DelayRelay, Ser2net, free_port
+from tests.ser2net import DelayRelay, Ser2net
 from tests.test_cli import fake_ports_and_serve, one_sentence
 
 GOAL = (1.2, 0.6)
@@ -165,8 +165,12 @@ def test_a_stalled_connection_times_requests_out_and_is_reopened() -> None:
 
 
 def test_serve_with_a_url_nobody_listens_on_says_so_in_one_sentence(tmp_path: Path) -> None:
-    url = f"socket://127.0.0.1:{free_port()}"
-    done = fake_ports_and_serve(tmp_path, url)
+    # A port bound but not listening refuses connections and cannot be taken meanwhile (once, a
+    # free port given back was the one the gateway then listened on for its panel: it answered)
+    with socket.socket() as held:
+        held.bind(("127.0.0.1", 0))
+        url = f"socket://127.0.0.1:{held.getsockname()[1]}"
+        done = fake_ports_and_serve(tmp_path, url)
     assert done.returncode == 1
     line = one_sentence(done.stderr)
     assert "nothing accepts connections at 127.0.0.1:" in line and "serial bridge" in line
