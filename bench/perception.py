@@ -45,7 +45,7 @@ import numpy as np
 
 from bench.common import Section, percentile, section_main, spread, table
 from bench.perception_missions import measure as unknown_arenas
-from bench.perception_sim import sim_calibration_runs
+from bench.perception_sim import lens_cells, lens_errors, sim_calibration_runs
 from cart2d.perception.calibrate_command import calibrate, synthetic_views
 from cart2d.perception.calibration import Board, CameraCalibration, GroundBoard
 from cart2d.perception.camera_model import FloatArray, Intrinsics, Mount
@@ -86,22 +86,10 @@ def calibration_runs(mount: Mount, seeds: list[int], views: int) -> list[dict[st
         start = time.perf_counter()
         result = calibrate(images, floor, BOARD, ON_FLOOR, mount, say=lambda _: None)
         took_s = time.perf_counter() - start
-        lens = result.intrinsics
         runs.append(
             {
                 "seed": seed,
-                "views": result.views,
-                "rms_px": result.rms_px,
-                "seconds": took_s,
-                "fx_error_pct": 100 * (lens.fx / truth.fx - 1),
-                "fy_error_pct": 100 * (lens.fy / truth.fy - 1),
-                "cx_error_px": lens.cx - truth.cx,
-                "cy_error_px": lens.cy - truth.cy,
-                "k1": lens.dist[0],
-                "k2": lens.dist[1],
-                "k1_true": truth.dist[0],
-                "k2_true": truth.dist[1],
-                "board_rms_m": result.ground_rms_m,
+                **lens_errors(result, truth, took_s),
                 "ground_error_m": ground_errors(truth, result, mount),
                 "nominal_error_m": ground_errors(truth, CameraCalibration.nominal(mount), mount),
             }
@@ -256,33 +244,8 @@ def run(out: Path, quick: bool) -> Section:
         (f"median CPU ms per QVGA frame <= {FRAME_TARGET_MS:.0f}", median_ms <= FRAME_TARGET_MS),
         *missions_checks,
     ]
-    calibration_rows = [
-        [
-            r["seed"],
-            r["views"],
-            f"{r['rms_px']:.3f}",
-            f"{r['fx_error_pct']:+.2f} / {r['fy_error_pct']:+.2f}",
-            f"{r['cx_error_px']:+.2f} / {r['cy_error_px']:+.2f}",
-            f"{r['k1']:.3f} / {r['k2']:.3f} ({r['k1_true']:.2f} / {r['k2_true']:.2f})",
-            f"{1000 * r['board_rms_m']:.2f}",
-            f"{r['seconds']:.2f}",
-        ]
-        for r in runs
-    ]
-    sim_rows = [
-        [
-            r["floor_board"],
-            r["seed"],
-            r["views"],
-            f"{r['rms_px']:.3f}",
-            f"{r['fx_error_pct']:+.2f} / {r['fy_error_pct']:+.2f}",
-            f"{r['cx_error_px']:+.2f} / {r['cy_error_px']:+.2f}",
-            f"{r['k1']:.3f} / {r['k2']:.3f} ({r['k1_true']:.2f} / {r['k2_true']:.2f})",
-            f"{1000 * r['board_rms_m']:.2f}",
-            f"{r['seconds']:.2f}",
-        ]
-        for r in sim_runs
-    ]
+    calibration_rows = [[r["seed"], *lens_cells(r)] for r in runs]
+    sim_rows = [[r["floor_board"], r["seed"], *lens_cells(r)] for r in sim_runs]
     sim_error_rows = [
         [
             f"{d:.1f}",

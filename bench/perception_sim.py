@@ -11,7 +11,7 @@ from typing import Any
 
 from cart2d.perception.calibrate_command import SIM_VIEWS
 from cart2d.perception.calibration import Board, CameraCalibration, GroundBoard
-from cart2d.perception.camera_model import Mount
+from cart2d.perception.camera_model import Intrinsics, Mount
 from cart2d.perception.sim_calibration import (
     HELD_SQUARE_M,
     calibrate_in_simulator,
@@ -27,6 +27,38 @@ FLOOR_BOARDS = {
     "9x6 of 30 mm at 0.55 m": GroundBoard(Board(9, 6, 0.03), 0.55),
     "9x6 of 40 mm at 0.75 m": GroundBoard(Board(9, 6, 0.04), 0.75),
 }
+
+
+def lens_errors(result: CameraCalibration, truth: Intrinsics, took_s: float) -> dict[str, Any]:
+    """A calibration's lens against the true one, and its own errors: one run's figures."""
+    lens = result.intrinsics
+    return {
+        "views": result.views,
+        "rms_px": result.rms_px,
+        "seconds": took_s,
+        "fx_error_pct": 100 * (lens.fx / truth.fx - 1),
+        "fy_error_pct": 100 * (lens.fy / truth.fy - 1),
+        "cx_error_px": lens.cx - truth.cx,
+        "cy_error_px": lens.cy - truth.cy,
+        "k1": lens.dist[0],
+        "k2": lens.dist[1],
+        "k1_true": truth.dist[0],
+        "k2_true": truth.dist[1],
+        "board_rms_m": result.ground_rms_m,
+    }
+
+
+def lens_cells(r: dict[str, Any]) -> list[Any]:
+    """lens_errors' figures as table cells (views to seconds)."""
+    return [
+        r["views"],
+        f"{r['rms_px']:.3f}",
+        f"{r['fx_error_pct']:+.2f} / {r['fy_error_pct']:+.2f}",
+        f"{r['cx_error_px']:+.2f} / {r['cy_error_px']:+.2f}",
+        f"{r['k1']:.3f} / {r['k2']:.3f} ({r['k1_true']:.2f} / {r['k2_true']:.2f})",
+        f"{1000 * r['board_rms_m']:.2f}",
+        f"{r['seconds']:.2f}",
+    ]
 
 
 def sim_calibration_runs(
@@ -47,23 +79,11 @@ def sim_calibration_runs(
                 HELD, on_floor, SIM_VIEWS, mount, sim_options(seed=seed), say=lambda _: None
             )
             took_s = time.perf_counter() - start
-            lens = result.intrinsics
             runs.append(
                 {
                     "seed": seed,
                     "floor_board": floor_name,
-                    "views": result.views,
-                    "rms_px": result.rms_px,
-                    "seconds": took_s,
-                    "fx_error_pct": 100 * (lens.fx / truth.fx - 1),
-                    "fy_error_pct": 100 * (lens.fy / truth.fy - 1),
-                    "cx_error_px": lens.cx - truth.cx,
-                    "cy_error_px": lens.cy - truth.cy,
-                    "k1": lens.dist[0],
-                    "k2": lens.dist[1],
-                    "k1_true": truth.dist[0],
-                    "k2_true": truth.dist[1],
-                    "board_rms_m": result.ground_rms_m,
+                    **lens_errors(result, truth, took_s),
                     "ground_error_m": central_errors(result),
                     "full_width_error_m": [float(ground_errors(result, mount, d).max()) for d in distances_m],
                 }
