@@ -209,7 +209,7 @@ def _drive_like_the_seed(
         raise PoseUntrusted(gateway.pose_trust.refusal())
     x, y, _ = gateway.link.call("POSE")
     m = gateway.settings.map
-    waypoints = seed_path(gateway.planner.grid, m.obstacles, (x, y), goal)
+    waypoints = seed_path(gateway.map_planner.grid, m.obstacles, (x, y), goal)
     capacity = gateway.waypoint_capacity
     for first in range(0, len(waypoints), capacity):
         with pacer.real_time():
@@ -377,7 +377,7 @@ def run_mission(
                 recording.enter_context(open_recording(gateway, mcap_path, overwrite=True))
             if spec.world is not None:  # after the gateway has made the simulator's walls follow its map
                 sim.add_boxes([b.box() for b in spec.world.boxes])
-            grid = gateway.planner.grid
+            grid = gateway.map_planner.grid
             points = snapped(grid, [grid.node_xy(i, j) for i, j in map_settings.obstacles])
             sim.change_obstacles(add=points, step=grid.step_m)  # virtual: counted, not felt
             recorder = Recorder()

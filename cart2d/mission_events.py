@@ -93,7 +93,7 @@ class EventPlayer:
         self.applied: list[dict[str, Any]] = []
         self._done = threading.Event()
         self._thread = threading.Thread(target=self._run, name="map events", daemon=True)
-        grid = gateway.planner.grid
+        grid = gateway.map_planner.grid
         self._cells = [(snapped(grid, e.add), snapped(grid, e.remove)) for e in self.events]
         for event, (add, remove) in zip(self.events, self._cells, strict=True):
             sim.change_obstacles(add, remove, step=grid.step_m, physical=True, at_s=t0 + event.at_s)

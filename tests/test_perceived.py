@@ -5,6 +5,7 @@ the user's obstacles and saved settings never see them, bad input changes nothin
 
 from __future__ import annotations
 
+import itertools
 import math
 import threading
 from collections.abc import Iterator
@@ -20,7 +21,7 @@ from cart2d.gateway.perceived import PerceivedLayer, PerceptionMixin
 from cart2d.gateway.state import Mission
 from cart2d.maps import OCCUPIED, OccupancyMap
 from cart2d.params import robot
-from cart2d.planning import Grid, PlanError, point_square_distance
+from cart2d.planning import Grid, PlanError, Planner, point_square_distance, segment_square_distance
 from cart2d.server import create_app
 from cart2d.store import FloorPlan, GatewaySettings, MapSettings
 from tests.conftest import wait_for
@@ -148,7 +149,7 @@ class LoneLayer(PerceptionMixin):
     def __init__(self, settings: GatewaySettings | None = None) -> None:
         self._lock = threading.RLock()
         self.settings = settings or GatewaySettings()
-        self.planner = planner_for(self.settings.map)
+        self.map_planner = self.planner = planner_for(self.settings.map)
         self.mission = Mission()
         self.messages: list[dict[str, Any]] = []
 
@@ -203,3 +204,45 @@ def test_on_a_floor_plan_perceived_cells_block_with_its_walls_and_clearing_keeps
     assert layer.planner.plan(start, goal).waypoints == over_the_wall.waypoints
     # the floor plan's wall still blocks: the straight line is not taken
     assert layer.planner.plan(start, goal).length_m > 2.5
+
+
+def cells_over(
+    rects: list[tuple[float, float, float, float]], resolution_m: float
+) -> list[tuple[float, float, float]]:
+    """The cells of a resolution_m lattice (centres at odd multiples of half of it) whose squares
+    overlap the rectangles (x0, y0, x1, y1), believed at p = 0.9."""
+    half = resolution_m / 2
+    out = set()
+    for x0, y0, x1, y1 in rects:
+        for i in range(math.floor((x0 - half) / resolution_m), math.ceil((x1 + half) / resolution_m) + 1):
+            for j in range(math.floor((y0 - half) / resolution_m), math.ceil((y1 + half) / resolution_m) + 1):
+                x, y = half + i * resolution_m, half + j * resolution_m
+                if (
+                    abs(x - (x0 + x1) / 2) < (x1 - x0) / 2 + half
+                    and abs(y - (y0 + y1) / 2) < (y1 - y0) / 2 + half
+                ):
+                    out.add((round(x, 6), round(y, 6), 0.9))
+    return sorted(out)
+
+
+def test_a_gap_the_cart_fits_through_stays_open_when_the_camera_sees_its_sides_a_little_too_near() -> None:
+    # The missions benchmark's wall with a gap in the seed's arena (10 x 10 nodes, 0.2 m): boxes
+    # fill nodes (4, 0..3) and (4, 7..9), 1 cm inside their cells; the gap is y 0.69 to 1.31 m, the
+    # cart needs 2 x 0.2 m. The camera places each face up to 3 cm too near (JPEG bleeding): on
+    # the map's 0.2 m grid those cells would block the gap's edge cells and close it.
+    layer = LoneLayer()
+    seen = cells_over([(0.71, 0.0, 0.89, 0.72), (0.71, 1.28, 0.89, 1.8)], 0.05)
+    layer.set_perceived(seen, "the camera saw the wall")
+    plan = layer.planner.plan((0.2, 0.4), (1.6, 1.4))
+    radius = layer.planner.footprint_radius_m
+    points = [plan.start, *plan.waypoints]
+    for a, b in itertools.pairwise(points):  # every driven segment keeps the footprint off every cell
+        for x, y, _ in seen:
+            assert segment_square_distance(a, b, (x, y), 0.025) > radius
+    assert plan.length_m < 2.2
+    # on the map's own grid the same cells block node rows 3 and 7 (the gap's edges): no path
+    coarse = Planner(
+        layer.map_planner.grid, radius, blocked=PerceivedLayer(tuple(seen), 0.05).mask(layer.map_planner.grid)
+    )
+    with pytest.raises(PlanError, match="cannot be reached"):
+        coarse.plan((0.2, 0.4), (1.6, 1.4))

@@ -89,7 +89,8 @@ class Gateway(PerceptionMixin, SimWorldMixin):  # perceived.py: perception; sim_
         self.store = store
         self.settings = settings
         self.sim = sim
-        self.planner = planner_for(settings.map)
+        self.map_planner = planner_for(settings.map)  # the map's: the user's obstacles are its nodes
+        self.planner = self.map_planner  # the routes': with what the camera sees (perceived.py)
         self.map_version = 1  # counts the map's changes (the panel fetches the map again)
         self._last_truth_t: float | None = None  # the simulator's time in its latest truth message
         self.mission = Mission()
@@ -210,7 +211,7 @@ class Gateway(PerceptionMixin, SimWorldMixin):  # perceived.py: perception; sim_
     def map_view(self) -> dict[str, Any]:
         with self._lock:
             m = self.settings.map
-            g = self.planner.grid
+            g = self.map_planner.grid
             view: dict[str, Any] = {
                 "version": self.map_version,
                 "cols": g.cols,
@@ -220,7 +221,7 @@ class Gateway(PerceptionMixin, SimWorldMixin):  # perceived.py: perception; sim_
                 "arena": arena(m),
                 "footprint_radius_m": footprint_radius_m(),
                 "planning_radius_m": self.planner.footprint_radius_m,
-                "obstacles": [list(g.node_xy(i, j)) for i, j in sorted(self.planner.obstacles)],
+                "obstacles": [list(g.node_xy(i, j)) for i, j in sorted(self.map_planner.obstacles)],
                 "floor_plan": None,
                 "unknown_is_free": m.unknown_is_free,
             }
@@ -252,16 +253,17 @@ class Gateway(PerceptionMixin, SimWorldMixin):  # perceived.py: perception; sim_
         a point off the map changes nothing), saves the map and, during a mission, replans if
         the rest of the path is blocked now."""
         with self._lock:
-            grid = self.planner.grid
+            grid = self.map_planner.grid
             added = {grid.nearest_node(x, y) for x, y in add}
             removed = {grid.nearest_node(x, y) for x, y in remove} - added
-            before = self.planner.obstacles
+            before = self.map_planner.obstacles
             nodes = sorted((before - removed) | added)
             if set(nodes) != before:
-                self.planner.set_obstacles(nodes)
+                self.map_planner.set_obstacles(nodes)
                 self.settings = self.settings.model_copy(
                     update={"map": self.settings.map.model_copy(update={"obstacles": nodes})}
                 )
+                self.planner = with_perceived(self.settings.map, self.perceived, self.map_planner)
                 self.store.save(self.settings)
                 self._map_changed(why)
             return self.map_view()
@@ -287,7 +289,8 @@ class Gateway(PerceptionMixin, SimWorldMixin):  # perceived.py: perception; sim_
     def update_settings(self, settings: GatewaySettings, why: str = "new settings were loaded") -> None:
         """Replaces the gateway's settings (a new map takes effect now) and saves them."""
         with self._lock:
-            planner = with_perceived(planner_for(settings.map), self.perceived)  # validates the map first
+            map_planner = planner_for(settings.map)  # validates the map first
+            planner = with_perceived(settings.map, self.perceived, map_planner)
             camera = self._camera_change(settings)  # and the camera (perceived.py)
             self.store.save(settings)
             new_map = settings.map != self.settings.map
@@ -295,7 +298,7 @@ class Gateway(PerceptionMixin, SimWorldMixin):  # perceived.py: perception; sim_
             # sweep away the boxes standing in it (a mission's world, its events).
             new_walls = new_map and _walls_of(settings.map) != _walls_of(self.settings.map)
             self.settings = settings
-            self.planner = planner
+            self.map_planner, self.planner = map_planner, planner
             self._apply_camera(camera)
             if new_walls:
                 self._sync_world()

@@ -2,7 +2,8 @@
 
 - `planner_for`: the planner of a MapSettings: the seed's node grid (walls a margin outside the
   nodes), or a floor plan planned on blocks of its cells (cart2d/maps/occupancy.py), whose
-  footprint must stay on the map's cells, unknown cells blocked unless allowed.
+  footprint must stay on the map's cells, unknown cells blocked unless allowed; `layout_for`
+  the same map on a finer grid, for the camera's small obstacles (cart2d/gateway/perceived.py).
 - `world_for`: the simulator's physical world for that map: the arena's walls around the node
   grid, or the floor plan's occupied cells as walls and a boundary at its edge. Unknown cells are
   floor in the simulated world: what is unknown is the gateway's belief, not the world.
@@ -17,24 +18,80 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+import numpy.typing as npt
+
+from cart2d.maps import OccupancyMap
 from cart2d.params import planning_radius_m, robot
-from cart2d.planning import Grid, GridGraph, Planner, Point, point_segment_distance
+from cart2d.planning import Grid, GridGraph, Node, Planner, Point, point_segment_distance
+from cart2d.planning.refine import occupied_cells, odd_factor, refined_cells, refined_grid
 from cart2d.simulator import WallGrid, World, arena_world
-from cart2d.store import MapSettings, planning_map
+from cart2d.store import MapSettings
+
+# A grid made finer for small obstacles has at most this many nodes: it is rebuilt whenever the
+# camera's cells change, up to a few times a second (at this size ~3 ms to build, ~60 ms for a
+# plan across it, on this project's 2-core machine).
+FINE_PLANNING_NODES = 250_000
+
+
+@dataclass(frozen=True)
+class Layout:
+    """What a Planner is built from (see GridGraph): the grid, the user's obstacle nodes, the
+    other blocked cells and whether the footprint must stay on the cells."""
+
+    grid: Grid
+    obstacles: tuple[Node, ...]
+    blocked: npt.NDArray[np.bool_] | None
+    outside_blocked: bool
+
+    def planner(self, also_blocked: npt.NDArray[np.bool_] | None = None) -> Planner:
+        blocked = self.blocked
+        if also_blocked is not None:
+            blocked = also_blocked if blocked is None else blocked | also_blocked
+        return Planner(self.grid, planning_radius_m(), self.obstacles, blocked, self.outside_blocked)
 
 
 def planner_for(m: MapSettings) -> Planner:
+    return layout_for(m).planner()
+
+
+def layout_for(m: MapSettings, finest_m: float | None = None) -> Layout:
+    """The planner's layout of the map; with `finest_m`, on a grid whose step is at most that (as
+    far as FINE_PLANNING_NODES allows) blocking the same floor, for smaller obstacles to be added
+    (cart2d/planning/refine.py): the user's obstacles are then blocked cells, no longer nodes."""
     if m.floor_plan is None:
         grid = Grid(cols=m.cols, rows=m.rows, step_m=m.step_m, origin=m.origin_m)
-        return Planner(grid, planning_radius_m(), obstacles=m.obstacles)
-    coarse = planning_map(m)
-    return Planner(
-        coarse.grid(),
-        planning_radius_m(),
-        obstacles=m.obstacles,
-        blocked=coarse.blocked(m.unknown_is_free),
-        outside_blocked=True,
-    )
+        factor = (
+            1 if finest_m is None else odd_factor(m.step_m, finest_m, m.cols, m.rows, FINE_PLANNING_NODES)
+        )
+        if factor == 1:
+            return Layout(grid, tuple(m.obstacles), None, False)
+        occupied = refined_cells(occupied_cells(grid, m.obstacles, None), factor)
+        return Layout(refined_grid(grid, factor), (), occupied, False)
+    occupancy = m.floor_plan.occupancy()
+    k = occupancy.planning_factor(m.planning_step_m, planning_radius_m())
+    coarse = occupancy.coarsened(k)
+    fine_k = k if finest_m is None else _floor_plan_factor(occupancy, k, finest_m)
+    if fine_k == k:
+        return Layout(coarse.grid(), tuple(m.obstacles), coarse.blocked(m.unknown_is_free), True)
+    # a floor plan's grid is its own cells in blocks: finer blocks of a divisor of k, so that
+    # each of the map's cells (the user's obstacles) is exactly q x q of them
+    fine, q = occupancy.coarsened(fine_k), k // fine_k
+    users = np.kron(occupied_cells(coarse.grid(), m.obstacles, None), np.ones((q, q), dtype=np.bool_))
+    blocked = fine.blocked(m.unknown_is_free) | users[: fine.height, : fine.width].astype(np.bool_)
+    return Layout(fine.grid(), (), blocked, True)
+
+
+def _floor_plan_factor(occupancy: OccupancyMap, k: int, finest_m: float) -> int:
+    """The block size for planning finer than k: the largest divisor of k whose step is at most
+    `finest_m` (1 if none), grown to the next divisor while the grid is over FINE_PLANNING_NODES."""
+    divisors = [d for d in range(1, k + 1) if k % d == 0]
+    fitting = [d for d in divisors if d * occupancy.resolution_m <= finest_m + 1e-9]
+    chosen = max(fitting) if fitting else 1
+    for d in divisors:
+        if d >= chosen and -(-occupancy.width // d) * -(-occupancy.height // d) <= FINE_PLANNING_NODES:
+            return d
+    return k
 
 
 def world_for(m: MapSettings) -> World:

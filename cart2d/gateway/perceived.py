@@ -5,9 +5,13 @@ stencils (cart2d/planning/graph.py), and a change runs the same route check and 
 change the user makes.
 
 A perceived cell is a square of side `resolution_m` centred on (x, y); it blocks every planner
-cell its square overlaps (the planner's cells are the squares round its nodes, step_m wide), so
-a coarse planning grid never lets a perceived obstacle slip between two nodes. Cells off the
-planner's grid are left out (the camera sees past the arena's walls): they cannot block a path.
+cell its square overlaps (the planner's cells are the squares round its nodes), so no perceived
+obstacle slips between two nodes. While there are perceived cells, routes are planned on the map
+made finer (live_map.layout_for: a step of at most `resolution_m`, the user's obstacles blocking
+the same floor as before): on the map's own grid (the seed's 0.2 m) a 5 cm cell would block a
+whole 0.2 m cell and close passages the cart fits through. The map's own planner (the user's
+obstacles as nodes) stays the Gateway's `map_planner`. Cells off the planner's grid are left out
+(the camera sees past the arena's walls): they cannot block a path.
 
 The camera's frames become perceived cells in cart2d/gateway/seeing.py, attached to every camera
 feed the gateway reads. `PerceptionMixin` is the part of the Gateway (cart2d/gateway/core.py)
@@ -31,14 +35,14 @@ import numpy.typing as npt
 
 from cart2d.gateway.camera import CameraFeed, Shown
 from cart2d.gateway.forward_only import ReverseGuard
-from cart2d.gateway.live_map import planner_for
+from cart2d.gateway.live_map import layout_for
 from cart2d.gateway.seeing import Seeing, seeing_for
 from cart2d.planning import EPS, Grid, Planner
 
 if TYPE_CHECKING:
     from cart2d.gateway.state import Mission
     from cart2d.link import Link
-    from cart2d.store import CameraSettings, GatewaySettings
+    from cart2d.store import CameraSettings, GatewaySettings, MapSettings
 
 MAX_PERCEIVED_CELLS = 100_000  # a 10 x 10 m room at 3 cm
 OCCUPIED_P = 0.5  # a cell at or above this is believed occupied (the contract with vision)
@@ -112,15 +116,18 @@ class PerceivedLayer:
         }
 
 
-def with_perceived(planner: Planner, layer: PerceivedLayer) -> Planner:
-    """`planner` (as built for the map alone) with the perceived cells blocked too."""
+def route_grid(m: MapSettings, layer: PerceivedLayer) -> Grid:
+    """The grid routes are planned on with `layer`: the map's, or a finer one (perceived cells)."""
+    return layout_for(m, layer.resolution_m if layer.cells else None).grid
+
+
+def with_perceived(m: MapSettings, layer: PerceivedLayer, map_planner: Planner) -> Planner:
+    """The planner of routes: `map_planner` (built for `m` alone) while nothing is perceived, else
+    the map on a grid as fine as the perceived cells, with them blocked too."""
     if not layer.cells:
-        return planner
-    mask = layer.mask(planner.grid)
-    blocked = mask if planner.blocked is None else planner.blocked | mask
-    return Planner(
-        planner.grid, planner.footprint_radius_m, planner.obstacles, blocked, planner.outside_blocked
-    )
+        return map_planner
+    layout = layout_for(m, layer.resolution_m)
+    return layout.planner(also_blocked=layer.mask(layout.grid))
 
 
 class PerceptionMixin:
@@ -138,7 +145,8 @@ class PerceptionMixin:
     # what the Gateway has (core.py)
     _lock: threading.RLock
     link: Link
-    planner: Planner
+    planner: Planner  # the routes' (with_perceived)
+    map_planner: Planner  # the map's alone
     mission: Mission
     settings: GatewaySettings
 
@@ -271,9 +279,9 @@ class PerceptionMixin:
     def _take(self, layer: PerceivedLayer, why: str) -> None:
         """Makes `layer` the perceived one (lock held): the planner, the route check, viewers."""
         old, self.perceived = self.perceived, layer
-        grid = self.planner.grid
-        if not np.array_equal(old.mask(grid), layer.mask(grid)):
-            self.planner = with_perceived(planner_for(self.settings.map), layer)
+        grid = route_grid(self.settings.map, layer)
+        if grid != self.planner.grid or not np.array_equal(old.mask(grid), layer.mask(grid)):
+            self.planner = with_perceived(self.settings.map, layer, self.map_planner)
             if self.mission.state == "driving" and self.mission.route:
                 self._check_route(f"the map changed: {why}")
         self._tell_perceived()
