@@ -12,7 +12,7 @@ seed (its pixel noise); with the real procedure's floor board and with a larger 
 
 **Calibration.** `cart2d camera calibrate --synthetic`'s procedure: the board (9 x 6 inner corners,
 3 cm squares) held at the views the command asks a user for, cv2.calibrateCamera; then the board
-lying on the floor 0.55 m ahead, cv2.findHomography. Reported: the RMS reprojection error, the
+lying on the floor 0.45 m ahead, cv2.findHomography. Reported: the RMS reprojection error, the
 lens's parameters against the truth, and the **ground-projection error**: floor points at 0.3 to
 1.5 m ahead of the lens (across the field of view, 7 per distance), projected into the true
 camera, then back to the floor by the calibration; worst per distance, over several seeds
@@ -60,7 +60,7 @@ GROUND_TARGET_M = 0.02  # at 1 m
 FRAME_TARGET_MS = 10.0  # median, whole pipeline, one core
 JPEG_QUALITY = 80
 BOARD = Board(9, 6, 0.03)
-ON_FLOOR = GroundBoard(BOARD, 0.55, 0.0)
+ON_FLOOR = GroundBoard(BOARD, 0.45, 0.0)
 WORLD = [
     Box(1.7, 0.3, 0.2, 0.3, 0.25, (40, 60, 170)),
     Box(1.5, -0.45, 0.25, 0.2, 0.3, (150, 90, 30)),

@@ -73,7 +73,7 @@ from cart2d.perception.synthetic import true_pixels
 TIME_TARGET = 1.3  # unknown map / known map
 BOX_HEIGHT_M = 0.3
 BOX_COLOUR = "#b8742f"  # cardboard
-RECALL_RANGE_M = 1.5  # the detector's max_range_m
+RECALL_RANGE_M = DetectorConfig().max_range_m
 FALSE_MARGIN_M = 0.1
 LATENCY_BOX = {"x": 0.9, "y": 0.9, "sx": 0.2, "sy": 0.4, "height": 0.3, "colour": "#3050c0"}
 

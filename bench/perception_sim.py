@@ -24,8 +24,8 @@ HELD = Board(9, 6, HELD_SQUARE_M)
 # The real procedure's floor board (docs/perception.md), and a larger one laid further out: the
 # homography is extrapolated beyond the board, so its error grows with the square of the range.
 FLOOR_BOARDS = {
-    "9x6 of 30 mm at 0.55 m": GroundBoard(Board(9, 6, 0.03), 0.55),
-    "9x6 of 40 mm at 0.75 m": GroundBoard(Board(9, 6, 0.04), 0.75),
+    "9x6 of 30 mm at 0.45 m": GroundBoard(Board(9, 6, 0.03), 0.45),
+    "9x6 of 40 mm at 0.5 m": GroundBoard(Board(9, 6, 0.04), 0.5),
 }
 
 

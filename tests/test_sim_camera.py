@@ -76,7 +76,7 @@ def is_grey(bgr: np.ndarray) -> bool:
     return bool(np.ptp(bgr) < 15 and 140 < bgr.mean() < 200)
 
 
-RED_BOX = Box(1.2, 0.0, 0.2, 0.3, height=0.1, colour="#c03020")
+RED_BOX = Box(0.55, 0.0, 0.2, 0.3, height=0.1, colour="#c03020")
 
 
 def world_with(*boxes: Box) -> World:
@@ -128,7 +128,7 @@ def test_a_box_shows_at_the_pixels_robot_toml_predicts(served: tuple[Simulator, 
     image = decode(answer.read())
     cam = robot()["camera"]
     assert image.shape == (int(cam["height_px"]), int(cam["width_px"]), 3)
-    front = 1.2 - 0.1
+    front = 0.55 - 0.1
     face, bottom, top, left, right, back = project(
         [
             (front, 0, 0.05),
@@ -136,7 +136,7 @@ def test_a_box_shows_at_the_pixels_robot_toml_predicts(served: tuple[Simulator, 
             (front, 0, 0.1),
             (front, 0.15, 0.05),
             (front, -0.15, 0.05),
-            (1.3, 0, 0.1),
+            (0.65, 0, 0.1),
         ]
     )
     assert is_red(at(image, face))
@@ -149,7 +149,7 @@ def test_a_box_shows_at_the_pixels_robot_toml_predicts(served: tuple[Simulator, 
     assert is_red(at(image, left, du=3)) and is_grey(at(image, left, du=-3))
     assert is_red(at(image, right, du=-3)) and is_grey(at(image, right, du=3))
     # The floor beside it, near and far.
-    for point in project([(front, 0.35, 0.0), (0.5, -0.1, 0.0), (2.5, 0.4, 0.0)]):
+    for point in project([(0.8, 0.3, 0.0), (0.4, -0.1, 0.0), (1.15, 0.3, 0.0)]):
         assert is_grey(at(image, point))
 
 
@@ -230,7 +230,7 @@ def test_a_frame_is_the_same_at_any_speed(tmp_path: Path) -> None:
 def test_the_checkerboard_is_found_where_the_model_puts_its_corners(tmp_path: Path) -> None:
     sim = start_sim(tmp_path, world=world_with(), start=(0.0, 0.0, 0.0), paused=True)
     try:
-        board = Board(x=0.45, y=-0.075)  # 9 x 6 corners of 3 cm, lying on the floor ahead
+        board = Board(x=0.3, y=-0.075)  # 9 x 6 corners of 3 cm, lying on the floor ahead
         sim.place_target(board)
         sim.camera(True, noise_sigma=2.0)
         sim.run_for(0.2)

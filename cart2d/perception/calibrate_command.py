@@ -374,8 +374,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--floor-x-m",
         type=float,
-        default=0.55,
-        help="the floor board's middle, ahead of the wheel axis, m (default 0.55)",
+        default=0.45,
+        help="the floor board's middle, ahead of the wheel axis, m (default 0.45)",
     )
     parser.add_argument(
         "--floor-y-m", type=float, default=0.0, help="... and left of the centre line, m (default 0)"

@@ -43,8 +43,10 @@ BINS = BIN_SHAPE[0] * BIN_SHAPE[1] * BIN_SHAPE[2]
 
 @dataclass(frozen=True)
 class DetectorConfig:
-    min_range_m: float = 0.25  # along the floor from the lens's foot; the image starts about here
-    max_range_m: float = 1.5  # beyond it a pixel spans too much floor to place an obstacle
+    min_range_m: float = (
+        0.18  # along the floor from the lens's foot; the image starts about here (robot.toml)
+    )
+    max_range_m: float = 1.25  # where the picture ends (robot.toml), and a pixel spans ~2 cm of floor
     patch_depth_m: float = 0.15  # the floor patch learnt from: this deep from the nearest floor seen...
     patch_half_width_m: float = 0.12  # ...and this wide each side of the lens
     floor_likelihood: int = 24  # back-projection (0..255, smoothed) at which a pixel is floor
