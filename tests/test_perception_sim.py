@@ -86,9 +86,9 @@ def test_the_simulated_lens_is_recovered(calibrated: Calibrated) -> None:
 
 
 def test_the_floor_projects_where_the_simulator_has_it(calibrated: Calibrated) -> None:
-    """Floor points 0.3 to 1.2 m ahead of the lens's foot (the picture ends at ~1.3 m), across it: the target is
-    2 cm at 1 m. The error grows with the square of the range (the board on the floor is at 0.45 m):
-    measured 0.6 mm at 0.5 m, 8.3 mm at 1 m, 26 mm at 1.5 m."""
+    """Floor points 0.3 to 1.2 m ahead of the lens's foot (the picture ends at ~1.3 m), across
+    it: the target is 2 cm at 1 m. The error grows with the square of the range (the board on the
+    floor is at 0.45 m)."""
     result = calibrated[0]
     for range_m in np.arange(0.3, 1.201, 0.1):
         errors = ground_errors(result, MOUNT, float(range_m))
