@@ -11,10 +11,10 @@ scene with the map known (its obstacles on the map, no boxes: bench/missions.py'
 simulator seed. *time unknown / known*: the times to goal (firmware ticks in PATH mode). Targets:
 every goal reached, zero collisions and box contacts, time <= TIME_TARGET x the known map's.
 
-**Mapping**, from the cells perception believes occupied (p > 0.5, 5 cm) at the mission's end:
+**Mapping**, from the cells perception believes occupied (p > 0.8, 5 cm) at the mission's end:
 - *precision*: the fraction of perceived cells whose square overlaps a box or lies beyond an arena
   wall (the walls are physical obstacles the camera sees too). The gateway takes an obstacle
-  seen by its face to be OBSTACLE_DEPTH_M (0.2 m) deep until views from elsewhere clear the
+  seen by its face to be OBSTACLE_DEPTH_M deep (along the ray) until views from elsewhere clear the
   floor behind it; the 4 m arena's boxes are 0.1 m deep, so cells behind their back faces are
   expected: precision is given against the boxes as they are, and against the boxes grown by
   that depth on every side (*precision, depth*).

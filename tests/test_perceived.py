@@ -236,9 +236,13 @@ def test_a_gap_the_cart_fits_through_stays_open_when_the_camera_sees_its_sides_a
     plan = layer.planner.plan((0.2, 0.4), (1.6, 1.4))
     radius = layer.planner.footprint_radius_m
     points = [plan.start, *plan.waypoints]
-    for a, b in itertools.pairwise(points):  # every driven segment keeps the footprint off every cell
+    # every driven segment keeps the planning radius from every cell, up to half a step of the
+    # finer grid the cells are planned on (PerceivedLayer.mask)
+    tolerance = layer.planner.grid.step_m / 2
+    assert tolerance <= 0.02
+    for a, b in itertools.pairwise(points):
         for x, y, _ in seen:
-            assert segment_square_distance(a, b, (x, y), 0.025) > radius
+            assert segment_square_distance(a, b, (x, y), 0.025) > radius - tolerance
     assert plan.length_m < 2.2
     # on the map's own grid the same cells block node rows 3 and 7 (the gap's edges): no path
     coarse = Planner(
@@ -246,3 +250,17 @@ def test_a_gap_the_cart_fits_through_stays_open_when_the_camera_sees_its_sides_a
     )
     with pytest.raises(PlanError, match="cannot be reached"):
         coarse.plan((0.2, 0.4), (1.6, 1.4))
+
+
+def test_on_a_grid_as_fine_as_the_cells_each_blocks_the_nodes_it_covers_and_never_none() -> None:
+    grid = Grid(cols=46, rows=46, step_m=0.04)
+    # a 5 cm cell covering one node: that node's cell alone (overlap would take a 3 x 3 block)
+    rows, cols = PerceivedLayer(((0.4, 0.4, 0.9),), 0.05).mask(grid).nonzero()
+    assert (rows.tolist(), cols.tolist()) == ([10], [10])
+    # covering two nodes along x (0.385 to 0.435 holds 0.4 only; 0.395 to 0.445 holds 0.4 and 0.44)
+    rows, cols = PerceivedLayer(((0.42, 0.4, 0.9),), 0.05).mask(grid).nonzero()
+    assert sorted(cols.tolist()) == [10, 11] and rows.tolist() == [10, 10]
+    # wherever a cell lies, it blocks a node
+    rng = np.random.default_rng(3)
+    for x, y in rng.uniform(0.1, 1.7, (200, 2)):
+        assert PerceivedLayer(((float(x), float(y), 0.9),), 0.05).mask(grid).any()

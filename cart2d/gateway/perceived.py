@@ -4,9 +4,10 @@ off as it does the user's: they are blocked cells of its graph, inflated by the 
 stencils (cart2d/planning/graph.py), and a change runs the same route check and replan as a
 change the user makes.
 
-A perceived cell is a square of side `resolution_m` centred on (x, y); it blocks every planner
-cell its square overlaps (the planner's cells are the squares round its nodes), so no perceived
-obstacle slips between two nodes. While there are perceived cells, routes are planned on the map
+A perceived cell is a square of side `resolution_m` centred on (x, y); it blocks the planner
+cells whose nodes it covers, or on a grid coarser than it every planner cell its square overlaps
+(the planner's cells are the squares round its nodes), so no perceived obstacle slips between
+two nodes (PerceivedLayer.mask). While there are perceived cells, routes are planned on the map
 made finer (live_map.layout_for: a step of at most `resolution_m`, the user's obstacles blocking
 the same floor as before): on the map's own grid (the seed's 0.2 m) a 5 cm cell would block a
 whole 0.2 m cell and close passages the cart fits through. The map's own planner (the user's
@@ -78,6 +79,11 @@ def check_resolution(resolution_m: float) -> float:
     return float(resolution_m)
 
 
+def _nodes_within(low: float, high: float, count: int) -> range:
+    """Nodes k in [low, high) (grid units): one at least when high - low >= 1."""
+    return range(max(math.ceil(low - EPS), 0), min(math.ceil(high - EPS), count))
+
+
 def _span(low: float, high: float, count: int) -> range:
     """Planner cells k (squares [k - 0.5, k + 0.5] in grid units) that [low, high] overlaps."""
     # k - 0.5 < high and k + 0.5 > low, by more than the planner's contact tolerance: squares
@@ -97,12 +103,17 @@ class PerceivedLayer:
     why: str = ""
 
     def mask(self, grid: Grid) -> npt.NDArray[np.bool_]:
-        """The planner cells the perceived cells overlap, (rows, cols)."""
+        """The planner cells that stand for the perceived cells, (rows, cols): on a grid as fine
+        as they are, the cells whose centres (nodes) they cover, at least one each, so that what
+        is blocked is within half a step of the perceived squares either way (overlap would add up
+        to a whole step: a face seen 2 cm too near plus a step closed marginal passages); on a
+        coarser grid every cell they overlap, so that none slips between two nodes."""
         out = np.zeros((grid.rows, grid.cols), dtype=np.bool_)
         half = self.resolution_m / 2.0 / grid.step_m
+        span = _nodes_within if self.resolution_m >= grid.step_m - EPS else _span
         for x, y, _ in self.cells:
             u, v = grid.to_grid(x, y)
-            columns, rows = _span(u - half, u + half, grid.cols), _span(v - half, v + half, grid.rows)
+            columns, rows = span(u - half, u + half, grid.cols), span(v - half, v + half, grid.rows)
             if columns and rows:
                 out[rows.start : rows.stop, columns.start : columns.stop] = True
         return out
