@@ -17,10 +17,11 @@ replaces the robot's program, it waits for the program that answers and stops th
 simulator it started exits on its own (a crash, a kill -9), the gateway ends the mission with
 the reason, says so (/ws message `simulator`, /api/status `simulator`) and starts it again.
 
-One class of ~700 lines on purpose: one lock guards the settings, the planner, the mission, the
+One class of ~800 lines on purpose: one lock guards the settings, the planner, the mission, the
 reset routine and the pose trust, and every method here keeps an invariant across them (a path
 is sent and its mission recorded together; a restart ends the mission and untrusts the pose
-together). What it keeps is in state.py."""
+together). What it keeps is in state.py; the map's edits (map_edits.py), perception
+(perceived.py) and the simulator's boxes (sim_world.py) are mixins under the same lock."""
 
 from __future__ import annotations
 
@@ -35,9 +36,10 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict
 from typing import Any
 
-from cart2d.gateway.live_map import Replan, RouteAhead, arena, planner_for, world_for
-from cart2d.gateway.perceived import PerceptionMixin, with_perceived
-from cart2d.gateway.sim_world import SimWorldMixin, with_boxes
+from cart2d.gateway.live_map import Replan, RouteAhead, planner_for
+from cart2d.gateway.map_edits import MapMixin
+from cart2d.gateway.perceived import PerceptionMixin
+from cart2d.gateway.sim_world import SimWorldMixin
 from cart2d.gateway.state import (
     BUSY_POLL_S,
     RESET_POSE_SETTINGS,
@@ -59,13 +61,12 @@ from cart2d.gateway.state import (
 from cart2d.link import CommandRefused, Link, LinkError, MotionCancelled, firmware
 from cart2d.link.flashing import HURRIED_CHECK_S, Flasher
 from cart2d.link.protocol import Reply, Telemetry
-from cart2d.maps import OccupancyMap
-from cart2d.params import footprint_radius_m, robot, setting_id
+from cart2d.params import robot, setting_id
 from cart2d.planning import Plan, PlanError, Point, StartBlocked, polyline_length
 from cart2d.simulator import Simulator, SimulatorError
 from cart2d.smoothing import round_corners
 from cart2d.spec import load_spec
-from cart2d.store import FloorPlan, GatewaySettings, MapSettings, Store
+from cart2d.store import GatewaySettings, Store
 
 log = logging.getLogger(__name__)
 
@@ -76,12 +77,7 @@ SIM_START_TRIES = 3
 Listener = Callable[[dict[str, Any]], None]
 
 
-def _walls_of(m: MapSettings) -> tuple[object, ...]:
-    """What of a map decides the simulated world's walls (world_for): not its obstacles."""
-    return (m.floor_plan, m.cols, m.rows, m.step_m, m.origin_m)
-
-
-class Gateway(PerceptionMixin, SimWorldMixin):  # perceived.py: perception; sim_world.py: sim boxes
+class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, perceived.py, sim_world.py
     def __init__(
         self, link: Link, store: Store, settings: GatewaySettings, sim: Simulator | None = None
     ) -> None:
@@ -206,123 +202,6 @@ class Gateway(PerceptionMixin, SimWorldMixin):  # perceived.py: perception; sim_
     def _on_truth(self, truth: dict[str, Any]) -> None:
         self._last_truth_t = truth.get("t")
         self._publish(truth)  # already {"type": "truth", ...}
-
-    # -- map ---------------------------------------------------------------------------------
-    def map_view(self) -> dict[str, Any]:
-        with self._lock:
-            m = self.settings.map
-            g = self.map_planner.grid
-            view: dict[str, Any] = {
-                "version": self.map_version,
-                "cols": g.cols,
-                "rows": g.rows,
-                "step_m": g.step_m,
-                "origin_m": list(g.origin),
-                "arena": arena(m),
-                "footprint_radius_m": footprint_radius_m(),
-                "planning_radius_m": self.planner.footprint_radius_m,
-                "obstacles": [list(g.node_xy(i, j)) for i, j in sorted(self.map_planner.obstacles)],
-                "floor_plan": None,
-                "unknown_is_free": m.unknown_is_free,
-            }
-            if m.floor_plan is not None:
-                plan = m.floor_plan
-                view["floor_plan"] = {
-                    "name": plan.name,
-                    "origin_m": list(plan.origin_m),
-                    "resolution_m": plan.resolution_m,
-                    "width": plan.width,
-                    "height": plan.height,
-                    "cells": plan.occupancy().counts(),
-                    "image": f"/api/map/image?version={self.map_version}",
-                }
-            return view
-
-    def floor_plan(self) -> OccupancyMap | None:
-        with self._lock:
-            plan = self.settings.map.floor_plan
-            return plan.occupancy() if plan is not None else None
-
-    def set_obstacle(self, x: float, y: float, present: bool) -> dict[str, Any]:
-        """Adds or removes the obstacle at the node nearest (x, y), and saves the map."""
-        added, removed = ([(x, y)], []) if present else ([], [(x, y)])
-        return self.change_obstacles(added, removed, "an obstacle was " + ("added" if present else "removed"))
-
-    def change_obstacles(self, add: Sequence[Point], remove: Sequence[Point], why: str) -> dict[str, Any]:
-        """Adds and removes obstacles at the nodes nearest the points (all or nothing: OffMap for
-        a point off the map changes nothing), saves the map and, during a mission, replans if
-        the rest of the path is blocked now."""
-        with self._lock:
-            grid = self.map_planner.grid
-            added = {grid.nearest_node(x, y) for x, y in add}
-            removed = {grid.nearest_node(x, y) for x, y in remove} - added
-            before = self.map_planner.obstacles
-            nodes = sorted((before - removed) | added)
-            if set(nodes) != before:
-                self.map_planner.set_obstacles(nodes)
-                self.settings = self.settings.model_copy(
-                    update={"map": self.settings.map.model_copy(update={"obstacles": nodes})}
-                )
-                self.planner = with_perceived(self.settings.map, self.perceived, self.map_planner)
-                self.store.save(self.settings)
-                self._map_changed(why)
-            return self.map_view()
-
-    def load_floor_plan(
-        self,
-        occupancy: OccupancyMap,
-        name: str = "",
-        planning_step_m: float | None = None,
-        unknown_is_free: bool = False,
-    ) -> dict[str, Any]:
-        """Plans on this floor plan from now on (the user's obstacles are cleared), saves it and,
-        in simulation, makes its walls the simulated world's."""
-        floor = FloorPlan.of(occupancy, name)
-        m = MapSettings.model_validate(
-            {"floor_plan": floor, "planning_step_m": planning_step_m, "unknown_is_free": unknown_is_free}
-        )
-        self.update_settings(
-            self.settings.model_copy(update={"map": m}), f"the floor plan {name!r} was loaded"
-        )
-        return self.map_view()
-
-    def update_settings(self, settings: GatewaySettings, why: str = "new settings were loaded") -> None:
-        """Replaces the gateway's settings (a new map takes effect now) and saves them."""
-        with self._lock:
-            map_planner = planner_for(settings.map)  # validates the map first
-            planner = with_perceived(settings.map, self.perceived, map_planner)
-            camera = self._camera_change(settings)  # and the camera (perceived.py)
-            self.store.save(settings)
-            new_map = settings.map != self.settings.map
-            # Only new walls replace the simulated world: an obstacle drawn on the map must not
-            # sweep away the boxes standing in it (a mission's world, its events).
-            new_walls = new_map and _walls_of(settings.map) != _walls_of(self.settings.map)
-            self.settings = settings
-            self.map_planner, self.planner = map_planner, planner
-            self._apply_camera(camera)
-            if new_walls:
-                self._sync_world()
-            if new_map:
-                self._map_changed(why)
-
-    def _sync_world(self) -> None:
-        """The simulator's walls follow the map (and do so again after a restart)."""
-        if self.sim is None:
-            return
-        world = with_boxes(world_for(self.settings.map), self.sim.options.world)  # boxes stay
-        self.sim.options.world = world
-        if self.sim.running():
-            try:
-                self.sim.set_world(world)
-            except SimulatorError as exc:
-                log.warning("the simulator's walls could not follow the map: %s", exc)
-
-    def _map_changed(self, why: str) -> None:
-        """Tells viewers, and replans a driven path the change blocks (lock held)."""
-        self.map_version += 1
-        self._publish({"type": "map", "version": self.map_version, "why": why})
-        if self.mission.state == "driving" and self.mission.route:
-            self._check_route(f"the map changed: {why}")
 
     # -- motion ------------------------------------------------------------------------------
     def go_to(self, x: float, y: float, token: int | None = None) -> Plan:
