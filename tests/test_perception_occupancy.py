@@ -104,20 +104,3 @@ def test_clear_forgets_everything() -> None:
     g.integrate((0.0, 0.0, 0.0), detection([(1.01, 0.01)]))
     g.clear()
     assert np.all(g.probability() == 0.5) and g.cells() == []
-
-
-def test_depth_behind_a_hit_does_not_spill_onto_floor_the_same_frame_sees() -> None:
-    # A box's corner at (1.0, 0.2) seen from the lens's foot at (0.1, 0): the depth goes along the
-    # corner's ray, to (1.195, 0.243) at 0.2 m
-    corner, deep = (1.0, 0.2), (1.19, 0.245)
-    alone = LogOddsGrid((-2.0, -2.0), 0.05, 80, 80, hit_depth_m=0.2)
-    for _ in range(6):
-        alone.integrate((0.0, 0.0, 0.0), detection([corner]))
-    assert p_at(alone, *corner) > 0.9 and p_at(alone, *deep) > 0.9
-    # a ray of the same frames passing just beside the corner sees the floor there: floor wins,
-    # and the corner itself stays occupied
-    beside = LogOddsGrid((-2.0, -2.0), 0.05, 80, 80, hit_depth_m=0.2)
-    for _ in range(6):
-        beside.integrate((0.0, 0.0, 0.0), detection([corner], clear_ends=((1.3, 0.27),)))
-    assert p_at(beside, *corner) > 0.9
-    assert p_at(beside, *deep) < 0.5

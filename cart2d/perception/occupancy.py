@@ -5,11 +5,10 @@ every cell holds l = log(p / (1 - p)), starting at 0 (p = 0.5, unknown). A detec
 `free_log_odds`, and l is clamped so that a cell can change its mind after a few frames.
 
 A hit marks its cell and, with `hit_depth_m`, the cells that far behind it along its ray (the
-camera sees an obstacle's face, not its depth) unless another ray of the same frame sees floor
-there (past a box's corner the rays beside it see the floor the depth would spill onto). A ray
-is sampled every half cell from min range to its end: the cells it crosses, each counted once
-per frame however many rays cross it; a ray that ends on a hit stops half a cell short of it,
-and a cell hit in a frame is never also cleared in that frame.
+camera sees an obstacle's face, not its depth). A ray is sampled every half cell from min range
+to its end: the cells it crosses, each counted once per frame however many rays cross it; a ray
+that ends on a hit stops half a cell short of it, and a cell hit in a frame is never also
+cleared in that frame.
 """
 
 from __future__ import annotations
@@ -74,13 +73,12 @@ class LogOddsGrid:
         hits, ends = to_map(detection.hits), to_map(detection.free)
         ends_on_hit = np.zeros(len(ends), dtype=bool)
         ends_on_hit[: len(hits)] = True  # Detection.free lists the hits first
-        hit_cells = np.unique(self._cells(hits))
+        hit_cells = np.unique(self._cells(self._behind(origin, hits)))
         free_cells = np.setdiff1d(
             self._free_cells(origin, ends, ends_on_hit, detection.min_range_m), hit_cells
         )
-        depth_cells = np.setdiff1d(np.unique(self._cells(self._behind(origin, hits))), free_cells)
         flat = self.log_odds.reshape(-1)
-        for touched, change in ((free_cells, self.free_log_odds), (depth_cells, self.hit_log_odds)):
+        for touched, change in ((free_cells, self.free_log_odds), (hit_cells, self.hit_log_odds)):
             flat[touched] = np.clip(flat[touched] + change, self.min_log_odds, self.max_log_odds)
 
     def _behind(self, origin: FloatArray, hits: FloatArray) -> FloatArray:
