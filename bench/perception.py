@@ -14,7 +14,7 @@ seed (its pixel noise); with the real procedure's floor board and with a larger 
 3 cm squares) held at the views the command asks a user for, cv2.calibrateCamera; then the board
 lying on the floor 0.45 m ahead, cv2.findHomography. Reported: the RMS reprojection error, the
 lens's parameters against the truth, and the **ground-projection error**: floor points at 0.3 to
-1.5 m ahead of the lens (across the field of view, 7 per distance), projected into the true
+1.2 m ahead of the lens (across the field of view, 7 per distance), projected into the true
 camera, then back to the floor by the calibration; worst per distance, over several seeds
 (noise, and so corner positions). For comparison the nominal model (data-sheet field of view, no
 distortion) that the gateway uses before a calibration.
@@ -55,7 +55,7 @@ from cart2d.perception.sim_calibration import simulated_lens
 from cart2d.perception.synthetic import Box, SyntheticCamera, true_pixels
 
 NAME = "perception"
-DISTANCES_M = [round(0.3 + 0.1 * k, 1) for k in range(13)]  # 0.3 .. 1.5 ahead of the lens
+DISTANCES_M = [round(0.3 + 0.1 * k, 1) for k in range(10)]  # 0.3 .. 1.2 ahead of the lens (the picture ends at ~1.3 m)
 GROUND_TARGET_M = 0.02  # at 1 m
 FRAME_TARGET_MS = 10.0  # median, whole pipeline, one core
 JPEG_QUALITY = 80
