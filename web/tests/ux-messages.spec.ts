@@ -57,18 +57,20 @@ for (const [what, viewport] of [
     const w = await open(page);
     const watched = ["#map", ".segmented", "#cmd-form", "#estop"];
     const measure = () => Promise.all(watched.map((s) => box(page.locator(s))));
-    // the layout has settled (the header's state after an earlier test's reset, say): what is
-    // measured is what the toasts do, not what the page was still doing
+    // the layout has settled (the header's state after an earlier test's reset, say, or its
+    // settings badge once the firmware's first STATUS is in): unchanged over four polls, 2 s, so
+    // that what is measured is what the toasts do, not what the page was still doing
     let before = await measure();
+    let still = 0;
     await expect
       .poll(
         async () => {
           const now = await measure();
-          const settled = JSON.stringify(now) === JSON.stringify(before);
+          still = JSON.stringify(now) === JSON.stringify(before) ? still + 1 : 0;
           before = now;
-          return settled;
+          return still >= 4;
         },
-        { intervals: [500], timeout: 20_000 },
+        { intervals: [500], timeout: 30_000 },
       )
       .toBe(true);
     const height = await page.evaluate(() => document.documentElement.scrollHeight);
