@@ -55,9 +55,8 @@ from cart2d.perception.sim_calibration import simulated_lens
 from cart2d.perception.synthetic import Box, SyntheticCamera, true_pixels
 
 NAME = "perception"
-DISTANCES_M = [
-    round(0.3 + 0.1 * k, 1) for k in range(10)
-]  # 0.3 .. 1.2 ahead of the lens (the picture ends at ~1.3 m)
+# 0.3 .. 1.2 ahead of the lens (the picture ends at ~1.3 m)
+DISTANCES_M = [round(0.3 + 0.1 * k, 1) for k in range(10)]
 GROUND_TARGET_M = 0.02  # at 1 m
 FRAME_TARGET_MS = 10.0  # median, whole pipeline, one core
 JPEG_QUALITY = 80

@@ -66,7 +66,7 @@ def layout_for(m: MapSettings, finest_m: float | None = None) -> Layout:
         )
         if factor == 1:
             return Layout(grid, tuple(m.obstacles), None, False)
-        occupied = refined_cells(occupied_cells(grid, m.obstacles, None), factor)
+        occupied = refined_cells(occupied_cells(grid, m.obstacles), factor)
         return Layout(refined_grid(grid, factor), (), occupied, False)
     occupancy = m.floor_plan.occupancy()
     k = occupancy.planning_factor(m.planning_step_m, planning_radius_m())
@@ -77,7 +77,7 @@ def layout_for(m: MapSettings, finest_m: float | None = None) -> Layout:
     # a floor plan's grid is its own cells in blocks: finer blocks of a divisor of k, so that
     # each of the map's cells (the user's obstacles) is exactly q x q of them
     fine, q = occupancy.coarsened(fine_k), k // fine_k
-    users = np.kron(occupied_cells(coarse.grid(), m.obstacles, None), np.ones((q, q), dtype=np.bool_))
+    users = np.kron(occupied_cells(coarse.grid(), m.obstacles), np.ones((q, q), dtype=np.bool_))
     blocked = fine.blocked(m.unknown_is_free) | users[: fine.height, : fine.width].astype(np.bool_)
     return Layout(fine.grid(), (), blocked, True)
 

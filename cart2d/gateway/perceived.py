@@ -36,7 +36,7 @@ import numpy.typing as npt
 
 from cart2d.gateway.camera import CameraFeed, Shown
 from cart2d.gateway.forward_only import ReverseGuard
-from cart2d.gateway.live_map import layout_for
+from cart2d.gateway.live_map import Layout, layout_for
 from cart2d.gateway.seeing import Seeing, seeing_for
 from cart2d.planning import EPS, Grid, Planner
 
@@ -127,18 +127,17 @@ class PerceivedLayer:
         }
 
 
-def route_grid(m: MapSettings, layer: PerceivedLayer) -> Grid:
-    """The grid routes are planned on with `layer`: the map's, or a finer one (perceived cells)."""
-    return layout_for(m, layer.resolution_m if layer.cells else None).grid
+def route_layout(m: MapSettings, layer: PerceivedLayer) -> Layout | None:
+    """The map on a grid as fine as the perceived cells; None while nothing is perceived (routes
+    are then planned with the map's own planner)."""
+    return layout_for(m, layer.resolution_m) if layer.cells else None
 
 
 def with_perceived(m: MapSettings, layer: PerceivedLayer, map_planner: Planner) -> Planner:
     """The planner of routes: `map_planner` (built for `m` alone) while nothing is perceived, else
     the map on a grid as fine as the perceived cells, with them blocked too."""
-    if not layer.cells:
-        return map_planner
-    layout = layout_for(m, layer.resolution_m)
-    return layout.planner(also_blocked=layer.mask(layout.grid))
+    layout = route_layout(m, layer)
+    return map_planner if layout is None else layout.planner(also_blocked=layer.mask(layout.grid))
 
 
 class PerceptionMixin:
@@ -290,9 +289,11 @@ class PerceptionMixin:
     def _take(self, layer: PerceivedLayer, why: str) -> None:
         """Makes `layer` the perceived one (lock held): the planner, the route check, viewers."""
         old, self.perceived = self.perceived, layer
-        grid = route_grid(self.settings.map, layer)
-        if grid != self.planner.grid or not np.array_equal(old.mask(grid), layer.mask(grid)):
-            self.planner = with_perceived(self.settings.map, layer, self.map_planner)
+        layout = route_layout(self.settings.map, layer)  # once: it is rebuilt at every camera update
+        grid = self.map_planner.grid if layout is None else layout.grid
+        mask = layer.mask(grid)
+        if grid != self.planner.grid or not np.array_equal(old.mask(grid), mask):
+            self.planner = self.map_planner if layout is None else layout.planner(also_blocked=mask)
             if self.mission.state == "driving" and self.mission.route:
                 self._check_route(f"the map changed: {why}")
         self._tell_perceived()

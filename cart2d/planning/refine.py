@@ -55,13 +55,9 @@ def refined_cells(cells: BoolArray, factor: int) -> BoolArray:
     return out
 
 
-def occupied_cells(grid: Grid, obstacles: Iterable[Node], blocked: BoolArray | None) -> BoolArray:
-    """The cells the obstacle nodes and `blocked` occupy, (rows, cols)."""
-    out = (
-        np.zeros((grid.rows, grid.cols), dtype=np.bool_)
-        if blocked is None
-        else np.array(blocked, dtype=np.bool_)
-    )
+def occupied_cells(grid: Grid, obstacles: Iterable[Node]) -> BoolArray:
+    """The cells the obstacle nodes occupy, (rows, cols)."""
+    out = np.zeros((grid.rows, grid.cols), dtype=np.bool_)
     for i, j in obstacles:
         out[j, i] = True
     return out
