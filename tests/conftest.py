@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import socket
 import time
 import urllib.request
 from collections.abc import Callable, Iterator
@@ -64,6 +65,14 @@ def high_rate_truth(sim: Simulator, hz: float = 1000.0) -> list[dict[str, Any]]:
     sim.side.subscribe(samples.append)
     sim.control("truth_rate", hz=hz)
     return samples
+
+
+def free_port() -> int:
+    """A TCP port nothing listens on now (another process may take it before it is used)."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port: int = probe.getsockname()[1]
+        return port
 
 
 def wait_serving(port: int, wall_timeout_s: float = 60.0) -> None:

@@ -14,14 +14,9 @@ from queue import Queue
 
 import psutil
 
+from tests.conftest import free_port
+
 SER2NET = "/usr/sbin/ser2net"
-
-
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        port: int = probe.getsockname()[1]
-        return port
 
 
 def config(device: str, port: int, rfc2217: bool, host: str = "127.0.0.1") -> str:

@@ -18,16 +18,9 @@ import pytest
 
 from cart2d import __version__
 from cart2d.spec import load_spec
-from tests.conftest import wait_serving
+from tests.conftest import free_port, wait_serving
 
 NOT_HERE = "198.51.100.77"  # TEST-NET-2 (RFC 5737): an address no machine running the tests has
-
-
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        port: int = probe.getsockname()[1]
-        return port
 
 
 def cart2d(home: Path, *args: str, timeout_s: float = 60.0) -> subprocess.CompletedProcess[str]:

@@ -26,8 +26,7 @@ from cart2d.recording import channels as c
 from cart2d.recording.replay import Player, read_recording
 from cart2d.recording.replay_app import create_replay_app
 from cart2d.server import serving
-from tests.conftest import wait_for, wait_serving
-from tests.test_cli import free_port
+from tests.conftest import free_port, wait_for, wait_serving
 from tests.test_server import BASE_URL, JSON
 
 SCHEMAS = {

@@ -20,8 +20,8 @@ from cart2d.gateway import Gateway
 from cart2d.link import Link
 from cart2d.simulator import Simulator
 from cart2d.store import Store
-from tests.conftest import start_sim, wait_serving
-from tests.test_cli import cart2d, free_port, one_sentence
+from tests.conftest import free_port, start_sim, wait_serving
+from tests.test_cli import cart2d, one_sentence
 from tests.test_server import Rig
 
 SMALL = {"x": 0.4, "y": 1.2, "sx": 0.2, "sy": 0.2}

@@ -268,8 +268,7 @@ def free_port_pair(avoid: int) -> int:
 
 def test_cart2d_sim_serves_the_camera_and_keeps_its_url(tmp_path: Path) -> None:
     """`cart2d sim --camera-port P` serves the simulated ESP32-CAM beside the panel."""
-    from tests.conftest import wait_serving
-    from tests.test_cli import free_port
+    from tests.conftest import free_port, wait_serving
 
     port = free_port()
     camera_port = free_port_pair(avoid=port)
