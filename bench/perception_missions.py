@@ -8,16 +8,19 @@ seeing with a calibration made once in the simulator (calibrate_in_simulator, th
 procedure's floor board) and saved as a user's would be. Missions that see run the simulator in
 real time (perception runs in wall-clock time on the gateway). Each is compared with the same
 scene with the map known (its obstacles on the map, no boxes: bench/missions.py's run_one), same
-simulator seed. *time unknown / known*: the times to goal (firmware ticks in PATH mode). Targets:
-every goal reached, zero collisions and box contacts, time <= TIME_TARGET x the known map's.
+simulator seed. *time unknown / known*: the times to goal (firmware ticks in PATH mode), the
+unknown one with its look before driving off added (the turns on the spot to see beside the first
+stretch, cart2d/gateway/look.py, and the frames taken in after them: ticks in MANUAL mode before
+PATH). Targets: every goal reached, zero collisions and box contacts, time <= TIME_TARGET x the
+known map's.
 
 **Mapping**, from the cells perception believes occupied (p > 0.8, 5 cm) at the mission's end:
 - *precision*: the fraction of perceived cells whose square overlaps a box or lies beyond an arena
   wall (the walls are physical obstacles the camera sees too). The gateway takes an obstacle
-  seen by its face to be OBSTACLE_DEPTH_M deep (along the ray) until views from elsewhere clear the
-  floor behind it; the 4 m arena's boxes are 0.1 m deep, so cells behind their back faces are
-  expected: precision is given against the boxes as they are, and against the boxes grown by
-  that depth on every side (*precision, depth*).
+  seen by its face to be as deep as it is wide, up to seeing.OBSTACLE_DEPTH_M (behind the face), until
+  views from elsewhere clear the floor behind it, and a hit marks its whole cell: a cell past a
+  box's faces is expected, so precision is given against the boxes as they are, and against the
+  boxes grown by a cell on every side (*precision, a cell*).
 - *recall*: over the box cells the cart could have seen: the 5 cm cells inside a box along a face
   that is not against another box or outside the arena, whose centre is within RECALL_RANGE_M of
   some point of the driven trace (ground truth) lying in front of that face (occlusion by other
@@ -61,7 +64,6 @@ from bench.missions import run_one
 from bench.perception_sim import FLOOR_BOARDS, HELD
 from bench.scenes import Scene, scenes
 from cart2d.gateway.live_map import arena
-from cart2d.gateway.seeing import OBSTACLE_DEPTH_M
 from cart2d.mission import MissionSpec, mission_map, run_mission
 from cart2d.perception.calibrate_command import SIM_VIEWS
 from cart2d.perception.calibration import save_calibration
@@ -178,7 +180,7 @@ def mapping_quality(
     half = resolution_m / 2
     wall_cells = _beyond_walls(cells, half, walls)
     on_box = _overlaps(cells, half, _rects(boxes))
-    on_grown = _overlaps(cells, half, _rects(boxes, OBSTACLE_DEPTH_M))
+    on_grown = _overlaps(cells, half, _rects(boxes, resolution_m))
     n = len(cells)
     false = _distance_to_obstacles(cells, _rects(boxes), walls) > FALSE_MARGIN_M
     visible, found = 0, 0
@@ -197,7 +199,7 @@ def mapping_quality(
         "cells": n,
         "wall_cells": int(wall_cells.sum()),
         "precision": float((on_box | wall_cells).sum() / n) if n else None,
-        "precision_depth": float((on_grown | wall_cells).sum() / n) if n else None,
+        "precision_cell": float((on_grown | wall_cells).sum() / n) if n else None,
         "visible_box_cells": visible,
         "found_box_cells": found,
         "recall": found / visible if visible else None,
@@ -253,7 +255,8 @@ def scene_row(scene: Scene, calibration: Path, seed: int) -> dict[str, Any]:
         perception.get("cells", []), perception.get("resolution_m", 0.05), boxes_of(scene), walls, trace
     )
     latencies = [r["sim_t"] - r["frame_stamp_s"] for r in camera_replans(unknown) if r["sim_t"] is not None]
-    ratio = g["time_s"] / k["time_s"] if g.get("reached") and k.get("reached") else None
+    driven_s = g["time_s"] + g.get("look_s", 0.0)  # the look before driving off counts
+    ratio = driven_s / k["time_s"] if g.get("reached") and k.get("reached") else None
     return {
         "arena": scene.arena,
         "scene": scene.name,
@@ -265,6 +268,7 @@ def scene_row(scene: Scene, calibration: Path, seed: int) -> dict[str, Any]:
         "box_contacts": unknown.get("box_contacts"),
         "wall_contacts": unknown.get("wall_contacts"),
         "time_s": g.get("time_s"),
+        "look_s": g.get("look_s", 0.0),
         "known_time_s": k.get("time_s"),
         "time_ratio": ratio,
         "path_length_m": g.get("path_length_m"),
@@ -411,11 +415,11 @@ def measure(out: Path, quick: bool, mount: Mount) -> tuple[str, dict[str, Any], 
             r["boxes"],
             "yes" if r["reached"] else f"**no** ({r['reason']})",
             f"{r['collisions']} + {r['box_contacts']}",
-            f"{_fmt(r['time_s'])} / {_fmt(r['known_time_s'])}",
+            f"{_fmt(r['look_s'])} + {_fmt(r['time_s'])} / {_fmt(r['known_time_s'])}",
             _fmt(r["time_ratio"]),
             f"{r['replans']} ({r['camera_replans']})",
             _fmt(r["mapping"]["precision"]),
-            _fmt(r["mapping"]["precision_depth"]),
+            _fmt(r["mapping"]["precision_cell"]),
             f"{_fmt(r['mapping']['recall'])} of {r['mapping']['visible_box_cells']}",
             r["mapping"]["false_cells"],
             r["mapping"]["cells"],
@@ -430,11 +434,11 @@ def measure(out: Path, quick: bool, mount: Mount) -> tuple[str, dict[str, Any], 
         "boxes",
         "reached",
         "collisions + box contacts",
-        "time s unknown / known",
+        "time s unknown (look + drive) / known",
         "unknown / known",
         "replans (by a frame)",
         "precision",
-        "precision, depth",
+        "precision, a cell",
         "recall",
         "false cells",
         "cells",

@@ -151,3 +151,35 @@ def test_an_image_of_another_size_is_refused() -> None:
     detector, _ = detector_and_camera(False)
     with pytest.raises(ValueError, match="640 x 480"):
         detector.detect(np.zeros((480, 640, 3), np.uint8))
+
+
+def silhouette(lowest_rows: dict[int, int]) -> npt.NDArray[np.bool_]:
+    """An obstacle image in scan-line coordinates (row, line): line k non-floor from the top down to
+    row lowest_rows[k], the other lines all floor."""
+    mask = np.zeros((240, 320), dtype=bool)
+    for line, row in lowest_rows.items():
+        mask[: row + 1, line] = True
+    return mask
+
+
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_lines_grazing_a_silhouette_at_the_pictures_side_give_no_hit(side: str) -> None:
+    # As the simulator's camera showed a box's near corner at the picture's side: four lines lean
+    # along its vertical edge and first meet it 50 rows (~0.2 m of floor) above its foot, which the
+    # lines further in show; past the corner the floor is clear. Only the lines on the foot may hit.
+    detector, _ = detector_and_camera(False)
+    rows = {k: 125 + k // 2 for k in range(2, 6)} | {k: 175 + k // 10 for k in range(6, 60)}
+    if side == "right":
+        rows = {319 - k: row for k, row in rows.items()}
+    obstacle = silhouette(rows) & detector.scan_in_range
+    detection = detector._rays(np.ones_like(obstacle), obstacle)
+    assert sorted(np.nonzero(detection.is_hit)[0]) == sorted(k for k, r in rows.items() if r >= 175)
+
+
+def test_a_face_rising_steadily_across_the_lines_is_all_hits() -> None:
+    # a face seen at a slant: its foot two rows lower (nearer) on each line to the right, 40 lines
+    detector, _ = detector_and_camera(False)
+    rows = {k: 120 + 2 * (k - 100) for k in range(100, 140)}
+    obstacle = silhouette(rows) & detector.scan_in_range
+    detection = detector._rays(np.ones_like(obstacle), obstacle)
+    assert sorted(np.nonzero(detection.is_hit)[0]) == list(range(100, 140))

@@ -1,5 +1,5 @@
 """The perception benchmark's measures of a map (bench/perception_missions.py) on hand-made cases:
-precision against the boxes and walls, with and without the assumed depth; recall over the box
+precision against the boxes and walls, as they are and grown by a cell; recall over the box
 faces the driven trace faced; false obstacles on open floor; whether a box is in the camera's view."""
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ BOX = {"x": 1.0, "y": 1.0, "sx": 0.2, "sy": 0.2}  # 0.9 .. 1.1 both ways
 def test_precision_recall_and_false_obstacles_of_a_hand_made_map() -> None:
     cells = [
         [0.925, 1.025, 0.9],  # inside the box
-        [0.875, 1.025, 0.9],  # touches its west face from outside: within the assumed depth only
+        [0.875, 1.025, 0.9],  # the cell just past its west face: counts against the box grown by a cell
         [0.525, 0.525, 0.9],  # open floor, far from everything
         [2.025, 1.025, 0.9],  # beyond the east wall
     ]
@@ -26,7 +26,7 @@ def test_precision_recall_and_false_obstacles_of_a_hand_made_map() -> None:
     q = mapping_quality(cells, 0.05, [BOX], WALLS, trace)
     assert q["cells"] == 4 and q["wall_cells"] == 1
     assert q["precision"] == pytest.approx(2 / 4)
-    assert q["precision_depth"] == pytest.approx(3 / 4)
+    assert q["precision_cell"] == pytest.approx(3 / 4)
     assert q["false_cells"] == 1
     # the west face's 4 cells faced the trace; the one at y 0.925 has no perceived cell beside it
     assert q["visible_box_cells"] == 4 and q["found_box_cells"] == 3

@@ -1,5 +1,6 @@
 """The log-odds occupancy grid: hits raise cells, rays of free floor lower the cells they cross,
-clamped; the pose places a detection in the map."""
+clamped; the pose places a detection in the map; an obstacle seen by its face is taken as deep
+as told behind that face, along its normal, hand-computed."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import numpy as np
 import pytest
 
 from cart2d.perception.detection import Detection
-from cart2d.perception.occupancy import LogOddsGrid
+from cart2d.perception.occupancy import LogOddsGrid, run_lengths
 
 MIN_RANGE_M = 0.25
 
@@ -104,3 +105,77 @@ def test_clear_forgets_everything() -> None:
     g.integrate((0.0, 0.0, 0.0), detection([(1.01, 0.01)]))
     g.clear()
     assert np.all(g.probability() == 0.5) and g.cells() == []
+
+
+def face(x0: float, y0: float, x1: float, y1: float, n: int = 21) -> np.ndarray:
+    """n hits evenly along the segment, in scan-line order."""
+    return np.column_stack([np.linspace(x0, x1, n), np.linspace(y0, y1, n)])
+
+
+def deep(depth_m: float = 0.1) -> LogOddsGrid:
+    return LogOddsGrid((-2.0, -2.0), 0.05, 80, 80, hit_depth_m=depth_m)
+
+
+def test_a_face_seen_at_a_slant_is_taken_deep_behind_it_not_along_the_rays() -> None:
+    # the face x = 1.0, y in [0, 0.1], seen from (0.1, -0.8): the rays run up and to the right at
+    # about 45 degrees; the obstacle's assumed body is the strip x in [1.0, 1.1] behind the face
+    hits = face(1.0, 0.0, 1.0, 0.1)
+    behind = deep()._behind(np.array([0.1, -0.8]), hits)
+    assert behind[:, 0].min() == pytest.approx(1.0) and behind[:, 0].max() == pytest.approx(1.1)
+    assert behind[:, 1].min() == pytest.approx(0.0) and behind[:, 1].max() == pytest.approx(0.1)
+
+
+def test_the_depth_goes_away_from_the_camera_whichever_side_it_is_on() -> None:
+    hits = face(0.0, 1.0, 0.2, 1.2)  # a face at 45 degrees: into it is up-left seen from below-right
+    for origin, sign in (((0.5, 0.0), -1.0), ((-0.5, 2.0), 1.0)):
+        behind = deep()._behind(np.array(origin), hits)
+        step = behind.reshape(len(hits), -1, 2)[:, -1] - hits  # each hit's deepest point
+        assert step == pytest.approx(
+            np.tile(sign * 0.1 * np.array([math.sqrt(0.5), -math.sqrt(0.5)]), (21, 1))
+        )
+
+
+def test_a_hit_too_short_a_run_to_show_its_face_is_only_its_cell() -> None:
+    # a single hit, and a run of 2 cm (a thin pole, a face's end at the picture's side)
+    for hits in (np.array([[1.0, 0.0]]), face(1.0, 0.0, 1.0, 0.02, 5)):
+        behind = deep()._behind(np.array([0.0, 0.0]), hits)
+        assert np.allclose(np.unique(behind, axis=0), np.unique(hits, axis=0))
+
+
+def test_two_obstacles_side_by_side_each_keep_their_own_face() -> None:
+    # a face along y (x = 1.0) and, 0.3 m away, one along x (y = 0.5), in one detection
+    hits = np.concatenate([face(1.0, -0.1, 1.0, 0.1), face(0.8, 0.5, 1.0, 0.5)])
+    behind = deep()._behind(np.array([0.0, 0.0]), hits).reshape(len(hits), -1, 2)[:, -1] - hits
+    assert behind[:21] == pytest.approx(np.tile([0.1, 0.0], (21, 1)), abs=1e-9)
+    assert behind[21:] == pytest.approx(np.tile([0.0, 0.1], (21, 1)), abs=1e-9)
+
+
+def test_no_depth_is_taken_unless_told() -> None:
+    hits = face(1.0, 0.0, 1.0, 0.1)
+    assert np.array_equal(LogOddsGrid((-2.0, -2.0), 0.05, 80, 80)._behind(np.zeros(2), hits), hits)
+
+
+def test_the_assumed_depth_is_marked_occupied_behind_a_slanted_face() -> None:
+    g = deep()
+    # base_link, the lens's foot at (0.1, 0): the face x = 0.86 at y 0.455 to 0.595 (0.14 m long),
+    # seen about 30 degrees left; 0.1 m behind it are the cells up to x = 0.96, on the same rows
+    # (along the rays the depth would reach y = 0.65, a row more)
+    hits = face(0.86, 0.455, 0.86, 0.595)
+    g.integrate((0.0, 0.0, 0.0), detection([tuple(h) for h in hits]))
+    occupied = {(round(x, 3), round(y, 3)) for x, y, _ in g.cells()}
+    assert occupied == {(x, y) for x in (0.875, 0.925, 0.975) for y in (0.475, 0.525, 0.575)}
+
+
+def test_an_obstacle_is_taken_as_deep_as_its_face_is_wide_up_to_the_most_told() -> None:
+    # a narrow box's face (6 cm) and a wall's (0.5 m), seen straight on from the origin
+    narrow, wall = face(1.0, -0.03, 1.0, 0.03, 13), face(1.0, 0.5, 1.0, 1.0, 41)
+    for hits, depth in ((narrow, 0.06), (wall, 0.2)):
+        behind = deep(0.2)._behind(np.array([0.0, 0.0]), hits)
+        assert behind[:, 0].max() == pytest.approx(1.0 + depth, abs=0.0125)  # sampled every 2.5 cm
+        assert behind[:, 0].min() == pytest.approx(1.0)
+
+
+def test_runs_of_hits_end_where_the_next_hit_is_off_by_more_than_a_gap() -> None:
+    hits = np.array([[1.0, 0.0], [1.0, 0.01], [1.0, 0.03], [1.3, 0.05], [1.3, 0.08], [0.5, 0.5]])
+    assert run_lengths(hits) == pytest.approx([0.03, 0.03, 0.03, 0.03, 0.03, 0.0])
+    assert len(run_lengths(np.zeros((0, 2)))) == 0

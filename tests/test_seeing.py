@@ -15,7 +15,6 @@ import pytest
 
 from cart2d.gateway.seeing import PoseHistory
 from cart2d.mission import MissionSpec, run_mission
-from cart2d.perception.occupancy import LogOddsGrid
 from cart2d.recording.channels import TOPIC_CAMERA
 from tests.test_recording import Read
 
@@ -44,15 +43,6 @@ def test_old_poses_are_forgotten() -> None:
         poses.add(k * 0.1, (k * 0.1, 0.0, 0.0))
     assert poses.at(1.0) is None  # 1.9 s back from the newest at 2.9 s
     assert poses.at(2.5) == pytest.approx((2.5, 0.0, 0.0))
-
-
-def test_an_obstacle_is_taken_as_deep_as_told_behind_the_face_the_camera_saw() -> None:
-    grid = LogOddsGrid((0.0, 0.0), 0.05, 40, 40, hit_depth_m=0.2)
-    origin, hit = np.array([0.5, 1.0]), np.array([[1.0, 1.0]])
-    behind = grid._behind(origin, hit)
-    assert behind[:, 0].min() == pytest.approx(1.0)
-    assert behind[:, 0].max() == pytest.approx(1.2)
-    assert np.allclose(behind[:, 1], 1.0)
 
 
 BOX = {"x": 0.9, "y": 0.9, "sx": 0.2, "sy": 0.4, "height": 0.3, "colour": "#3050c0"}

@@ -36,17 +36,23 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 # The occupancy grid's cells: finer than the planner's, coarser than a hit's error at 1 m.
-GRID_RESOLUTION_M = 0.05
-# An obstacle seen by its face is taken to be this deep, until views from elsewhere clear the
-# floor behind it: a planned path round a face's end must not cut through the unseen rest
-# (0.2 m spilled sideways into gaps beside a wall's end on the benchmark, bench/perception_missions.py).
-OBSTACLE_DEPTH_M = 0.1
+GRID_RESOLUTION_M = 0.025
+# An obstacle seen by its face is taken to be as deep as the face is wide, up to this, until views
+# from elsewhere clear the floor behind it: a planned path round a face's end must not cut through
+# the unseen rest (docs/perception.md, "How deep an obstacle is", for the rules measured).
+OBSTACLE_DEPTH_M = 0.2
 FRAME_LOG_LENGTH = 10_000  # about 11 minutes at 15 fps
 # A cell goes on the map once its p(occupied) is above this: two hits more than misses (each hit
 # adds 0.85 to the log-odds, each ray through it takes 0.4). One stray hit in the cell in front
 # of a face (JPEG ringing, a pixel of noise) then never closes a passage beside it.
 BELIEVED_P = 0.8
 SEND_INTERVAL_S = 0.5  # the perceived layer is refreshed at least this often while its cells' p change
+# Before a route starts, the map takes in this many frames captured after the request (a cell is
+# believed after two hits): what stands in view of the cart at rest is on the map before it moves,
+# not seen only once it drives (about 0.2 s at 15 fps with 60 ms of latency). A camera that sends
+# nothing for LOOK_TIMEOUT_S does not hold the cart up for longer.
+LOOK_FRAMES = 2
+LOOK_TIMEOUT_S = 1.0
 
 
 def default_latency_s() -> float:
@@ -129,6 +135,9 @@ class Seeing:
         # change), that replan's record and the frame's stamp. Bounded: a long session forgets.
         self.frame_log: deque[tuple[float | None, Pose]] = deque(maxlen=FRAME_LOG_LENGTH)
         self.replan_causes: deque[tuple[Any, float | None]] = deque(maxlen=FRAME_LOG_LENGTH)
+        self._taken = threading.Condition()
+        self._captures: deque[float] = deque(maxlen=LOOK_FRAMES)  # of the frames last taken in
+        self.looks: deque[float] = deque(maxlen=FRAME_LOG_LENGTH)  # seconds each look() waited
 
     def close(self) -> None:
         self._unsubscribe()
@@ -165,7 +174,28 @@ class Seeing:
         told = self._send(perception)  # a replan, if the route is blocked now, happens in here
         if told and g.mission.replans is replans:  # not one another thread made meanwhile
             self.replan_causes.extend((r, frame.stamp_s) for r in replans[before:] if told in r.reason)
+        with self._taken:
+            self._captures.append(frame.received_s - self.latency_s)
+            self._taken.notify_all()
         return Overlay(draw=seen.draw)
+
+    def observed(self, points: np.ndarray) -> np.ndarray:
+        """Whether each point (N x 2, map m) is in a cell some frame has shown (hit or floor)."""
+        perception = self._perception
+        if perception is None:
+            return np.zeros(len(points), dtype=np.bool_)
+        return perception.grid.observed(points)
+
+    def look(self, frames: int = LOOK_FRAMES, timeout_s: float = LOOK_TIMEOUT_S) -> bool:
+        """Waits until `frames` frames captured after this call are on the map (at most `timeout_s`);
+        whether they came. Not with the gateway's lock held: taking a frame in needs it."""
+        since = time.monotonic()
+        with self._taken:
+            came = self._taken.wait_for(
+                lambda: sum(t >= since for t in self._captures) >= min(frames, LOOK_FRAMES), timeout_s
+            )
+        self.looks.append(time.monotonic() - since)
+        return came
 
     def _send(self, perception: Perception) -> str:
         """The grid's occupied cells to the live map: at once when the set of cells changed (a

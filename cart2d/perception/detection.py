@@ -59,9 +59,11 @@ class DetectorConfig:
     solid_samples: int = 5  # an obstacle spans at least this many samples up a scan line
     # A line that grazes a vertical edge (which runs along the lines) leaves the obstacle sideways,
     # high up: its "foot" is no foot when the foot of a line d <= foot_lines away is more than
-    # d * foot_step_rows lower.
+    # d * foot_step_rows lower. Near the picture's sides a calibrated line can lean a little off the
+    # true vertical, and grazes an edge over a few lines: 4 lines catch that (a face's own foot,
+    # rising less than foot_step_rows per line, passes at any distance).
     foot_step_rows: int = 3
-    foot_lines: int = 2
+    foot_lines: int = 4
 
 
 @dataclass
@@ -260,7 +262,9 @@ class ObstacleDetector:
         rows = np.maximum(lowest, 0)
         hit_distance = np.where(has, self.edge_distance[rows, cols], np.inf)
         foot_seen = lowest < self.bottom_row  # floor seen below the obstacle on this line
-        padded = np.pad(lowest, k.foot_lines, constant_values=-1)
+        # beyond the picture's sides a neighbour counts as lower than any row: a line there cannot
+        # be shown not to graze an obstacle's silhouette, so its "foot" is not taken
+        padded = np.pad(lowest, k.foot_lines, constant_values=height)
         for d in range(1, k.foot_lines + 1):
             left, right = (
                 padded[k.foot_lines - d : k.foot_lines - d + width],

@@ -4,11 +4,18 @@ every cell holds l = log(p / (1 - p)), starting at 0 (p = 0.5, unknown). A detec
 `hit_log_odds` to their cells, the cells its rays cross on their way (free floor seen) add
 `free_log_odds`, and l is clamped so that a cell can change its mind after a few frames.
 
-A hit marks its cell and, with `hit_depth_m`, the cells that far behind it along its ray (the
-camera sees an obstacle's face, not its depth). A ray is sampled every half cell from min range
-to its end: the cells it crosses, each counted once per frame however many rays cross it; a ray
-that ends on a hit stops half a cell short of it, and a cell hit in a frame is never also
-cleared in that frame.
+A hit marks its cell and the cells behind it (the camera sees an obstacle's face, not its
+depth): behind the face, along its normal, where the hit's neighbours (the hits of nearby scan
+lines, on the same face) tell the face's direction, as deep as its run of hits is long (an
+obstacle is taken to be about as deep as it is wide) up to `hit_depth_m`; a hit whose run is too
+short to tell (a thin pole, the end of a face at the picture's side) is only its cell. Along the
+ray (an earlier rule) the depth behind the end of a face seen at a slant spilt sideways onto the
+floor beside the obstacle and closed passages next to it; one depth for every obstacle either
+left a deep box's far corner out or closed the passages between small ones. A ray is sampled
+every half cell from min range to its end: the cells it crosses, each counted once per frame
+however many rays cross it; a ray that ends on a hit stops half a cell short of it, and a cell
+hit in a frame is never also cleared in that frame. Cells a frame has hit or crossed are
+`observed` (the rest no frame has shown: cart2d/gateway/look.py looks there before driving).
 """
 
 from __future__ import annotations
@@ -23,6 +30,28 @@ from cart2d.perception.detection import Detection
 
 Pose = tuple[float, float, float]  # x, y (m) and heading theta (rad) of base_link in the map
 
+# A face's direction at a hit, from the hits of nearby scan lines: at most FACE_WINDOW of them
+# each side (320 lines span ~0.4 m of floor at 0.35 m, ~1.1 m at 1 m: 32 lines 4 to 11 cm), within
+# FACE_RADIUS_M of it (another obstacle's hits are farther), spread over MIN_FACE_SPAN_M at least
+# (the hits' range steps are about 1 to 2 cm at 1 m, so a shorter run gives no direction to trust).
+FACE_WINDOW = 32
+FACE_RADIUS_M = 0.08
+MIN_FACE_SPAN_M = 0.04
+# A run of hits: hits in scan-line order each within RUN_GAP_M of the one before (along a face the
+# next line's hit is millimetres to a range step away; another obstacle's starts further off).
+RUN_GAP_M = 0.04
+
+
+def run_lengths(hits: FloatArray) -> FloatArray:
+    """Per hit (N x 2, in scan-line order), the length of its run of hits, end to end."""
+    if len(hits) == 0:
+        return np.zeros(0)
+    breaks = np.hypot(*np.diff(hits, axis=0).T) > RUN_GAP_M
+    run = np.concatenate([[0], np.cumsum(breaks)])
+    first = np.searchsorted(run, run, side="left")
+    last = np.searchsorted(run, run, side="right") - 1
+    return np.asarray(np.hypot(*(hits[last] - hits[first]).T), dtype=np.float64)
+
 
 class LogOddsGrid:
     def __init__(
@@ -35,7 +64,7 @@ class LogOddsGrid:
         free_log_odds: float = -0.4,  # p = 0.4 per ray crossing
         min_log_odds: float = -2.0,
         max_log_odds: float = 3.5,  # p = 0.97: cleared by about 9 frames of free rays
-        hit_depth_m: float = 0.0,  # how deep behind its face an obstacle is taken to be
+        hit_depth_m: float = 0.0,  # how deep behind its face an obstacle is taken to be, at most
     ) -> None:
         if resolution_m <= 0.0 or width < 1 or height < 1:
             raise ValueError("the grid needs a positive resolution and at least one cell")
@@ -46,9 +75,22 @@ class LogOddsGrid:
         self.min_log_odds, self.max_log_odds = min_log_odds, max_log_odds
         self.hit_depth_m = float(hit_depth_m)
         self.log_odds = np.zeros((self.height, self.width), dtype=np.float32)
+        self._observed = np.zeros((self.height, self.width), dtype=np.bool_)  # hit or crossed, ever
 
     def clear(self) -> None:
         self.log_odds[:] = 0.0
+        self._observed[:] = False
+
+    def observed(self, points: FloatArray) -> npt.NDArray[np.bool_]:
+        """Whether each point (N x 2, map m) lies in a cell some frame has hit or seen floor in
+        (off the grid: no)."""
+        ij = np.floor((np.reshape(points, (-1, 2)) - np.array(self.origin)) / self.resolution_m).astype(
+            np.int64
+        )
+        inside = (ij[:, 0] >= 0) & (ij[:, 0] < self.width) & (ij[:, 1] >= 0) & (ij[:, 1] < self.height)
+        out = np.zeros(len(ij), dtype=np.bool_)
+        out[inside] = self._observed[ij[inside, 1], ij[inside, 0]]
+        return out
 
     def probability(self) -> npt.NDArray[np.float32]:
         """p(occupied) per cell, rows along y from the origin."""
@@ -80,17 +122,45 @@ class LogOddsGrid:
         flat = self.log_odds.reshape(-1)
         for touched, change in ((free_cells, self.free_log_odds), (hit_cells, self.hit_log_odds)):
             flat[touched] = np.clip(flat[touched] + change, self.min_log_odds, self.max_log_odds)
+            self._observed.reshape(-1)[touched] = True
 
     def _behind(self, origin: FloatArray, hits: FloatArray) -> FloatArray:
-        """The hits and, along each ray, the points up to hit_depth_m behind them: a camera sees an
-        obstacle's face, never how deep it is, and a cart that plans past a face's ends must not
-        cut through the unseen rest. Free rays from other views clear what is not there."""
+        """The hits and, behind each, the points into the obstacle as deep as its run of hits is
+        long, up to hit_depth_m: a camera sees an obstacle's face, never how deep it is, and a cart
+        that plans past a face's ends must not cut through the unseen rest. Free rays from other
+        views clear what is not there."""
         if self.hit_depth_m <= 0.0 or len(hits) == 0:
             return hits
-        offsets = hits - origin
-        directions = offsets / np.maximum(np.linalg.norm(offsets, axis=1), 1e-12)[:, None]
+        directions = self._into_obstacle(origin, hits)
+        depths = np.minimum(run_lengths(hits), self.hit_depth_m)
         t = np.arange(0.0, self.hit_depth_m + 1e-9, self.resolution_m / 2)
-        return np.asarray((hits[:, None, :] + directions[:, None, :] * t[None, :, None]).reshape(-1, 2))
+        points = hits[:, None, :] + directions[:, None, :] * t[None, :, None]
+        return np.asarray(points[t[None, :] <= depths[:, None] + 1e-9], dtype=np.float64)
+
+    @staticmethod
+    def _into_obstacle(origin: FloatArray, hits: FloatArray) -> FloatArray:
+        """Per hit, the unit vector into its obstacle: the normal of the face through it, away from
+        the camera, where hits of nearby scan lines (FACE_WINDOW each side in the hits' order,
+        within FACE_RADIUS_M) spread along a face at least MIN_FACE_SPAN_M (their principal
+        direction, from the 2 x 2 scatter); else zero (no depth is assumed)."""
+        rays = hits - origin
+        rays = rays / np.maximum(np.linalg.norm(rays, axis=1), 1e-12)[:, None]
+        n = len(hits)
+        index = np.arange(n)[:, None] + np.arange(-FACE_WINDOW, FACE_WINDOW + 1)[None, :]
+        offsets = hits[np.clip(index, 0, n - 1)] - hits[:, None, :]
+        near = (index >= 0) & (index < n) & (np.hypot(offsets[..., 0], offsets[..., 1]) <= FACE_RADIUS_M)
+        count = near.sum(axis=1)
+        mean = (offsets * near[..., None]).sum(axis=1) / count[:, None]
+        centred = (offsets - mean[:, None, :]) * near[..., None]
+        sxx = (centred[..., 0] ** 2).sum(axis=1)
+        syy = (centred[..., 1] ** 2).sum(axis=1)
+        sxy = (centred[..., 0] * centred[..., 1]).sum(axis=1)
+        along = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)  # the principal direction's angle
+        spread = 0.5 * (sxx + syy + np.hypot(sxx - syy, 2.0 * sxy)) / count  # its variance
+        normals = np.column_stack([-np.sin(along), np.cos(along)])
+        normals *= np.where((normals * rays).sum(axis=1) < 0.0, -1.0, 1.0)[:, None]
+        face = spread >= MIN_FACE_SPAN_M**2 / 12.0  # the variance of points spread evenly over a span
+        return np.asarray(np.where(face[:, None], normals, 0.0), dtype=np.float64)
 
     def _free_cells(
         self, origin: FloatArray, ends: FloatArray, ends_on_hit: npt.NDArray[np.bool_], min_range_m: float
