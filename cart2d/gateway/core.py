@@ -37,6 +37,7 @@ from dataclasses import asdict
 from typing import Any
 
 from cart2d.gateway.live_map import Replan, RouteAhead, planner_for
+from cart2d.gateway.look import look_before_driving
 from cart2d.gateway.map_edits import MapMixin
 from cart2d.gateway.perceived import PerceptionMixin
 from cart2d.gateway.sim_world import SimWorldMixin
@@ -92,6 +93,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self.mission = Mission()
         self._stream: firmware.PathStream | None = None  # the mission's path, streamed to the firmware
         self._frames_at_route = 0  # telemetry frames received when the last route was sent
+        self.looks_turned = 0  # turns on the spot to look before a route left (look.py)
         self._lock = threading.RLock()  # guards settings, planner and mission
         # The listeners are replaced, never changed in place, under their own lock: publishing
         # reads them without any lock (telemetry and a stop share none).
@@ -212,6 +214,12 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         comes as the last frame goes stops it, and the mission is recorded as stopped."""
         token = self.link.motion_token() if token is None else token
         self.read_status()  # a restart since the last look is noticed before planning
+        seeing = self.seeing
+        if seeing is not None and self.sees():
+            if self.mission.state == "driving":
+                seeing.look()  # what stands in view now is on the map before the route is planned
+            else:
+                self.looks_turned += look_before_driving(self, seeing, (x, y), token)
         with self._lock:
             if not self.pose_trust.trusted:
                 raise PoseUntrusted(self.pose_trust.refusal())

@@ -9,7 +9,7 @@ cells whose nodes it covers, or on a grid coarser than it every planner cell its
 (the planner's cells are the squares round its nodes), so no perceived obstacle slips between
 two nodes (PerceivedLayer.mask). While there are perceived cells, routes are planned on the map
 made finer (live_map.layout_for: a step of at most `resolution_m`, the user's obstacles blocking
-the same floor as before): on the map's own grid (the seed's 0.2 m) a 5 cm cell would block a
+the same floor as before): on the map's own grid (the seed's 0.2 m) a 2.5 cm cell would block a
 whole 0.2 m cell and close passages the cart fits through. The map's own planner (the user's
 obstacles as nodes) stays the Gateway's `map_planner`. Cells off the planner's grid are left out
 (the camera sees past the arena's walls): they cannot block a path.
