@@ -146,6 +146,14 @@ class Recorder:
             return None
         return frames[path[0]][0], frames[path[-1] + 1][0]
 
+    def starting_ticks(self, since: int) -> int | None:
+        """The ticks from the first telemetry frame after `since` to the first in PATH mode: from a
+        goal's request to driving (planning, the look while the gateway sees, the upload)."""
+        with self._lock:
+            frames = self.modes[since:]
+        first_path = next((k for k, (_, mode) in enumerate(frames) if mode == "PATH"), None)
+        return None if first_path is None else frames[first_path][0] - frames[0][0]
+
     def looking_ticks(self, since: int) -> int:
         """The ticks from the first telemetry frame in MANUAL mode after `since` to the first in PATH
         mode: the gateway's look before driving off while it sees (cart2d/gateway/look.py)."""
@@ -292,7 +300,8 @@ def _drive_to(
         result["reached"] = True
     # The time to goal counts firmware ticks, from the first telemetry frame in PATH mode to the
     # first one after it (25 Hz: each end within 40 ms); a wall-clock poll would add latency.
-    # look_s: the turns to look before it (MANUAL mode), while the gateway sees.
+    # start_s: from the request to that first PATH frame; look_s: of which the turns to look
+    # (MANUAL mode) while the gateway sees.
     wait_until = time.monotonic() + 2.0
     ticks = recorder.driving_ticks(modes_mark)
     while ticks is None and time.monotonic() < wait_until:
@@ -300,7 +309,9 @@ def _drive_to(
         ticks = recorder.driving_ticks(modes_mark)
     if ticks is not None:
         result["time_s"] = (ticks[1] - ticks[0]) / robot()["control"]["tick_hz"]
-        result["look_s"] = recorder.looking_ticks(modes_mark) / robot()["control"]["tick_hz"]
+        tick_hz = robot()["control"]["tick_hz"]
+        result["start_s"] = (recorder.starting_ticks(modes_mark) or 0) / tick_hz
+        result["look_s"] = recorder.looking_ticks(modes_mark) / tick_hz
     else:
         result["time_s"] = sim.truth()["t"] - t_goal
     trace = recorder.samples(truth_mark)

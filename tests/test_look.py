@@ -39,7 +39,7 @@ def test_a_side_is_unseen_while_one_point_of_its_band_was_never_observed() -> No
 
 def test_with_both_sides_unseen_the_cart_looks_past_the_side_it_turns_towards() -> None:
     side = look.LOOK_SIDE_RAD
-    # facing east, the route leaves north-east: turning left to 45 + 35 degrees sweeps the picture
+    # facing east, the route leaves north-east: turning left to 45 + 25 degrees sweeps the picture
     # over the right side of the route on the way
     assert look.look_heading(0.0, math.pi / 4, [1.0, -1.0]) == pytest.approx(math.pi / 4 + side)
     assert look.look_heading(math.pi / 2, math.pi / 4, [1.0, -1.0]) == pytest.approx(math.pi / 4 - side)

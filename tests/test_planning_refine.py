@@ -101,3 +101,17 @@ def test_on_a_floor_plan_the_finer_grid_keeps_its_walls_and_the_users_obstacles(
     expected = cells == OCCUPIED
     expected[16:20, 28:32] = True
     assert np.array_equal(fine.blocked, expected)
+
+
+def test_on_the_finer_grid_the_cart_may_stray_off_the_map_as_far_as_on_the_maps_grid() -> None:
+    # The cart at an edge node drifts 1.3 cm outside the node rectangle while turning on the spot:
+    # within half of the map's 0.2 m step, though more than half of the finer grid's 2.2 cm
+    m = MapSettings()
+    coarse, fine = planner_for(m), layout_for(m, 0.025).planner()
+    assert fine.grid.step_m < 0.026
+    for planner in (coarse, fine):
+        plan = planner.plan((-0.013, 0.25), (1.6, 1.6))
+        # from where it is, or on the finer grid the nearest point of the map
+        assert plan.start in ((-0.013, 0.25), (0.0, 0.25))
+        with pytest.raises(PlanError, match="off the map"):
+            planner.plan((-0.11, 0.25), (1.6, 1.6))

@@ -45,16 +45,17 @@ def test_old_poses_are_forgotten() -> None:
     assert poses.at(2.5) == pytest.approx((2.5, 0.0, 0.0))
 
 
-BOX = {"x": 0.9, "y": 0.9, "sx": 0.2, "sy": 0.4, "height": 0.3, "colour": "#3050c0"}
+BOX = {"x": 2.4, "y": 2.0, "sx": 0.2, "sy": 0.6, "height": 0.3, "colour": "#3050c0"}
 
 
 def mission(**extra: Any) -> MissionSpec:
-    # Heading north at the start, the box is 45 degrees right, out of the camera's view: the
-    # first plan runs straight through it, and only turning towards the goal shows it.
+    # In the 4 m arena the box stands 2 m straight ahead on the way to the goal, beyond the
+    # camera's range (1.25 m) and so beyond the look before driving off: the first plan runs
+    # straight through it, and only driving towards it shows it.
     body = {
-        "grid": {"cols": 10, "rows": 10, "step": 0.2},
-        "start": [0.2, 0.2, math.pi / 2],
-        "goals": [[1.6, 1.6]],
+        "grid": {"cols": 41, "rows": 41, "step": 0.1},
+        "start": [0.3, 2.0, 0.0],
+        "goals": [[3.7, 2.0]],
         "world": {"boxes": [BOX]},
         "timeout_s": 60.0,
         **extra,
@@ -75,8 +76,9 @@ def test_a_box_the_map_does_not_show_is_seen_mapped_and_driven_around(tmp_path: 
     assert all(0.0 < r["sim_t"] - r["frame_stamp_s"] < 0.5 for r in causes), causes
     cells = np.array([c[:2] for c in report["perception"]["cells"]])
     # what it believes occupied is on the box (its face, and as deep as the camera assumes)
-    near_box = (np.abs(cells[:, 0] - BOX["x"]) <= 0.1 + 0.2 + 0.05) & (
-        np.abs(cells[:, 1] - BOX["y"]) <= 0.2 + 0.2 + 0.05
+    reach = 0.2 + 0.05  # the assumed depth at most, and a cell
+    near_box = (np.abs(cells[:, 0] - BOX["x"]) <= BOX["sx"] / 2 + reach) & (
+        np.abs(cells[:, 1] - BOX["y"]) <= BOX["sy"] / 2 + reach
     )
     assert near_box.mean() >= 0.8, cells
     # the camera's frames, with what perception drew on them, are in the recording

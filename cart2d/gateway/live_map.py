@@ -43,12 +43,15 @@ class Layout:
     obstacles: tuple[Node, ...]
     blocked: npt.NDArray[np.bool_] | None
     outside_blocked: bool
+    start_slack_m: float = 0.0  # made finer: the map's own half step (plan_path)
 
     def planner(self, also_blocked: npt.NDArray[np.bool_] | None = None) -> Planner:
         blocked = self.blocked
         if also_blocked is not None:
             blocked = also_blocked if blocked is None else blocked | also_blocked
-        return Planner(self.grid, planning_radius_m(), self.obstacles, blocked, self.outside_blocked)
+        return Planner(
+            self.grid, planning_radius_m(), self.obstacles, blocked, self.outside_blocked, self.start_slack_m
+        )
 
 
 def planner_for(m: MapSettings) -> Planner:
@@ -67,7 +70,7 @@ def layout_for(m: MapSettings, finest_m: float | None = None) -> Layout:
         if factor == 1:
             return Layout(grid, tuple(m.obstacles), None, False)
         occupied = refined_cells(occupied_cells(grid, m.obstacles), factor)
-        return Layout(refined_grid(grid, factor), (), occupied, False)
+        return Layout(refined_grid(grid, factor), (), occupied, False, m.step_m / 2)
     occupancy = m.floor_plan.occupancy()
     k = occupancy.planning_factor(m.planning_step_m, planning_radius_m())
     coarse = occupancy.coarsened(k)
@@ -79,7 +82,7 @@ def layout_for(m: MapSettings, finest_m: float | None = None) -> Layout:
     fine, q = occupancy.coarsened(fine_k), k // fine_k
     users = np.kron(occupied_cells(coarse.grid(), m.obstacles), np.ones((q, q), dtype=np.bool_))
     blocked = fine.blocked(m.unknown_is_free) | users[: fine.height, : fine.width].astype(np.bool_)
-    return Layout(fine.grid(), (), blocked, True)
+    return Layout(fine.grid(), (), blocked, True, coarse.grid().step_m / 2)
 
 
 def _floor_plan_factor(occupancy: OccupancyMap, k: int, finest_m: float) -> int:

@@ -35,17 +35,19 @@ if TYPE_CHECKING:
 
 Point = tuple[float, float]
 
-LOOK_SIDE_RAD = math.radians(35.0)  # the picture's half width (27.5) and the band's bearing from the lens
+# Past the bearing by this, the BAND on that side lies within 20 degrees of the picture's centre
+# line, within its half width of 27.5 (its nearest point, 0.23 m away, above the bottom edge).
+LOOK_SIDE_RAD = math.radians(25.0)
 # (forward, lateral) in the first waypoint's frame: the floor beside the bumper's corners (0.17 m
 # ahead, 0.1 m to each side) and the cart's clearance (0.2 m) beyond, on each side (lateral > 0: left)
 BAND = tuple((f, s * w) for f in (0.2, 0.3, 0.4) for w in (0.12, 0.2) for s in (1.0, -1.0))
 MIN_FIRST_M = 0.05  # a first waypoint nearer than this gives no bearing to look along
 TURN_RATE_RADPS = 3.0  # at most; and at most 90 % of the firmware's w_max
-# Slowing down towards the heading as braking at this rate would (half the default alpha_max: the
-# telemetry's heading is a frame old), omega = sqrt(2 * BRAKING * error).
-BRAKING_RADPS2 = 6.0
+# Slowing down towards the heading as braking at this rate would (3/4 of the default alpha_max:
+# the telemetry's heading is a frame old), omega = sqrt(2 * BRAKING * error).
+BRAKING_RADPS2 = 9.0
 MIN_TURN_RADPS = 0.3
-TURN_TOLERANCE_RAD = math.radians(6.0)
+TURN_TOLERANCE_RAD = math.radians(8.0)
 TURN_TIMEOUT_S = 4.0  # a turn that does not get there in this long (blocked, a slipping wheel) ends
 REFRESH_S = 0.04  # VELOCITY refreshes (the firmware's manual timeout is 0.5 s by default)
 MAX_LOOKS = 2  # turns to look, along the routes planned in turn (each may send the cart another way)

@@ -124,6 +124,17 @@ class Grid:
         u, v = self.to_grid(x, y)
         return -0.5 - EPS <= u <= self.cols - 0.5 + EPS and -0.5 - EPS <= v <= self.rows - 0.5 + EPS
 
+    def within(self, x: float, y: float, margin_m: float) -> bool:
+        """Whether (x, y) is within `margin_m` of the node rectangle."""
+        (x0, y0), (w, h) = self.origin, self.size_m
+        m = margin_m + EPS * self.step_m
+        return x0 - m <= x <= x0 + w + m and y0 - m <= y <= y0 + h + m
+
+    def clamp(self, x: float, y: float) -> Point:
+        """The point of the node rectangle nearest to (x, y)."""
+        (x0, y0), (w, h) = self.origin, self.size_m
+        return min(max(x, x0), x0 + w), min(max(y, y0), y0 + h)
+
     def bounds_text(self, margin_m: float = 0.0) -> str:
         (x0, y0), (w, h) = self.origin, self.size_m
         m = margin_m

@@ -43,7 +43,7 @@ class Plan:
     length_m: float
 
 
-def plan_path(graph: GridGraph, start: Point, goal: Point) -> Plan:
+def plan_path(graph: GridGraph, start: Point, goal: Point, start_slack_m: float = 0.0) -> Plan:
     """The shortest grid path from the measured `start` to the exact `goal` (metres), and its
     simplification. Raises OffMap, StartBlocked, GoalBlocked or Unreachable; changes nothing."""
     grid = graph.grid
@@ -53,12 +53,16 @@ def plan_path(graph: GridGraph, start: Point, goal: Point) -> Plan:
     _finite(sx, sy, "the cart's position")
     _finite(gx, gy, "the goal")
     # The measured position may stray a little outside the node rectangle (odometry noise at an
-    # edge node): accept it up to half a step out, as for obstacles.
-    if not grid.on_map(sx, sy):
+    # edge node): accept it up to half a step out, as for obstacles, or `start_slack_m` (the map's
+    # own half step, on a grid made finer: cart2d/planning/refine.py), from the rectangle's edge.
+    slack_m = max(grid.step_m / 2, start_slack_m)
+    if not grid.within(sx, sy, slack_m):
         raise OffMap(
             f"the cart's position {_fmt(sx, sy)} is off the map: it must lie within "
-            f"{grid.bounds_text(grid.step_m / 2)}"
+            f"{grid.bounds_text(slack_m)}"
         )
+    if not grid.on_map(sx, sy):
+        sx, sy = grid.clamp(sx, sy)
     if not grid.inside(gx, gy):
         raise OffMap(
             f"the goal {_fmt(gx, gy)} is off the map: the cart's centre must stay within {grid.bounds_text()}"
@@ -129,8 +133,10 @@ class Planner:
         obstacles: Iterable[Node] = (),
         blocked: npt.NDArray[np.bool_] | None = None,
         outside_blocked: bool = False,
+        start_slack_m: float = 0.0,
     ) -> None:
         self.grid = grid if grid is not None else Grid()
+        self.start_slack_m = start_slack_m  # see plan_path
         self.blocked = None if blocked is None else np.array(blocked, dtype=np.bool_)
         self.outside_blocked = outside_blocked
         self._graph = self._build(obstacles, footprint_radius_m)  # validates everything
@@ -187,4 +193,4 @@ class Planner:
 
     def plan(self, start: Point, goal: Point) -> Plan:
         """A plan from the cart's measured position `start` to `goal` (metres); see plan_path."""
-        return plan_path(self.graph, start, goal)
+        return plan_path(self.graph, start, goal, self.start_slack_m)
