@@ -45,7 +45,7 @@ def test_old_poses_are_forgotten() -> None:
     assert poses.at(2.5) == pytest.approx((2.5, 0.0, 0.0))
 
 
-BOX = {"x": 2.4, "y": 2.0, "sx": 0.2, "sy": 0.6, "height": 0.3, "colour": "#3050c0"}
+BOX: dict[str, Any] = {"x": 2.4, "y": 2.0, "sx": 0.2, "sy": 0.6, "height": 0.3, "colour": "#3050c0"}
 
 
 def mission(**extra: Any) -> MissionSpec:
