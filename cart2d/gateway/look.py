@@ -13,8 +13,8 @@ covers the band (with both sides unseen, the side away from its heading: turning
 the picture over the other side), and the route is planned again with what was seen, which may
 send it another way (at most MAX_LOOKS turns).
 
-Turning uses manual driving (VELOCITY v = 0), refreshed while the telemetry's heading closes on
-the target, and a stop; a user's stop during the look cancels the route (the link's token).
+Turning uses manual driving (VELOCITY v = 0), refreshed while the odometry heading (POSE) closes
+on the target, and a stop; a user's stop during the look cancels the route (the link's token).
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ BAND = tuple((f, s * w) for f in (0.2, 0.3, 0.4) for w in (0.12, 0.2) for s in (
 MIN_FIRST_M = 0.05  # a first waypoint nearer than this gives no bearing to look along
 TURN_RATE_RADPS = 3.0  # at most; and at most 90 % of the firmware's w_max
 # Slowing down towards the heading as braking at this rate would (3/4 of the default alpha_max:
-# the telemetry's heading is a frame old), omega = sqrt(2 * BRAKING * error).
+# the heading read is a round trip and a refresh old), omega = sqrt(2 * BRAKING * error).
 BRAKING_RADPS2 = 9.0
 MIN_TURN_RADPS = 0.3
 TURN_TOLERANCE_RAD = math.radians(8.0)
@@ -90,8 +90,7 @@ def turn_to(link: Link, heading: float, w_max: float, token: int | None) -> None
     deadline = time.monotonic() + TURN_TIMEOUT_S
     try:
         while time.monotonic() < deadline:
-            frame = link.telemetry
-            theta = link.call("POSE")[2] if frame is None else frame.theta
+            theta = link.call("POSE")[2]  # not telemetry: the user may have turned it off
             error = math.remainder(heading - theta, math.tau)
             if abs(error) <= TURN_TOLERANCE_RAD:
                 return
