@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import json
 import math
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +16,9 @@ import pytest
 from bench.perception_missions import unknown_mission
 from bench.scenes import scenes
 from cart2d.gateway import look
+from cart2d.gateway.seeing import Seeing
 from cart2d.mission import MissionSpec, run_mission
+from cart2d.planning import Grid
 
 
 def test_the_first_bearing_skips_waypoints_too_near_to_give_one() -> None:
@@ -62,3 +66,33 @@ def test_the_cart_looks_beside_its_first_stretch_and_crosses_the_cluttered_field
     assert goal["reached"], goal.get("reason")
     assert report["box_contacts"] == 0 and report["collisions"] == 0
     assert goal["look_s"] > 0.0  # it turned to look before it drove off
+
+
+class QuietGateway:
+    """What a Seeing needs of a gateway to be made: a subscription that never calls."""
+
+    def subscribe(self, listener: object) -> Callable[[], None]:
+        return lambda: None
+
+
+def test_standing_where_the_last_frames_were_captured_the_cart_need_not_wait_for_new_ones() -> None:
+    seeing = Seeing(QuietGateway(), latency_s=0.0)  # type: ignore[arg-type]
+    here = (0.5, 0.5, 1.0)
+    assert not seeing.look(at=here, timeout_s=0.05)  # no frame yet: it waited, and none came
+    for _ in range(2):  # two frames taken in, captured where the cart stands
+        seeing._captures.append((time.monotonic(), here))
+    assert seeing.look(at=(0.501, 0.5, 1.002), timeout_s=5.0)  # within a few mm and a fraction of a degree
+    assert seeing.looks[-1] < 0.05
+    assert not seeing.look(at=(0.5, 0.5, 1.1), timeout_s=0.05)  # turned since: new frames needed
+
+
+def test_off_the_maps_node_rectangle_there_is_nothing_to_look_for() -> None:
+    class Blind:
+        def observed(self, points: np.ndarray) -> np.ndarray:
+            return np.zeros(len(points), dtype=bool)
+
+    known = look._known(Blind(), Grid(cols=10, rows=10, step_m=0.2))  # type: ignore[arg-type]
+    points = np.array([[-0.12, 0.5], [0.12, 0.5], [1.9, 0.5], [0.5, -0.01]])
+    assert known(points).tolist() == [True, False, True, True]
+    # at the arena's west edge, heading north: the left band is all off the map, the right one not
+    assert look.unseen_sides((0.0, 0.2), math.pi / 2, known) == [-1.0]

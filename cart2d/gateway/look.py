@@ -7,7 +7,8 @@ never in it. Driving straight on, that floor was in the picture earlier, further
 a turn it can be floor no frame has shown, and a box standing there is found by the front switch,
 not by the camera. So before a route leaves, the floor beside its first stretch (BAND: points
 ahead along the first waypoint's bearing, at the bumper's corners and the clearance beyond) is
-checked against what perception has observed; while a side has a point never observed, the
+checked against what perception has observed (off the map's node rectangle there is nothing to
+look for: a perceived cell there blocks nothing); while a side has a point never observed, the
 cart turns on the spot to face LOOK_SIDE_RAD past the bearing on that side, where the picture
 covers the band (with both sides unseen, the side away from its heading: turning there sweeps
 the picture over the other side), and the route is planned again with what was seen, which may
@@ -26,7 +27,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from cart2d.planning import PlanError
+from cart2d.planning import Grid, PlanError
 
 if TYPE_CHECKING:
     from cart2d.gateway.core import Gateway
@@ -102,30 +103,43 @@ def turn_to(link: Link, heading: float, w_max: float, token: int | None) -> None
         link.call("VELOCITY", 0.0, 0.0, token=token)
 
 
+def _known(seeing: Seeing, grid: Grid) -> Callable[[np.ndarray], np.ndarray]:
+    """Whether points need no look: observed, or off the planner's node rectangle (the arena's
+    margin, past a floor plan's edge), where a perceived cell blocks nothing (perceived.py)."""
+
+    def known(points: np.ndarray) -> np.ndarray:
+        off_map = np.array([not grid.inside(float(x), float(y)) for x, y in points])
+        return np.asarray(seeing.observed(points) | off_map)
+
+    return known
+
+
 def look_before_driving(gateway: Gateway, seeing: Seeing, goal: Point, token: int | None) -> int:
     """The look (see the module's docstring) for a route to `goal` from where the cart stands,
     again for the route planned with what it showed (what the cart saw may send it another way),
     at most MAX_LOOKS times; how many turns it took. Without the gateway's lock: the frames taken
     in meanwhile need it."""
-    seeing.look()
     turns = 0
     w_max: float | None = None
-    for _ in range(MAX_LOOKS):
+    for _ in range(MAX_LOOKS + 1):
         x, y, theta = gateway.link.call("POSE")
+        seeing.look(at=(x, y, theta))
+        if turns == MAX_LOOKS:
+            return turns
         try:
             with gateway._lock:
-                plan = gateway.planner.plan((x, y), goal)
+                planner = gateway.planner
+                plan = planner.plan((x, y), goal)
         except PlanError:
             return turns  # go_to plans again and says why
         bearing = first_bearing((x, y), plan.waypoints)
         if bearing is None:
             return turns
-        heading = look_heading(theta, bearing, unseen_sides((x, y), bearing, seeing.observed))
+        heading = look_heading(theta, bearing, unseen_sides((x, y), bearing, _known(seeing, planner.grid)))
         if heading is None:
             return turns
         if w_max is None:
             w_max = float(gateway.link.call("MAX_SPEED_GET")[1])
         turn_to(gateway.link, heading, w_max, token)
         turns += 1
-        seeing.look()
     return turns

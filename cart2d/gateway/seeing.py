@@ -55,6 +55,15 @@ SEND_INTERVAL_S = 0.5  # the perceived layer is refreshed at least this often wh
 # nothing for LOOK_TIMEOUT_S does not hold the cart up for longer.
 LOOK_FRAMES = 2
 LOOK_TIMEOUT_S = 1.0
+# Frames captured this near the cart's pose now show what new ones would (odometry at rest).
+STILL_M = 0.003
+STILL_RAD = math.radians(0.5)
+
+
+def _same_pose(a: Pose, b: Pose) -> bool:
+    """Within STILL_M and STILL_RAD of each other."""
+    turned = abs(math.remainder(a[2] - b[2], math.tau))
+    return math.dist(a[:2], b[:2]) <= STILL_M and turned <= STILL_RAD
 
 
 def default_latency_s() -> float:
@@ -138,7 +147,8 @@ class Seeing:
         self.frame_log: deque[tuple[float | None, Pose]] = deque(maxlen=FRAME_LOG_LENGTH)
         self.replan_causes: deque[tuple[Any, float | None]] = deque(maxlen=FRAME_LOG_LENGTH)
         self._taken = threading.Condition()
-        self._captures: deque[float] = deque(maxlen=LOOK_FRAMES)  # of the frames last taken in
+        # (capture time, pose at capture) of the frames last taken in
+        self._captures: deque[tuple[float, Pose]] = deque(maxlen=LOOK_FRAMES)
         self.looks: deque[float] = deque(maxlen=FRAME_LOG_LENGTH)  # seconds each look() waited
 
     def close(self) -> None:
@@ -177,7 +187,7 @@ class Seeing:
         if told and g.mission.replans is replans:  # not one another thread made meanwhile
             self.replan_causes.extend((r, frame.stamp_s) for r in replans[before:] if told in r.reason)
         with self._taken:
-            self._captures.append(frame.received_s - self.latency_s)
+            self._captures.append((frame.received_s - self.latency_s, pose))
             self._taken.notify_all()
         return Overlay(draw=seen.draw)
 
@@ -188,14 +198,23 @@ class Seeing:
             return np.zeros(len(points), dtype=np.bool_)
         return perception.grid.observed(points)
 
-    def look(self, frames: int = LOOK_FRAMES, timeout_s: float = LOOK_TIMEOUT_S) -> bool:
-        """Waits until `frames` frames captured after this call are on the map (at most `timeout_s`);
-        whether they came. Not with the gateway's lock held: taking a frame in needs it."""
+    def look(self, at: Pose | None = None, timeout_s: float = LOOK_TIMEOUT_S) -> bool:
+        """Waits until LOOK_FRAMES frames captured after this call are on the map (at most
+        `timeout_s`), unless the last ones taken in were captured within STILL of pose `at`, the
+        cart's now (standing there, it has seen what it would see); whether they came. Not with
+        the gateway's lock held: taking a frame in needs it."""
         since = time.monotonic()
         with self._taken:
-            came = self._taken.wait_for(
-                lambda: sum(t >= since for t in self._captures) >= min(frames, LOOK_FRAMES), timeout_s
-            )
+            if (
+                at is not None
+                and len(self._captures) == LOOK_FRAMES
+                and all(_same_pose(pose, at) for _, pose in self._captures)
+            ):
+                came = True
+            else:
+                came = self._taken.wait_for(
+                    lambda: sum(t >= since for t, _ in self._captures) >= LOOK_FRAMES, timeout_s
+                )
         self.looks.append(time.monotonic() - since)
         return came
 
