@@ -85,6 +85,7 @@ def perception_report(gateway: Gateway) -> dict[str, Any]:
         ],
         "frames": seeing.frames if seeing else 0,
         "frames_without_pose": seeing.skipped if seeing else 0,
+        "frames_left_out_at_rest": seeing.idle_skipped if seeing else 0,
         "calibrated": bool(seeing and seeing.calibration and seeing.calibration.calibrated),
         "resolution_m": view["resolution"],
         "cells": view["cells"],

@@ -13,9 +13,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from cart2d.gateway.seeing import PoseHistory
+from cart2d.gateway.seeing import PoseHistory, Seeing
 from cart2d.mission import MissionSpec, run_mission
 from cart2d.recording.channels import TOPIC_CAMERA
+from tests.test_look import QuietGateway
 from tests.test_recording import Read
 
 
@@ -102,3 +103,13 @@ def test_the_readmes_example_world_is_crossed_without_touching_a_box(tmp_path: P
     report = run_mission(spec, base_dir=tmp_path)
     assert report["goals"][0]["reached"], report["goals"][0].get("reason")
     assert report["box_contacts"] == 0 and report["collisions"] == 0
+
+
+def test_a_cart_standing_still_a_second_has_one_frame_in_three_taken_in() -> None:
+    seeing = Seeing(QuietGateway(), latency_s=0.0)  # type: ignore[arg-type]
+    here = (0.5, 0.5, 0.0)
+    taken = [not seeing._idle(here, k / 15) for k in range(60)]  # 4 s at 15 fps
+    assert all(taken[:15])  # the first second at rest: every frame
+    assert sum(taken[15:]) == 15  # then one in three
+    assert not seeing._idle((0.6, 0.5, 0.0), 4.0)  # moved: every frame again
+    assert not seeing._idle((0.6, 0.5, 0.0), 4.1)

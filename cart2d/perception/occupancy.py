@@ -178,9 +178,12 @@ class LogOddsGrid:
         return np.unique(self._cells(samples[along]))
 
     def cells(self, threshold: float = 0.5) -> list[tuple[float, float, float]]:
-        """(x, y, p) of the cells' centres (map m) whose p(occupied) is above `threshold`."""
+        """(x, y, p) of the cells' centres (map m) whose p(occupied) is above `threshold`; rounded
+        to 0.1 mm and 0.001 (binary fractions printed whole were three times the size of every
+        message of cells the gateway sends its viewers, twice a second)."""
         p = self.probability()
         rows, cols = np.nonzero(p > threshold)
-        xs = self.origin[0] + (cols + 0.5) * self.resolution_m
-        ys = self.origin[1] + (rows + 0.5) * self.resolution_m
-        return [(float(a), float(b), float(q)) for a, b, q in zip(xs, ys, p[rows, cols], strict=True)]
+        xs = np.round(self.origin[0] + (cols + 0.5) * self.resolution_m, 4)
+        ys = np.round(self.origin[1] + (rows + 0.5) * self.resolution_m, 4)
+        qs = np.round(p[rows, cols].astype(np.float64), 3)
+        return [(float(a), float(b), float(q)) for a, b, q in zip(xs, ys, qs, strict=True)]
