@@ -116,13 +116,11 @@ class Grid:
 
     def inside(self, x: float, y: float) -> bool:
         """Whether (x, y) lies in the rectangle spanned by the nodes (where the cart's centre may go)."""
-        u, v = self.to_grid(x, y)
-        return -EPS <= u <= self.cols - 1 + EPS and -EPS <= v <= self.rows - 1 + EPS
+        return self.within(x, y, 0.0)
 
     def on_map(self, x: float, y: float) -> bool:
         """Whether (x, y) is within half a step of the outer nodes (it has a nearest node)."""
-        u, v = self.to_grid(x, y)
-        return -0.5 - EPS <= u <= self.cols - 0.5 + EPS and -0.5 - EPS <= v <= self.rows - 0.5 + EPS
+        return self.within(x, y, self.step_m / 2)
 
     def within(self, x: float, y: float, margin_m: float) -> bool:
         """Whether (x, y) is within `margin_m` of the node rectangle."""
