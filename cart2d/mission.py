@@ -146,24 +146,26 @@ class Recorder:
             return None
         return frames[path[0]][0], frames[path[-1] + 1][0]
 
+    def _until_path(self, since: int) -> tuple[list[tuple[int, str]], int | None]:
+        """The telemetry frames (tick, mode) after `since`, and the index of the first in PATH mode."""
+        with self._lock:
+            frames = self.modes[since:]
+        return frames, next((k for k, (_, mode) in enumerate(frames) if mode == "PATH"), None)
+
     def starting_ticks(self, since: int) -> int | None:
         """The ticks from the first telemetry frame after `since` to the first in PATH mode: from a
         goal's request to driving (planning, the look while the gateway sees, the upload)."""
-        with self._lock:
-            frames = self.modes[since:]
-        first_path = next((k for k, (_, mode) in enumerate(frames) if mode == "PATH"), None)
+        frames, first_path = self._until_path(since)
         return None if first_path is None else frames[first_path][0] - frames[0][0]
 
     def looking_ticks(self, since: int) -> int:
         """The ticks from the first telemetry frame in MANUAL mode after `since` to the first in PATH
         mode: the gateway's look before driving off while it sees (cart2d/gateway/look.py)."""
-        with self._lock:
-            frames = self.modes[since:]
-        first_path = next((k for k, (_, mode) in enumerate(frames) if mode == "PATH"), None)
-        first_manual = next((k for k, (_, mode) in enumerate(frames[:first_path]) if mode == "MANUAL"), None)
-        if first_path is None or first_manual is None:
+        frames, first_path = self._until_path(since)
+        if first_path is None:
             return 0
-        return frames[first_path][0] - frames[first_manual][0]
+        first_manual = next((k for k, (_, mode) in enumerate(frames[:first_path]) if mode == "MANUAL"), None)
+        return 0 if first_manual is None else frames[first_path][0] - frames[first_manual][0]
 
     def samples(self, since: int) -> list[tuple[float, float, float]]:
         with self._lock:
@@ -308,8 +310,8 @@ def _drive_to(
         time.sleep(0.005)
         ticks = recorder.driving_ticks(modes_mark)
     if ticks is not None:
-        result["time_s"] = (ticks[1] - ticks[0]) / robot()["control"]["tick_hz"]
         tick_hz = robot()["control"]["tick_hz"]
+        result["time_s"] = (ticks[1] - ticks[0]) / tick_hz
         result["start_s"] = (recorder.starting_ticks(modes_mark) or 0) / tick_hz
         result["look_s"] = recorder.looking_ticks(modes_mark) / tick_hz
     else:
