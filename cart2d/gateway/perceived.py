@@ -93,6 +93,12 @@ def _span(low: float, high: float, count: int) -> range:
     return range(first, last + 1)
 
 
+def _to_mm(points: Sequence[Sequence[float]]) -> list[list[float]]:
+    """Points (map m) to the millimetre, for viewers: a hit is good to a centimetre, and 17-digit
+    floats tripled the message every viewer gets."""
+    return [[round(float(x), 3), round(float(y), 3)] for x, y in points]
+
+
 @dataclass(frozen=True)
 class PerceivedLayer:
     """What perception believes occupied (immutable: a change is a new layer)."""
@@ -318,8 +324,7 @@ class PerceptionMixin:
     def tell_camera(
         self, t: float | None, fov: Sequence[Sequence[float]], hits: Sequence[Sequence[float]]
     ) -> None:
-        """/ws "camera" for a processed frame (map coordinates, to the millimetre: a hit is good to
-        a centimetre, and 17-digit floats tripled the message every viewer gets), at most every
+        """/ws "camera" for a processed frame (map coordinates, _to_mm), at most every
         CAMERA_MESSAGE_S."""
         now = time.monotonic()
         if now - self._camera_sent_s < CAMERA_MESSAGE_S:
@@ -329,7 +334,7 @@ class PerceptionMixin:
             {
                 "type": "camera",
                 "t": t,
-                "fov": [[round(float(x), 3), round(float(y), 3)] for x, y in fov],
-                "hits": [[round(float(x), 3), round(float(y), 3)] for x, y in hits],
+                "fov": _to_mm(fov),
+                "hits": _to_mm(hits),
             }
         )
