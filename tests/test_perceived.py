@@ -25,26 +25,38 @@ from cart2d.planning import Grid, PlanError, Planner, point_square_distance, seg
 from cart2d.server import create_app
 from cart2d.store import FloorPlan, GatewaySettings, MapSettings
 from tests.conftest import wait_for
-from tests.test_live_map import GatewayRig
+from tests.test_live_map import WIDE, GatewayRig
 from tests.test_server import BASE_URL, JSON
 
 FOOTPRINT_M = float(robot()["body"]["footprint_radius_m"])
 ACROSS = [(2.4, 0.6), (2.4, 0.8), (2.4, 1.0)]  # across the straight route at y = 0.8
 
 
+def rig_and_api(tmp_path: Path, **sim_options: Any) -> tuple[GatewayRig, TestClient]:
+    """test_live_map's WIDE grid and the API on it."""
+    rig = GatewayRig(tmp_path, WIDE, **sim_options)
+    return rig, TestClient(create_app(rig.gateway), base_url=BASE_URL, headers=JSON)
+
+
 @pytest.fixture
 def wide(tmp_path: Path) -> Iterator[tuple[GatewayRig, TestClient]]:
-    """A 3.8 x 1.8 m grid (20 x 10 nodes) and the API on it."""
-    rig = GatewayRig(tmp_path, GatewaySettings(map=MapSettings(cols=20, rows=10, step_m=0.2)))
-    client = TestClient(create_app(rig.gateway), base_url=BASE_URL, headers=JSON)
+    rig, client = rig_and_api(tmp_path)
+    yield rig, client
+    rig.close()
+
+
+@pytest.fixture
+def wide_real_time(tmp_path: Path) -> Iterator[tuple[GatewayRig, TestClient]]:
+    """In real time: see test_live_map's wide_real_time."""
+    rig, client = rig_and_api(tmp_path, speed="1")
     yield rig, client
     rig.close()
 
 
 def test_perceived_cells_across_the_route_replan_the_mission_round_them(
-    wide: tuple[GatewayRig, TestClient],
+    wide_real_time: tuple[GatewayRig, TestClient],
 ) -> None:
-    rig, client = wide
+    rig, client = wide_real_time
     assert client.put("/api/map/obstacle", json={"x": 1.0, "y": 1.8}).status_code == 200  # the user's
     rig.sim.control("place", x=0.2, y=0.8)
     rig.link.call("SET_POSE", 0.2, 0.8, 0.0)
