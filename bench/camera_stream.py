@@ -119,13 +119,13 @@ def run(out: Path, quick: bool) -> Section:
         decode_ms.append((time.perf_counter() - started) * 1000.0)
     rows: list[list[object]] = []
     data: dict[str, Any] = {"jpeg_bytes": len(jpeg), "decode_ms_median": statistics.median(decode_ms)}
-    met = True
+    fast = True  # frame rates and latencies on the wall clock: reported, never failed
     with MjpegServer([], then_every_s=1.0 / FPS, stamp_now=True, jpeg=jpeg) as camera:
         (alone,) = measure([Panel(camera.url)], seconds)
         data["reader"] = alone
         rows.append(["reader alone", 1, f"{alone['fps']:.1f}", f"{alone['latency_median_ms']:.1f}",
                      f"{alone['latency_p95_ms']:.1f}"])  # fmt: skip
-        met &= alone["fps"] >= MIN_RATE and alone["latency_median_ms"] <= MAX_MEDIAN_LATENCY_MS
+        fast &= alone["fps"] >= MIN_RATE and alone["latency_median_ms"] <= MAX_MEDIAN_LATENCY_MS
         with tempfile.TemporaryDirectory() as tmp:
             sim = Simulator(SimOptions(speed="max", eeprom=Path(tmp) / "eeprom.bin")).start()
             link = Link(sim.pty, timeout_s=0.2).open()
@@ -156,7 +156,7 @@ def run(out: Path, quick: bool) -> Section:
                             f"{p95:.1f}",
                         ]
                     )
-                    met &= worst_fps >= MIN_RATE and median <= MAX_MEDIAN_LATENCY_MS
+                    fast &= worst_fps >= MIN_RATE and median <= MAX_MEDIAN_LATENCY_MS
                 data["feed_process_ms"] = feed.process_ms
             finally:
                 served.close()
@@ -171,7 +171,8 @@ def run(out: Path, quick: bool) -> Section:
         + f"\nOne QVGA JPEG: {len(jpeg)} bytes; decoding it: {statistics.median(decode_ms):.2f} ms "
         "(median of 200).\n"
     )
-    return Section(NAME, markdown, data, met)
+    slow = [] if fast else [f"≥ {MIN_RATE:g} frames/s and a median latency ≤ {MAX_MEDIAN_LATENCY_MS:g} ms"]
+    return Section(NAME, markdown, data, True, slow)
 
 
 if __name__ == "__main__":

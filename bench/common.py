@@ -4,6 +4,9 @@ A section is a module `bench/<name>.py` with `run(out: Path, quick: bool) -> Sec
 its PNG plots into `out` (matplotlib, file names `<name>_*.png`) and returns its Markdown (which
 links the plots by bare file name) and its raw numbers; `bench/report.py` writes them into
 `out/<name>.json` and assembles `REPORT.md`. `python -m bench.<name> [--quick]` runs one alone.
+A target on wall-clock speed (a rate, a latency, CPU time per frame) is reported when missed but
+never fails the run: only what does not depend on the machine's load does (correctness,
+simulated time, ratios measured side by side).
 """
 
 from __future__ import annotations
@@ -33,7 +36,18 @@ class Section:
     name: str
     markdown: str
     data: dict[str, Any] = field(default_factory=dict)
-    targets_met: bool = True
+    targets_met: bool = True  # the targets that do not depend on the machine's load
+    # Targets on wall-clock speed this run missed: reported, never a failure (a busy machine
+    # misses them with nothing wrong in cart2d).
+    wall_clock_missed: list[str] = field(default_factory=list)
+
+    def verdict(self) -> str:
+        """'met', '**MISSED**', or 'met' with the wall-clock targets this machine missed."""
+        if not self.targets_met:
+            return "**MISSED**"
+        if self.wall_clock_missed:
+            return "met; on this machine's wall clock missed: " + "; ".join(self.wall_clock_missed)
+        return "met"
 
 
 @dataclass(frozen=True)
@@ -54,6 +68,11 @@ class Spread:
 
     def as_dict(self) -> dict[str, float]:
         return {"median": self.median, "low": self.low, "high": self.high, "n": self.n}
+
+
+def missed(checks: Sequence[tuple[str, bool]]) -> list[str]:
+    """The names of the checks that did not hold."""
+    return [name for name, ok in checks if not ok]
 
 
 def spread(values: Sequence[float]) -> Spread:
@@ -99,9 +118,12 @@ def section_main(run: Callable[[Path, bool], Section], argv: Sequence[str] | Non
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     section = run(args.out, args.quick)
-    write_json(args.out / f"{section.name}.json", {"targets_met": section.targets_met, **section.data})
+    write_json(
+        args.out / f"{section.name}.json",
+        {"targets_met": section.targets_met, "wall_clock_missed": section.wall_clock_missed, **section.data},
+    )
     (args.out / f"{section.name}.md").write_text(section.markdown)
     print(section.markdown)
-    if not section.targets_met:
-        print(f"{section.name}: targets MISSED", file=sys.stderr)
+    if not section.targets_met or section.wall_clock_missed:
+        print(f"{section.name}: targets {section.verdict()}", file=sys.stderr)
     return 0 if section.targets_met else 1

@@ -83,7 +83,8 @@ def run(out: Path, quick: bool) -> Section:
     direct = percentile(trips["direct (the pseudo-terminal)"], 50)
     extra = {label: percentile(t, 50) - direct for label, t in trips.items()}
     loopback = [label for label, kind in KINDS.items() if kind in ("rfc2217", "socket")]
-    met = all(extra[label] <= TARGET_EXTRA_MS for label in loopback) and not any(resent.values())
+    close_enough = all(extra[label] <= TARGET_EXTRA_MS for label in loopback)  # wall clock: reported
+    met = not any(resent.values())
     md = [__doc__.split("\n\n`python", 1)[0], ""]
     md.append(
         table(
@@ -124,6 +125,7 @@ def run(out: Path, quick: bool) -> Section:
             "target_extra_ms": TARGET_EXTRA_MS,
         },
         targets_met=met,
+        wall_clock_missed=[] if close_enough else [f"a bridge adds ≤ {TARGET_EXTRA_MS:g} ms"],
     )
 
 

@@ -44,7 +44,7 @@ import cv2
 import matplotlib.pyplot as plt
 import numpy as np
 
-from bench.common import Section, percentile, section_main, spread, table
+from bench.common import Section, missed, percentile, section_main, spread, table
 from bench.perception_missions import measure as unknown_arenas
 from bench.perception_sim import lens_cells, lens_errors, sim_calibration_runs
 from cart2d.gateway.seeing import GRID_RESOLUTION_M, OBSTACLE_DEPTH_M
@@ -245,9 +245,9 @@ def run(out: Path, quick: bool) -> Section:
             f"(whole width, worst seed, floor board {default_floor})",
             sim_worst_1m <= GROUND_TARGET_M,
         ),
-        (f"median CPU ms per QVGA frame <= {FRAME_TARGET_MS:.0f}", median_ms <= FRAME_TARGET_MS),
         *missions_checks,
     ]
+    wall_clock = [(f"median CPU ms per QVGA frame <= {FRAME_TARGET_MS:.0f}", median_ms <= FRAME_TARGET_MS)]
     calibration_rows = [[r["seed"], *lens_cells(r)] for r in runs]
     sim_rows = [[r["floor_board"], r["seed"], *lens_cells(r)] for r in sim_runs]
     sim_error_rows = [
@@ -318,7 +318,11 @@ def run(out: Path, quick: bool) -> Section:
         f"p95 {100 * (cost['hit_error_m_p95'] or 0):.1f} cm, "
         f"{cost['hits_over_5cm']} beyond 5 cm; {cost['occupied_cells']} cells occupied at the end, "
         f"{cost['occupied_cells_off_boxes']} of them off the boxes' edges.\n\n"
-        + table(["target", "met"], [[name, "yes" if ok else "**NO**"] for name, ok in checks])
+        + table(
+            ["target", "met"],
+            [[name, "yes" if ok else "**NO**"] for name, ok in checks]
+            + [[f"{name} (wall clock: reported)", "yes" if ok else "**NO**"] for name, ok in wall_clock],
+        )
         + f"\n![ground-projection error and pipeline cost]({NAME}.png)\n\n"
         + missions_markdown
     )
@@ -328,9 +332,9 @@ def run(out: Path, quick: bool) -> Section:
         "distances_m": DISTANCES_M,
         "pipeline": {k: v for k, v in cost.items() if k != "total_ms_all"},
         "unknown_arenas": missions_data,
-        "checks": dict(checks),
+        "checks": dict(checks + wall_clock),
     }
-    return Section(NAME, markdown, data, all(ok for _, ok in checks))
+    return Section(NAME, markdown, data, all(ok for _, ok in checks), missed(wall_clock))
 
 
 if __name__ == "__main__":

@@ -471,12 +471,14 @@ def run(out: Path, quick: bool) -> Section:
     if big:
         worst_big = max(big, key=lambda r: _median(r.total_s))
         targets.append(
-            f"- 1000 x 1000 (random 20 % and maze) planned in under {TIME_TARGET_S:g} s: {mark(fast)} "
+            f"- 1000 x 1000 (random 20 % and maze) planned in under {TIME_TARGET_S:g} s (wall clock: "
+            f"reported): {mark(fast)} "
             f"(slowest median {_median(worst_big.total_s):.3f} s, {worst_big.case.label})"
         )
     else:
         targets.append("- 1000 x 1000 in under 1 s: not measured in quick mode (grids up to 200 x 200)")
-    ok = optimal and short_enough and fast
+    ok = optimal and short_enough
+    slow = [] if fast else [f"1000 x 1000 planned in under {TIME_TARGET_S:g} s"]
 
     header = [
         "scene",
@@ -597,7 +599,7 @@ def run(out: Path, quick: bool) -> Section:
         "lengths": [_result_data(r) for r in lengths],
         "targets": {"optimal": optimal, "length": short_enough, "time_1000": fast if big else None},
     }
-    return Section("planner", markdown, data, ok)
+    return Section("planner", markdown, data, ok, slow)
 
 
 if __name__ == "__main__":

@@ -81,7 +81,7 @@ def run(out: Path, quick: bool) -> Section:
     cpu_plain = spread([r["cpu_per_sim_s"] for r in plain])
     cpu_recorded = spread([r["cpu_per_sim_s"] for r in recorded])
     overhead = cpu_recorded.median - cpu_plain.median
-    met = overhead <= MAX_CORE_SHARE
+    cheap = overhead <= MAX_CORE_SHARE  # CPU time against the wall clock: reported, not failed
     markdown = (
         (__doc__ or "")
         + "\n"
@@ -113,7 +113,8 @@ def run(out: Path, quick: bool) -> Section:
         "counts": last["counts"],
         "sim_s": sim_s,
     }
-    return Section("recording", markdown, data, met)
+    slow = [] if cheap else [f"recording costs ≤ {MAX_CORE_SHARE:.0%} of a core ({overhead:.1%})"]
+    return Section("recording", markdown, data, True, slow)
 
 
 if __name__ == "__main__":

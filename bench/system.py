@@ -452,8 +452,8 @@ def run(out: Path, quick: bool) -> Section:
     rtf_s = spread(rtf)
     low_rate = min(r for p in phases for r in p.rates_hz) if phases else 0.0
     high_rate = max(r for p in phases for r in p.rates_hz) if phases else 0.0
+    fast_enough = rtf_s.median >= RTF_TARGET  # wall clock: reported, not failed
     checks = {
-        "real-time factor ≥ 10": rtf_s.median >= RTF_TARGET,
         "every command answered, 1 and 50 viewers": all(p.answered == p.commands for p in phases),
         "telemetry rate per viewer within 10 %": telemetry_hz > 0
         and all(abs(r - telemetry_hz) <= RATE_TOLERANCE * telemetry_hz for p in phases for r in p.rates_hz),
@@ -509,9 +509,10 @@ def run(out: Path, quick: bool) -> Section:
     n_rounds = len(of(1))
     md = ["## System\n"]
     md.append(
-        f"Targets: {'met' if ok else 'MISSED'} (real-time factor ≥ {RTF_TARGET:g}; with 50 viewers no lost "
+        f"Targets: {'met' if ok else 'MISSED'} (with 50 viewers no lost "
         f"command, every viewer's telemetry rate within {100 * RATE_TOLERANCE:.0f} % of the configured "
-        f"{telemetry_hz} Hz, no tick overruns).\n"
+        f"{telemetry_hz} Hz, no tick overruns); on the wall clock, reported: real-time factor ≥ "
+        f"{RTF_TARGET:g} {'met' if fast_enough else '**missed**'}.\n"
     )
     md.append("### Simulator speed\n")
     md.append(
@@ -581,11 +582,12 @@ def run(out: Path, quick: bool) -> Section:
             }
             for p in phases
         ],
-        "checks": checks,
+        "checks": {**checks, f"real-time factor ≥ {RTF_TARGET:g} (wall clock)": fast_enough},
         "notes": notes,
         "run_seconds": elapsed,
     }
-    return Section(NAME, "\n".join(md), data, ok)
+    slow = [] if fast_enough else [f"real-time factor ≥ {RTF_TARGET:g} ({rtf_s.median:.1f})"]
+    return Section(NAME, "\n".join(md), data, ok, slow)
 
 
 if __name__ == "__main__":
