@@ -80,6 +80,27 @@ def test_every_reset_cause_has_its_words(cause: list[str], words: str) -> None:
     assert firmware.reset_cause_words(cause) == words
 
 
+@pytest.mark.parametrize(
+    ("cause", "words"),
+    [
+        (["EXTERNAL", "WATCHDOG"], "a reset that kept the RAM"),
+        (["EXTERNAL"], "an external reset (the RESET pin)"),
+        (["WATCHDOG", "REBOOT"], "a REBOOT command restarted the firmware"),
+        (["POWER_ON"], "the controller was powered up"),
+        (
+            ["EXTERNAL", "BROWN_OUT"],
+            "an external reset (the RESET pin); the controller's supply dipped (brown-out)",
+        ),
+    ],
+)
+def test_a_known_trigger_leaves_out_the_causes_the_flags_cannot_tell_from_it(
+    cause: list[str], words: str
+) -> None:
+    """The gateway asked for the restart, or its port's opening reset the Nano: the button, the
+    port reopened or a hang are not offered as what it might have been."""
+    assert firmware.reset_cause_words(cause, trigger_known=True) == words
+
+
 def test_a_restart_is_a_new_boot_count_or_an_uptime_going_backwards() -> None:
     base = firmware.Status("IDLE", [], 0, 0, 0, 0, 0, 0, "eeprom", False, 10.0, None, ["POWER_ON"], 1, 0, 0)
     later = dataclasses.replace(base, uptime_s=10.5)
@@ -262,6 +283,10 @@ def test_a_soft_reset_or_a_reboot_is_reported_as_the_gateways_doing(rig: Rig) ->
     assert report["expected"] and report["caused_by"] == "a soft reset asked for through the gateway"
     assert report["cause"] == BUTTON_CAUSE  # in the simulator: its reset button, behind Optiboot
     assert "as the gateway asked (a soft reset asked for through the gateway)" in report["message"]
+    # what reset it is known: not "the reset button, the serial port reopened, ... or the
+    # watchdog after a hang"
+    assert report["cause_words"] == firmware.KEPT_RAM_WORDS
+    assert "hang" not in report["message"] and "button" not in report["message"]
     # Trusted still only if the firmware kept its pose: else it restarted at (0, 0, 0).
     assert trusted(rig) is report["pose_restored"]
     rig.client.post("/api/pose/accept")
@@ -300,9 +325,17 @@ def test_a_restart_during_a_firmware_update_is_the_updates_doing(rig: Rig) -> No
         == 202
     )
     wait_for(lambda: rig.client.get("/api/firmware/update").json()["state"] != "running", 30)
-    last = status(rig)["reset"]["last"]
+    now = status(rig)
+    last = now["reset"]["last"]
     assert last is not None and last["expected"] and last["caused_by"] == "a firmware update"
-    assert not trusted(rig)  # another program, and a cart that may have been moved meanwhile
+    assert "hang" not in last["message"] and "button" not in last["message"]  # the gateway's doing
+    # Not trusted even when the firmware kept it (README, "Restarts of the controller"), and
+    # the notice says why.
+    assert not trusted(rig)
+    assert last["pose_restored"], "the firmware kept its pose through the update (the case the README names)"
+    why = "the program that kept it was replaced, and the cart may have been moved while it was flashed"
+    assert f"It is not trusted after a firmware update: {why}." in last["message"]
+    assert f"not trusted after a firmware update ({why})" in now["pose_trust"]["reason"]
 
 
 # -- the headless runner and the calibration --------------------------------------------------

@@ -67,6 +67,32 @@ def test_status_reports_link_firmware_and_pose(rig: Rig) -> None:
     assert status["status"]["mode"] == "IDLE" and status["pose"] == {"x": 0.0, "y": 0.0, "theta": 0.0}
 
 
+def test_clearing_the_obstacles_removes_every_one_saves_and_says_which(rig: Rig) -> None:
+    """DELETE /api/map/obstacles (the panel's "Clear obstacles"): all at once, saved, viewers told,
+    and the answer names them (to put them back), as its documented response model says."""
+    nodes = [[0.4, 0.4], [0.8, 1.2], [1.6, 0.2]]
+    for x, y in nodes:
+        assert rig.client.put("/api/map/obstacle", json={"x": x, "y": y}).status_code == 200
+    version = rig.client.get("/api/map").json()["version"]
+    told: list[dict[str, Any]] = []
+    rig.gateway.subscribe(lambda m: told.append(m) if m["type"] == "map" else None)
+    answer = rig.client.delete("/api/map/obstacles")
+    assert answer.status_code == 200, answer.text
+    body = answer.json()
+    removed = sorted(body["removed"])
+    assert [c for p in removed for c in p] == pytest.approx([c for p in sorted(nodes) for c in p])
+    assert body["version"] == version + 1
+    assert rig.client.get("/api/map").json()["obstacles"] == []
+    assert rig.store.load().map.obstacles == []
+    assert [m["version"] for m in told] == [version + 1]
+    schema = rig.client.get("/openapi.json").json()
+    ok = schema["paths"]["/api/map/obstacles"]["delete"]["responses"]["200"]["content"]["application/json"]
+    assert ok["schema"]["$ref"].endswith("/ObstaclesClearedOut")
+    # nothing left: nothing removed, and the map is not changed again
+    again = rig.client.delete("/api/map/obstacles").json()
+    assert again == {"removed": [], "version": version + 1}
+
+
 def test_openapi_schema_documents_the_api(rig: Rig) -> None:
     paths = rig.client.get("/openapi.json").json()["paths"]
     for path in ("/api/goto", "/api/map/obstacle", "/api/command", "/api/stop", "/api/drive"):

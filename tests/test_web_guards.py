@@ -79,6 +79,7 @@ def assert_unchanged(before: dict[str, Any], after: dict[str, Any]) -> None:
 ATTACKS: dict[str, bytes] = {
     "POST /api/command": b'{"name": "GOTO", "args": [1.0, 0.0]}',
     "PUT /api/map/obstacle": b'{"x": 1.0, "y": 1.0}',
+    "DELETE /api/map/obstacles": b"",  # every obstacle the user drew, gone
     "POST /api/goto": b'{"x": 1.0, "y": 0.0}',
     "POST /api/stop": b"",
     "POST /api/drive": b'{"v": 0.3, "omega": 0.0}',

@@ -74,6 +74,8 @@ log = logging.getLogger(__name__)
 UPDATE_WAIT_S = 150.0  # a stop during a firmware update waits this long at most for the firmware back
 SIM_RESTART_WAIT_S = 20.0  # and during a restart of the simulator
 SIM_START_TRIES = 3
+# Why a pose the firmware kept through a firmware update is not trusted (README, "Restarts").
+FLASHED_POSE = "the program that kept it was replaced, and the cart may have been moved while it was flashed"
 
 Listener = Callable[[dict[str, Any]], None]
 
@@ -109,7 +111,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self._opens_seen = 0  # the link's port openings at the last STATUS
         self._last_tick: int | None = None
         self._expected_reset = ""  # what the gateway is doing that restarts the MCU, if anything
-        self._expected_keeps_pose = True
+        self._expected_untrusts = ""  # why a pose kept through that restart is not trusted ("": it is)
         self.last_reset: ResetReport | None = None
         self.resets_noticed = 0
         self.pose_trust = PoseTrust()
@@ -120,7 +122,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             store.directory,
             sim,
             check=self._check_after_update,
-            resetting=lambda: self._resetting("a firmware update", certain=True, keeps_pose=False),
+            resetting=lambda: self._resetting("a firmware update", certain=True, untrusts=FLASHED_POSE),
         )
         self.simulator = SimulatorState()
         self._simulator_back = threading.Event()  # set while the simulator runs (or cannot be started)
@@ -631,17 +633,17 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             return self.last_reset if self.resets_noticed != noticed else None
 
     @contextlib.contextmanager
-    def _resetting(self, what: str, certain: bool, keeps_pose: bool = True) -> Iterator[None]:
+    def _resetting(self, what: str, certain: bool, untrusts: str = "") -> Iterator[None]:
         """Restarts noticed inside the block are the gateway's doing (`what`), not faults.
         `certain`: the block restarts the MCU whatever STATUS shows (a new simulator, avrdude's
         reset), so a restart is reported at its end if none was noticed: a fresh MCU whose uptime
         has overtaken the old one's and whose boot count is 1 again looks like no restart.
-        `keeps_pose`: a pose the firmware restored from RAM after it is trusted (a REBOOT, a soft
-        reset of the same firmware at rest); after a firmware update it is not (another program,
-        and a cart that may have been moved while it was flashed)."""
+        `untrusts`: why a pose the firmware restored from RAM is not trusted after this restart
+        (a firmware update: FLASHED_POSE); "" when it is (a REBOOT, a soft reset of the same
+        firmware at rest, over in a second)."""
         with self._lock:
             self._expected_reset = what
-            self._expected_keeps_pose = keeps_pose
+            self._expected_untrusts = untrusts
             noticed = self.resets_noticed
         try:
             yield
@@ -660,9 +662,12 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         except (LinkError, CommandRefused):
             pose = None
         with self._lock:
-            caused_by = self._expected_reset
-            cause = status.reset_words()
-            if reopened and not caused_by and "EXTERNAL" in status.reset_cause:
+            caused_by, untrusts = self._expected_reset, self._expected_untrusts
+            port_reset = reopened and not caused_by and "EXTERNAL" in status.reset_cause
+            # What reset it is known when the gateway did it or its port's opening did: the
+            # flags' other possible triggers (the button, a hang) are then not listed.
+            cause = status.reset_words(trigger_known=bool(caused_by) or port_reset)
+            if port_reset:
                 cause += " (here the link to the robot was lost and its port reopened)"
             restored = status.has("POSE_RESTORED")
             when = time.strftime("%H:%M:%S")
@@ -688,10 +693,14 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
                     f"The firmware restored its pose from RAM, {where}: the pose at the reset, blind to any "
                     "motion during it."
                 )
+                if caused_by and untrusts:
+                    sentences.append(f"It is not trusted after {caused_by}: {untrusts}.")
             else:
                 sentences.append("Its pose restarted at (0, 0, 0).")
-            if not (caused_by and restored and self._expected_keeps_pose):
+            if not (caused_by and restored and not untrusts):
                 what = "kept the pose it had" if restored else "restarted at (0, 0, 0)"
+                if restored and caused_by:
+                    what += f", not trusted after {caused_by} ({untrusts})"
                 self.pose_trust = PoseTrust(False, f"the controller restarted at {when} ({cause}) and {what}")
             if not self.pose_trust.trusted:
                 sentences.append(f"No goal is planned from it until you {WAYS_OUT}.")
@@ -850,7 +859,9 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         """Starts the simulator on the firmware it ran (then on the last one that answered);
         returns why it could not ("" if it runs) and whether its firmware answered."""
         error = ""
-        with self._resetting(f"restarting the simulator, which {how}", certain=True, keeps_pose=False):
+        with self._resetting(
+            f"restarting the simulator, which {how}", certain=True, untrusts="a new simulator starts afresh"
+        ):
             for attempt in range(SIM_START_TRIES):
                 firmware_file = sim.options.firmware if attempt == 0 else self.flasher.good_firmware()
                 try:

@@ -97,6 +97,15 @@ class MapMixin:
         added, removed = ([(x, y)], []) if present else ([], [(x, y)])
         return self.change_obstacles(added, removed, "an obstacle was " + ("added" if present else "removed"))
 
+    def clear_obstacles(self) -> tuple[list[Point], int]:
+        """Removes every obstacle of the user's; the ones removed (their nodes) and the map's
+        version after."""
+        with self._lock:
+            grid = self.map_planner.grid
+            removed = [grid.node_xy(i, j) for i, j in sorted(self.map_planner.obstacles)]
+            self.change_obstacles([], removed, "the obstacles were cleared")
+            return removed, self.map_version
+
     def change_obstacles(self, add: Sequence[Point], remove: Sequence[Point], why: str) -> dict[str, Any]:
         """Adds and removes obstacles at the nodes nearest the points (all or nothing: OffMap for
         a point off the map changes nothing), saves the map and, during a mission, replans if

@@ -71,9 +71,10 @@ class Status:
         (a reset that kept the RAM), or its uptime went backwards (one that lost it)."""
         return self.boot_count != earlier.boot_count or self.uptime_s < earlier.uptime_s
 
-    def reset_words(self) -> str:
-        """Why the MCU last restarted, in words (docs/protocol.md, Reset causes)."""
-        return reset_cause_words(self.reset_cause)
+    def reset_words(self, trigger_known: bool = False) -> str:
+        """Why the MCU last restarted, in words (docs/protocol.md, Reset causes); see
+        reset_cause_words for `trigger_known`."""
+        return reset_cause_words(self.reset_cause, trigger_known)
 
 
 # What each reset cause means for someone standing by the cart. WATCHDOG is also how REBOOT
@@ -96,13 +97,23 @@ BEHIND_BOOTLOADER_WORDS = (
 )
 
 
-def reset_cause_words(causes: Sequence[str]) -> str:
+# What those flags still say when the host knows what reset the MCU: its trigger is not one of
+# the ones they cannot tell apart.
+KEPT_RAM_WORDS = "a reset that kept the RAM"
+KNOWN_EXTERNAL_WORDS = "an external reset (the RESET pin)"
+
+
+def reset_cause_words(causes: Sequence[str], trigger_known: bool = False) -> str:
+    """The causes in words. `trigger_known`: the host knows what reset the MCU (it asked for the
+    restart, or its port's opening reset the Nano), so the triggers the flags cannot tell apart
+    (the reset button, the port reopened, a hang) are not listed: only what the flags add."""
     if "REBOOT" in causes:
         causes = [c for c in causes if c != "WATCHDOG"]
     elif "EXTERNAL" in causes and "WATCHDOG" in causes:
         rest = [RESET_CAUSE_WORDS.get(c, c) for c in causes if c not in ("EXTERNAL", "WATCHDOG")]
-        return "; ".join([BEHIND_BOOTLOADER_WORDS, *rest])
-    words = [RESET_CAUSE_WORDS.get(cause, cause) for cause in causes]
+        return "; ".join([KEPT_RAM_WORDS if trigger_known else BEHIND_BOOTLOADER_WORDS, *rest])
+    known = {"EXTERNAL": KNOWN_EXTERNAL_WORDS} if trigger_known else {}
+    words = [known.get(cause) or RESET_CAUSE_WORDS.get(cause, cause) for cause in causes]
     return "; ".join(words) or "no cause recorded (a jump to address 0, or a bootloader that kept the flags)"
 
 

@@ -38,6 +38,7 @@ from cart2d.server.models import (
     DriveIn,
     MapUploadIn,
     ObstacleIn,
+    ObstaclesClearedOut,
     PointIn,
     PoseIn,
     SettingIn,
@@ -249,6 +250,18 @@ def create_app(
     )
     def obstacle(body: ObstacleIn) -> dict[str, Any]:
         return gateway.set_obstacle(body.x, body.y, body.present)
+
+    @app.delete(
+        "/api/map/obstacles",
+        dependencies=[Guarded],
+        response_model=ObstaclesClearedOut,
+        summary="remove every obstacle the user put on the map (the floor plan's walls stay)",
+        description="A mission in progress drives on (nothing it avoided blocks it now).",
+        responses=errors(401),
+    )
+    def clear_obstacles() -> ObstaclesClearedOut:
+        removed, version = gateway.clear_obstacles()
+        return ObstaclesClearedOut(removed=[[x, y] for x, y in removed], version=version)
 
     @app.post(
         "/api/goto",

@@ -92,6 +92,15 @@ class ObstacleIn(PointIn):
     present: bool = Field(True, description="true adds the obstacle at the nearest node, false removes it")
 
 
+class ObstaclesClearedOut(BaseModel):
+    """What DELETE /api/map/obstacles did: enough to put them back (PUT /api/map/obstacle each)."""
+
+    removed: list[Annotated[list[float], Field(min_length=2, max_length=2)]] = Field(
+        description="the obstacles taken away: their nodes [x, y], m"
+    )
+    version: int = Field(description="the map's version now (GET /api/map; /ws tells it as type map)")
+
+
 class CommandIn(Strict):
     name: str = Field(
         description="a command of docs/protocol.md, e.g. POSE or GOTO",

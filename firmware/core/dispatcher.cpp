@@ -34,6 +34,10 @@ void Dispatcher::set_settings_source(record::Verdict verdict) {
 
 void Dispatcher::tick() {
   if (last_age_ticks_ < kDuplicateWindowTicks) ++last_age_ticks_;
+  if (saving_ && !store_.busy()) {
+    saving_ = false;
+    set_settings_source(record::Verdict::kValid);
+  }
 }
 
 bool Dispatcher::is_duplicate(const PacketView& packet) const {
@@ -181,6 +185,7 @@ uint8_t Dispatcher::execute_settings(const Request& r, Results& results) {
     }
     case proto::COMMAND_SAVE:
       store_.save(settings_);
+      saving_ = true;  // the EEPROM becomes the settings' source once the record has landed (tick)
       return 0;
     case proto::COMMAND_LOAD:
       if (store_.load(settings_) != record::Verdict::kValid) return proto::REASON_EEPROM_INVALID;

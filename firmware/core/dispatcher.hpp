@@ -25,7 +25,8 @@ class Dispatcher {
                        ReplyBuffer& reply)
       : cart_(cart), settings_(settings), store_(store), health_(health), reply_(reply) {}
 
-  // Where the settings in use came from at boot (COMMAND_STATUS reports it).
+  // Where the settings in use came from: at boot, after a LOAD, once a SAVE has been written
+  // (COMMAND_STATUS reports it, flag SETTINGS_DEFAULTED unless the EEPROM).
   void set_settings_source(record::Verdict verdict);
 
   // Executes `packet`; the reply is then in reply()/reply_length().
@@ -33,7 +34,8 @@ class Dispatcher {
   const uint8_t* reply() const { return reply_.bytes; }
   uint8_t reply_length() const { return reply_length_; }
 
-  // One control tick: ages the memory of the last request.
+  // One control tick: ages the memory of the last request; a SAVE whose record has been written
+  // makes the EEPROM the settings' source.
   void tick();
   bool reboot_requested() const { return reboot_requested_; }
 
@@ -75,6 +77,7 @@ class Dispatcher {
   uint8_t settings_source_ = 0;
   uint8_t last_error_ = 0;  // reason of the last refused request
   bool reboot_requested_ = false;
+  bool saving_ = false;  // a SAVE is being written
 };
 
 }  // namespace core

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <utility>
 
 #include "harness.hpp"
 #include "protocol_table.hpp"
@@ -212,6 +213,26 @@ TEST_F(Dispatcher, BlankEepromGivesDefaultsReportedInStatusAndLoadRefused) {
   EXPECT_EQ(1.0f, status.results[8]);  // defaults: blank
   EXPECT_TRUE(static_cast<int>(status.results[1]) & proto::FLAG_SETTINGS_DEFAULTED);
   expect_error(call(fw, proto::COMMAND_LOAD), proto::REASON_EEPROM_INVALID);
+}
+
+// The settings in use come from the EEPROM once a SAVE has written them: STATUS and the flag say
+// so then (the panel's "default settings" badge stayed after Save until the next boot).
+TEST_F(Dispatcher, ASaveThatHasLandedMakesTheEepromTheSettingsSource) {
+  Firmware fw;
+  auto defaulted = [this, &fw]() {
+    const Reply status = call(fw, proto::COMMAND_STATUS);
+    return std::make_pair(status.results.at(8), (static_cast<int>(status.results.at(1)) & proto::FLAG_SETTINGS_DEFAULTED) != 0);
+  };
+  EXPECT_EQ(std::make_pair(1.0f, true), defaulted());
+  EXPECT_EQ(proto::CONTROL_OK, call(fw, proto::COMMAND_SAVE).status);
+  fw.tick();
+  ASSERT_TRUE(fw.store.busy());
+  EXPECT_EQ(std::make_pair(1.0f, true), defaulted());  // not on the chip yet: a reset now loads defaults
+  int ticks = 0;
+  while (fw.store.busy() && ticks < 1000) fw.tick(), ++ticks;
+  fw.tick();
+  EXPECT_EQ(std::make_pair(0.0f, false), defaulted());
+  EXPECT_FALSE(static_cast<int>(fw.cart.flags()) & proto::FLAG_SETTINGS_DEFAULTED);  // telemetry's flags too
 }
 
 TEST_F(Dispatcher, CorruptEepromGivesDefaults) {

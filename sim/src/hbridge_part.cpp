@@ -27,13 +27,20 @@ bool HBridgePart::output_level(PinRef pin) const {
   return (port >> pin.bit) & 1;
 }
 
+unsigned timer1_misread_mode(uint8_t tccr1a, uint8_t tccr1b) {
+  const unsigned wgm = (tccr1a & 0x3u) | ((tccr1b >> 1) & 0xCu);
+  const bool clock_running = (tccr1b & 0x7u) != 0;
+  const bool drives_a_pin = (tccr1a & ((0x3u << m328p::kCOM1A0) | (0x3u << m328p::kCOM1B0))) != 0;
+  return clock_running && drives_a_pin && wgm != 8 ? wgm : 8;
+}
+
 MotorDuties HBridgePart::sample() {
   const uint8_t* d = avr_->data;
   const uint8_t tccr1a = d[m328p::kTCCR1A], tccr1b = d[m328p::kTCCR1B];
-  const unsigned wgm = (tccr1a & 0x3u) | ((tccr1b >> 1) & 0xCu);
   const bool clock_running = (tccr1b & 0x7u) != 0;
-  if (clock_running && wgm != 8 && !warned_mode_) {
-    LOG_WARN("Timer1 runs in WGM mode %u; the H-bridge model reads duties as in mode 8 (TOP = ICR1)", wgm);
+  const unsigned misread = timer1_misread_mode(tccr1a, tccr1b);
+  if (misread != 8 && !warned_mode_) {
+    LOG_WARN("Timer1 drives PWM in WGM mode %u; the H-bridge model reads duties as in mode 8 (TOP = ICR1)", misread);
     warned_mode_ = true;
   }
   const uint16_t top = static_cast<uint16_t>(d[m328p::kICR1L] | (d[m328p::kICR1H] << 8));

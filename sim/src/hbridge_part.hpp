@@ -19,6 +19,12 @@ namespace cart2d {
 // and the bridge input reads input_level (see HBridgePart). Returns the high-time fraction in [0, 1].
 double oc1_duty(unsigned com_bits, uint16_t ocr, uint16_t top, bool port_bit, bool ddr_bit, bool input_level);
 
+// The Timer1 waveform mode the H-bridge model would misread (it reads duties as in mode 8), or
+// 8 when there is none: only while the timer's clock runs and it drives OC1A or OC1B. The timer
+// in another mode with both pins left to PORTx is no PWM of the bridges: Optiboot's LED flashes
+// after every external reset run Timer1 in mode 0 (clk/1024) before the firmware configures it.
+unsigned timer1_misread_mode(uint8_t tccr1a, uint8_t tccr1b);
+
 struct MotorDuties {
   double left = 0.0;   // signed: + forward
   double right = 0.0;

@@ -123,6 +123,26 @@ TEST_F(Bootloader, ExternalResetWaitsForTheProgrammerThenTheWatchdogStartsTheApp
   EXPECT_GT(output().size(), 100u);
 }
 
+// Optiboot's LED flashes run Timer1 in mode 0 with both output-compare pins off: no PWM of the
+// bridges, so the H-bridge model has nothing to warn about (it warned at every gateway start, the
+// port's opening being an external reset).
+TEST_F(Bootloader, OptibootsLedTimerIsNoMisreadPwm) {
+  init(true);
+  run_to_release();
+  run_s(0.2);
+  testing::internal::CaptureStderr();
+  rig_.reset_mcu(ResetCause::kExternal);
+  run_to_release();
+  run_s(0.3);  // in the LED flashes
+  const uint8_t* d = rig_.mcu().avr()->data;
+  const unsigned wgm = (d[m328p::kTCCR1A] & 0x3u) | ((d[m328p::kTCCR1B] >> 1) & 0xCu);
+  const bool clocked = (d[m328p::kTCCR1B] & 0x7u) != 0;
+  run_s(2.0);  // the watchdog, the application, its motors set up
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_TRUE(clocked && wgm == 0) << "Optiboot's LED timer, as this test assumes: mode " << wgm;
+  EXPECT_EQ(err.find("WGM"), std::string::npos) << err;
+}
+
 TEST_F(Bootloader, AByteThatIsNotStk500StartsTheApplicationAfter16Ms) {
   init(true);
   run_to_release();

@@ -37,5 +37,17 @@ TEST(HBridgeDuty, FloatingInputReadsHighWithoutPullDowns) {
   EXPECT_DOUBLE_EQ(oc1_duty(2, 40, 160, false, true, true), 0.25);  // an output is driven either way
 }
 
+// TCCR1A/B as written: WGM11:10 in TCCR1A bits 1:0, WGM13:12 in TCCR1B bits 4:3, CS12:10 in bits 2:0.
+TEST(HBridgeDuty, OnlyPwmOnTheBridgePinsInAnotherModeIsMisread) {
+  const uint8_t com_a = 0x80, com_b = 0x20;  // COM1A1, COM1B1: non-inverting PWM on OC1A, OC1B
+  const uint8_t mode8 = 0x10 | 0x01;         // WGM13, clk/1
+  EXPECT_EQ(8u, timer1_misread_mode(com_a | com_b, mode8));  // the firmware's motors
+  EXPECT_EQ(8u, timer1_misread_mode(0, mode8));              // the firmware with the motors off
+  EXPECT_EQ(8u, timer1_misread_mode(0, 0x05));               // Optiboot's LED timer: mode 0, clk/1024, no pin
+  EXPECT_EQ(8u, timer1_misread_mode(com_a | 0x02, 0x18));    // stopped clock: the pins are GPIOs
+  EXPECT_EQ(14u, timer1_misread_mode(com_a | 0x02, 0x18 | 0x01));  // fast PWM, TOP = ICR1: misread
+  EXPECT_EQ(0u, timer1_misread_mode(com_b, 0x01));                 // normal mode toggling OC1B: misread
+}
+
 }  // namespace
 }  // namespace cart2d

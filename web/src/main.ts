@@ -25,6 +25,7 @@ import { SimWorld } from "./sim_world";
 import { age, count } from "./format";
 import { FlagBadges, TelemetryClock } from "./health";
 import { LiveMap, type MapMode, type Pose } from "./map";
+import { MapMessage } from "./map_message";
 import { uploadBody, uploadMap } from "./map_upload";
 import { parseNumber } from "./parse";
 import { LivePlots } from "./plots";
@@ -122,7 +123,17 @@ function renderLink(): void {
 }
 window.setInterval(renderLink, 500);
 
-let statusErrorShown = "";
+// The toast pollStatus showed (the link's error, the gateway not answering): taken away as soon as it
+// is no longer true, so that no stale "sim-tty is not open yet" stays beside a connected link.
+let statusProblem = "";
+let gatewayDown = false;
+function showStatusProblem(text: string): void {
+  if (text === statusProblem) return;
+  if (statusProblem) toasts.dismiss(statusProblem);
+  if (text) notify(text);
+  statusProblem = text;
+}
+
 async function pollStatus(): Promise<void> {
   try {
     const s = await api<StatusView>("GET", "/api/status", undefined, 4000);
@@ -140,12 +151,11 @@ async function pollStatus(): Promise<void> {
     }
     renderMission(s.mission, false);
     restartNotice.update(s);
-    const linkError = s.link.error ? `The robot does not answer: ${s.link.error}` : "";
-    if (linkError && linkError !== statusErrorShown) notify(sentence(linkError));
-    statusErrorShown = linkError;
+    gatewayDown = false;
+    showStatusProblem(s.link.error ? sentence(`The robot does not answer: ${s.link.error}`) : "");
   } catch (err) {
-    if (gatewayUp || statusErrorShown !== "down") notify(errorText(err));
-    statusErrorShown = "down";
+    if (!gatewayDown) showStatusProblem(errorText(err));
+    gatewayDown = true;
     gatewayUp = false;
   }
   renderLink();
@@ -160,7 +170,7 @@ const liveMap = new LiveMap(
 );
 new CameraCard(ctx, liveMap);
 const simWorld = new SimWorld(ctx, liveMap);
-let mapMode: MapMode = "obstacle";
+let mapMode: MapMode = liveMap.mode; // "Go here": a first click sends the cart, it adds no obstacle
 let missionState = "";
 const MAP_HINTS: Record<MapMode, string> = {
   obstacle: "Click a node to add or remove an obstacle. Wheel or pinch to zoom, drag to pan.",
@@ -173,13 +183,14 @@ const MAP_MODES: readonly MapMode[] = ["obstacle", "goto", "pose", "box"];
 for (const radio of document.querySelectorAll<HTMLInputElement>('input[name="map-mode"]')) {
   radio.addEventListener("change", () => {
     if (!radio.checked) return;
-    mapMode = MAP_MODES.find((m) => m === radio.value) ?? "obstacle";
+    mapMode = MAP_MODES.find((m) => m === radio.value) ?? "goto";
     liveMap.mode = mapMode;
     canvas.dataset["mode"] = mapMode;
     $("map-hint").textContent = MAP_HINTS[mapMode];
   });
 }
 canvas.dataset["mode"] = mapMode;
+$("map-hint").textContent = MAP_HINTS[mapMode];
 $("map-zoom-in").addEventListener("click", () => liveMap.zoomIn());
 $("map-zoom-out").addEventListener("click", () => liveMap.zoomOut());
 $("map-fit").addEventListener("click", () => liveMap.fit());
@@ -231,7 +242,7 @@ async function loadMap(): Promise<void> {
 async function mapClick(world: Point, node: Point | null): Promise<void> {
   if (replaying) return;
   if (mapMode === "goto") {
-    await goTo(Math.round(world[0] * 1000) / 1000, Math.round(world[1] * 1000) / 1000);
+    await goTo(Math.round(world[0] * 1000) / 1000, Math.round(world[1] * 1000) / 1000, liveMap.toScreen(world[0], world[1]));
     return;
   }
   if (mapMode === "box") {
@@ -250,15 +261,23 @@ async function mapClick(world: Point, node: Point | null): Promise<void> {
   }
 }
 
-// A go-to's answer is said once, in the line under the map (a click in "Go here" mode included).
+// A go-to's answer is said once, where it was asked: in the form's line under the map, or for a
+// click in "Go here" mode on the map beside the point clicked (the line under the map may be below
+// the fold).
 const gotoMsg = $<HTMLOutputElement>("goto-msg");
-async function goTo(x: number, y: number): Promise<void> {
-  say(gotoMsg, `Planning to (${x.toFixed(2)}, ${y.toFixed(2)})…`);
+const mapMsg = new MapMessage($<HTMLOutputElement>("map-msg"));
+async function goTo(x: number, y: number, clicked?: Point): Promise<void> {
+  const answer = (text: string, error = false): void => {
+    if (clicked) mapMsg.say(text, clicked, error);
+    else say(gotoMsg, text, error);
+  };
+  if (clicked) say(gotoMsg, "");
+  answer(`Planning to (${x.toFixed(2)}, ${y.toFixed(2)})…`);
   try {
     const plan = await api<{ length_m: number; waypoints: Point[] }>("POST", "/api/goto", { x, y });
-    say(gotoMsg, `Driving to (${x.toFixed(2)}, ${y.toFixed(2)}): ${plan.length_m.toFixed(2)} m, ${count(plan.waypoints.length, "waypoint")}.`);
+    answer(`Driving to (${x.toFixed(2)}, ${y.toFixed(2)}): ${plan.length_m.toFixed(2)} m, ${count(plan.waypoints.length, "waypoint")}.`);
   } catch (err) {
-    say(gotoMsg, errorText(err), true);
+    answer(errorText(err), true);
   }
 }
 
@@ -483,6 +502,26 @@ $("plot-csv").addEventListener("click", () => {
   window.setTimeout(() => URL.revokeObjectURL(a.href), 1000);
 });
 $("clear-trail").addEventListener("click", () => liveMap.clearTrails());
+$("clear-obstacles").addEventListener("click", () => void clearObstacles());
+
+/** Every obstacle of the user's off the map, once confirmed (DELETE /api/map/obstacles). */
+async function clearObstacles(): Promise<void> {
+  if (replaying) return;
+  const n = liveMap.map?.obstacles.length ?? 0;
+  if (n === 0) {
+    notify("There are no obstacles to clear.", "info");
+    return;
+  }
+  const what = n === 1 ? "the obstacle" : `all ${n} obstacles`;
+  if (!window.confirm(`Remove ${what} from the map? The floor plan's walls stay.`)) return;
+  try {
+    const answer = await api<{ removed: Point[]; version: number }>("DELETE", "/api/map/obstacles");
+    await loadMap();
+    notify(`Removed ${count(answer.removed.length, "obstacle")}.`, "info");
+  } catch (err) {
+    notify(errorText(err));
+  }
+}
 
 // -- start -------------------------------------------------------------------------------------
 renderLink();

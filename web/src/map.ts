@@ -12,10 +12,12 @@
 // data-origin-y: CSS pixels of the world's (0, 0); data-scale: CSS pixels per metre), updated at
 // every zoom and pan, so tools and tests can find a node without reverse-engineering the drawing;
 // data-arena is the walls it draws ("x_min y_min x_max y_max", metres); data-boxes the number of
-// simulated boxes drawn.
+// simulated boxes drawn; data-plan the waypoints of the plan drawn (0: none); data-fov-extent the
+// field of view drawn, cut at the walls ("x_min y_min x_max y_max", metres).
 
 import type { Arena, MapView, Plan, Point, SimBox } from "./api";
 import { cssVar } from "./dom";
+import { clipFieldOfView, type FloorCells, floorOccupied } from "./field_of_view";
 import { AXIS_BOTTOM_PX, Viewport, drawAxes } from "./map_view";
 
 export interface Pose {
@@ -57,7 +59,7 @@ export class LiveMap {
   goal: Point | null = null;
   waypointIndex = -1;
   driving = false;
-  mode: MapMode = "obstacle";
+  mode: MapMode = "goto"; // a newcomer's first click sends the cart, it does not add an obstacle
   pose: Pose | null = null;
   truth: Pose | null = null;
   private rawPath: Point[] | null = null;
@@ -66,7 +68,8 @@ export class LiveMap {
   private readonly truthTrail: Point[] = [];
   private obstacleKeys = new Set<string>();
   private perceived: { resolution: number; cells: [number, number, number][] } = { resolution: 0.05, cells: [] };
-  private fov: Point[] = [];
+  private fov: Point[] = []; // as the gateway sent it
+  private fovSeen: Point[] | null = null; // cut at the walls (clipFieldOfView); null: not yet
   private boxes: SimBox[] = [];
   private hits: Point[] = [];
   private readonly view = new Viewport();
@@ -76,6 +79,7 @@ export class LiveMap {
   private hover: Point | null = null;
   private floor: HTMLCanvasElement | null = null; // the floor plan, recoloured
   private floorUrl = "";
+  private floorCells: FloorCells | null = null; // the floor plan's walls, for the field of view
   private readonly presses = new Map<number, Press>();
   private dragged = false;
   private pinch = 0; // the distance between two pointers at the last move
@@ -115,7 +119,11 @@ export class LiveMap {
   // -- what is drawn -------------------------------------------------------------------------------
   setMap(map: MapView): void {
     const newExtent = JSON.stringify(this.map?.arena) !== JSON.stringify(map.arena);
+    // A finished route was planned on the map before: not drawn through what changed since (a
+    // route being driven stays: the gateway replans it if the change blocks it).
+    if (this.map && map.version !== this.map.version && !this.driving) this.hidePlan();
     this.map = map;
+    this.fovSeen = null;
     this.obstacleKeys = new Set(map.obstacles.map(([x, y]) => this.key(x, y)));
     this.canvas.dataset["obstacles"] = String(map.obstacles.length);
     this.canvas.dataset["mapVersion"] = String(map.version ?? 0);
@@ -123,6 +131,7 @@ export class LiveMap {
     if (url !== this.floorUrl) {
       this.floorUrl = url;
       this.floor = null;
+      this.floorCells = null;
       if (url) void this.loadFloor(url);
     }
     if (newExtent) this.view.fitted = true;
@@ -139,6 +148,7 @@ export class LiveMap {
   /** The camera's field of view and the obstacle bases of its last processed frame. */
   setCamera(fov: Point[], hits: Point[]): void {
     this.fov = fov;
+    this.fovSeen = null;
     this.hits = hits;
     this.canvas.dataset["fov"] = String(fov.length);
     this.invalidate();
@@ -170,6 +180,7 @@ export class LiveMap {
     this.plan = key && key === this.hiddenPlan ? null : plan;
     this.goal = this.plan ? goal : null;
     if (this.plan) this.rawPath = null;
+    this.canvas.dataset["plan"] = String(this.plan?.waypoints.length ?? 0);
     this.invalidate();
   }
 
@@ -178,8 +189,8 @@ export class LiveMap {
     if (this.plan) this.hiddenPlan = JSON.stringify(this.plan.waypoints);
     this.plan = null;
     this.goal = null;
-    this.rawPath = null;
-    this.invalidate();
+    this.setRawPath(null);
+    this.canvas.dataset["plan"] = "0";
   }
 
   /** A path sent straight to the firmware (GOTO, WAIT_XY_ARRAY): drawn, and marked as unplanned. */
@@ -434,8 +445,10 @@ export class LiveMap {
     ctx.drawImage(image, 0, 0);
     const pixels = ctx.getImageData(0, 0, out.width, out.height);
     const d = pixels.data;
+    const occupiedCells = new Uint8Array(out.width * out.height);
     for (let k = 0; k < d.length; k += 4) {
       const grey = d[k] ?? 255;
+      if (grey === PNG_OCCUPIED) occupiedCells[k / 4] = 1;
       const colour = grey === PNG_OCCUPIED ? occupied : grey === PNG_UNKNOWN ? unknown : null;
       if (colour) {
         d[k] = colour[0];
@@ -448,6 +461,11 @@ export class LiveMap {
     }
     ctx.putImageData(pixels, 0, 0);
     this.floor = out;
+    const plan = this.map?.floor_plan;
+    this.floorCells = plan
+      ? { origin: plan.origin_m, resolution: plan.resolution_m, width: out.width, height: out.height, occupied: occupiedCells }
+      : null;
+    this.fovSeen = null;
     this.canvas.dataset["floorPlan"] = `${out.width}x${out.height}`;
     this.invalidate();
   }
@@ -621,13 +639,14 @@ export class LiveMap {
       ctx.fillRect(px - half, py - half, 2 * half, 2 * half);
     }
     ctx.globalAlpha = 1;
-    if (this.fov.length >= 3) {
+    const fov = this.seenFieldOfView();
+    if (fov.length >= 3) {
       ctx.strokeStyle = colors["fov"] ?? "";
       ctx.fillStyle = colors["fov"] ?? "";
       ctx.setLineDash([6, 4]);
       ctx.lineWidth = 1.5;
       ctx.beginPath();
-      this.fov.forEach(([x, y], k) => {
+      fov.forEach(([x, y], k) => {
         const [px, py] = this.toScreen(x, y);
         if (k === 0) ctx.moveTo(px, py);
         else ctx.lineTo(px, py);
@@ -646,6 +665,33 @@ export class LiveMap {
       ctx.arc(px, py, 2, 0, 2 * Math.PI);
       ctx.fill();
     }
+  }
+
+  /** The field of view cut where the map's walls and obstacles hide the floor (computed once per
+   * camera message or map change, from the cart's position then). */
+  private seenFieldOfView(): Point[] {
+    if (this.fovSeen) return this.fovSeen;
+    const m = this.map;
+    const step = Math.min(m?.step_m ?? 0.05, this.floorCells?.resolution ?? Infinity) / 2;
+    const from: Point | null = this.pose ? [this.pose.x, this.pose.y] : null;
+    const seen = clipFieldOfView(this.fov, from, (x, y) => this.hidesFloor(x, y), step);
+    this.fovSeen = seen;
+    const xs = seen.map((p) => p[0]);
+    const ys = seen.map((p) => p[1]);
+    this.canvas.dataset["fovExtent"] = seen.length
+      ? [Math.min(...xs), Math.min(...ys), Math.max(...xs), Math.max(...ys)].map((v) => v.toFixed(3)).join(" ")
+      : "";
+    return seen;
+  }
+
+  /** Whether the camera cannot see the floor at (x, y): beyond the walls, in a floor plan's
+   * occupied cell, or in a cell of the user's obstacles (as drawn). */
+  private hidesFloor(x: number, y: number): boolean {
+    const a = this.arena();
+    if (x < a.x_min || x > a.x_max || y < a.y_min || y > a.y_max) return true;
+    const node = this.obstacleKeys.size ? this.nearestNode([x, y]) : null;
+    if (node && this.hasObstacle(node)) return true;
+    return this.floorCells !== null && floorOccupied(this.floorCells, x, y);
   }
 
   private drawPaths(ctx: CanvasRenderingContext2D, colors: Record<string, string>): void {

@@ -3,8 +3,9 @@
 // at the bottom left, unless that would cover one of the controls they must keep clear of (the
 // map's mode switch, the command form: a notice above the cards, or scrolling, can bring those
 // down there); then at the top left, under the top bar. At most MAX_SHOWN at once, the oldest
-// leaving first; each can be dismissed; an error stays longer. What a form's own action answers
-// is said in that form's message line instead, once.
+// leaving first; each can be dismissed; an error stays longer, and one that is no longer true is
+// taken away (dismiss). What a form's own action answers is said in that form's message line
+// instead, once.
 
 const MAX_SHOWN = 3;
 const ERROR_MS = 10_000;
@@ -74,6 +75,14 @@ export class Toasts {
     item.addEventListener("pointerleave", () => {
       timer = window.setTimeout(remove, INFO_MS);
     });
+  }
+
+  /** Takes away the message saying `text`, if it is shown: what it said is no longer true. */
+  dismiss(text: string): void {
+    for (const old of this.box.querySelectorAll<HTMLElement>(".msg")) {
+      if (old.dataset["text"] === text) old.remove();
+    }
+    this.place();
   }
 
   /** Bottom left, or top left when only that keeps the controls to keep clear uncovered. */

@@ -25,6 +25,7 @@ const ROUTES: [string, string, string][] = [
   ["POST", "/api/firmware/load", ""],
   ["PUT", "/api/firmware/settings", '{"id": 6, "value": 0.3}'],
   ["PUT", "/api/map/obstacle", '{"x": 1.0, "y": 1.0}'],
+  ["DELETE", "/api/map/obstacles", ""],
   ["POST", "/api/pose", '{"x": 0.5, "y": 0.5, "theta": 1.0}'],
   ["POST", "/api/pose/accept", ""],
   ["POST", "/api/pose/reset-routine", ""],

@@ -107,6 +107,7 @@ test("toggling an obstacle on the map changes the map and its drawing", async ({
   expect((await obstacles(page)).some((o) => near(o, node))).toBe(false);
   await expect(page.locator("#map")).toHaveAttribute("data-obstacles", "0");
   const before = await pixel(page, node);
+  await page.locator("label", { hasText: "Obstacles" }).click(); // the map starts in Go here
 
   await clickMap(page, node);
   await expect.poll(async () => (await obstacles(page)).some((o) => near(o, node))).toBe(true);
@@ -125,6 +126,7 @@ test("a click in Go-here mode sends the robot around an obstacle to the point", 
   const w = await open(page);
   const blocker: Point = [0.4, 0.4];
   const goal: Point = [0.8, 0.8];
+  await page.locator("label", { hasText: "Obstacles" }).click();
   await clickMap(page, blocker);
   await expect.poll(async () => (await obstacles(page)).length).toBe(1);
 
@@ -610,6 +612,7 @@ test("off loopback: read-only without the token, a change asks for it, a wrong o
     await expect(page.locator("#token-form")).toBeHidden();
 
     // a change asks for the token
+    await page.locator("label", { hasText: "Obstacles" }).click();
     const node: Point = [1.0, 1.0];
     const [x, y] = await screenOf(page, node);
     await page.locator("#map").click({ position: { x, y } });

@@ -115,13 +115,16 @@ test("a go-to's error is said once, in the form", async ({ page }) => {
   await expect(page.locator("#goto-msg")).toContainText("The goal (5.000, 5.000) is off the map");
   await page.waitForTimeout(500);
   await expect(page.getByText("is off the map")).toHaveCount(1);
-  // a click off the map in "Go here" mode: the same place
-  await page.locator("label", { hasText: "Go here" }).click();
+  // a click off the map in "Go here" mode (the mode the map starts in): said once too, on the map
+  // beside the click, where the user looks (the form's line may be below the fold)
+  await expect(page.locator("#map")).toHaveAttribute("data-mode", "goto");
   const map = await box(page.locator("#map"));
   await page.locator("#map").click({ position: { x: 3, y: map.height - 3 } }); // beyond the walls
-  await expect(page.locator("#goto-msg")).toHaveClass(/form-error/);
+  await expect(page.locator("#map-msg")).toHaveClass(/form-error/);
+  await expect(page.locator("#map-msg")).toContainText("is off the map");
+  await expect(page.locator("#goto-msg")).toHaveText("");
   await page.waitForTimeout(500);
+  await expect(page.getByText("is off the map")).toHaveCount(1);
   await expect(page.locator("#messages .msg")).toHaveCount(0);
-  await page.locator("label", { hasText: "Obstacles" }).click();
   expect(w.pageErrors).toEqual([]);
 });
