@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+import urllib.request
 from pathlib import Path
 from typing import Any
 
@@ -155,5 +156,40 @@ def test_after_clear_perceived_a_box_seen_is_on_the_map_and_blocks_the_route(tmp
             legs = zip([plan.start, *plan.waypoints], plan.waypoints, strict=False)
             assert min(segment_square_distance(a, b, box, 0.1) for a, b in legs) > 0.0  # round it
             assert plan.length_m > 1.2 + 0.05
+    finally:
+        rig.close()
+
+
+def test_a_change_of_framesize_at_rest_leaves_perception_seeing_once_it_is_back(tmp_path: Path) -> None:
+    # The simulated camera's own /control?var=framesize&val=8 then =5 while the cart stands: once,
+    # the drawing of the last QVGA frame on a VGA one raised IndexError and the feed's thread ended
+    # for good, while /api/camera said connected at 15 fps; the cart then drove into a box.
+    rig = GatewayRig(tmp_path, WIDE, speed="1")
+    client = TestClient(create_app(rig.gateway), base_url=BASE_URL, headers=JSON)
+    try:
+        rig.sim.control("place", x=0.4, y=0.8, theta=0.0)
+        rig.link.call("SET_POSE", 0.4, 0.8, 0.0)
+        rig.sim.add_boxes([Box(1.1, 0.8, 0.2, 0.2)])
+        with mission_camera(rig.gateway, rig.sim, None):
+            seeing, feed = rig.gateway.seeing, rig.gateway.camera
+            assert seeing is not None and feed is not None and feed.base_url is not None
+            wait_for(lambda: seeing.idle_skipped > 0, 60.0)  # at rest: the last drawing is reused
+
+            def framesize(index: int) -> None:
+                with urllib.request.urlopen(f"{feed.base_url}/control?var=framesize&val={index}", timeout=10):
+                    pass
+
+            framesize(8)  # VGA: perception's calibration is for QVGA
+            wait_for(lambda: feed.status()["width"] == 640 and feed.status()["state"] == "blind", 60.0)
+            state = client.get("/api/camera").json()
+            assert state["worker"] == "running" and state["processor_errors"] > 0
+            assert "a 640 x 480 image; the calibration is for (320, 240)" in state["problem"]
+            framesize(5)
+            wait_for(lambda: feed.status()["width"] == 320, 60.0)
+            seen = seeing.frames
+            wait_for(lambda: seeing.frames >= seen + 5, 60.0)
+            state = client.get("/api/camera").json()
+            assert state["worker"] == "running" and state["worker_errors"] == 0
+            assert client.get("/api/perception").json()["cells"]  # the box, still on the map
     finally:
         rig.close()
