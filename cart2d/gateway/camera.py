@@ -133,6 +133,7 @@ class CameraFeed:
         self.taken = 0  # frames decoded that every processor took in without an error
         self.taken_s: float | None = None  # time.monotonic() of the last of them
         self.problem = ""  # what went wrong with the frames since the last one taken in, in words
+        self.in_hand: int | None = None  # the seq of the frame the processors are working on
         self._logged: set[str] = set()  # the kinds of failure logged (once each)
         self.skipped = 0  # frames that came while the one before was still being processed
         self.process_ms = 0.0  # the last frame's decoding, processing and re-encoding
@@ -300,16 +301,20 @@ class CameraFeed:
     def _take_in(self, frame: Frame, image: np.ndarray, processors: tuple[Processor, ...]) -> list[Overlay]:
         """Each processor's take on the frame; the frame is taken in if none failed."""
         overlays, failed = [], False
-        for processor in processors:
-            try:
-                overlay = processor(frame, image)
-            except Exception as exc:  # a processor's bug, or a frame it cannot take: counted
-                self.processor_errors += 1
-                self.problem = self._failed("a camera frame processor failed", exc)
-                failed = True
-                continue
-            if overlay is not None:
-                overlays.append(overlay)
+        self.in_hand = frame.seq
+        try:
+            for processor in processors:
+                try:
+                    overlay = processor(frame, image)
+                except Exception as exc:  # a processor's bug, or a frame it cannot take: counted
+                    self.processor_errors += 1
+                    self.problem = self._failed("a camera frame processor failed", exc)
+                    failed = True
+                    continue
+                if overlay is not None:
+                    overlays.append(overlay)
+        finally:
+            self.in_hand = None
         if not failed:
             self.taken += 1
             self.taken_s = time.monotonic()
