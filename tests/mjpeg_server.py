@@ -178,16 +178,20 @@ class MjpegServer:
 
 
 def main() -> None:
-    """`python -m tests.mjpeg_server`: a well-behaved test camera until killed (the panel's tests)."""
+    """`python -m tests.mjpeg_server`: a well-behaved test camera until killed (the panel's tests;
+    one stopped with SIGSTOP stalls)."""
     import argparse
     import signal
 
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--every-s", type=float, default=0.1)
+    parser.add_argument("--width", type=int, help="frames of this size, a plain grey (default 32 x 24)")
+    parser.add_argument("--height", type=int)
     args = parser.parse_args()
     stop = {signal.SIGINT, signal.SIGTERM}
     signal.pthread_sigmask(signal.SIG_BLOCK, stop)  # waited for below, so the server closes
-    with MjpegServer([], then_every_s=args.every_s) as server:
+    jpeg = jpeg_of(128, args.width, args.height) if args.width and args.height else None
+    with MjpegServer([], then_every_s=args.every_s, jpeg=jpeg) as server:
         print(server.url, flush=True)
         signal.sigwait(stop)
 
