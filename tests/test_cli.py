@@ -149,7 +149,7 @@ def test_host_and_port_given_apply_to_that_run_only(tmp_path: Path) -> None:
     token is needed from this machine too, and leaves the saved address as it was (only the
     token is kept)."""
     port = free_port()
-    run = ["sim", "--host", "0.0.0.0", "--port", str(port), "--fault", "enc_slip_l=0.05"]
+    run = ["sim", "--host", "0.0.0.0", "--port", str(port), "--fault", "enc_slip_l=0.05", "--no-camera"]
     gateway = subprocess.Popen(
         [sys.executable, "-m", "cart2d.cli", *run],
         env={**os.environ, "CART2D_HOME": str(tmp_path)},
