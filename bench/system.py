@@ -53,6 +53,7 @@ from bench.common import Section, percentile, section_main, spread, table
 from bench.firmware import TICK_HZ, drive_square
 from cart2d.gateway import Gateway
 from cart2d.link import Link
+from cart2d.mission_camera import free_port_pair
 from cart2d.simulator import SideChannel, SimOptions, Simulator
 from cart2d.spec import load_spec
 
@@ -101,7 +102,8 @@ def gateway_process(port: int, home: str, conn: Connection) -> None:
             super()._publish(message)
 
     cli.Gateway = StampedGateway  # type: ignore[attr-defined]  # the class cmd_sim builds
-    cli.main(["sim", "--port", str(port), "--host", "127.0.0.1"])
+    camera = str(free_port_pair())  # the simulated camera as a user has it, on ports nobody else holds
+    cli.main(["sim", "--port", str(port), "--host", "127.0.0.1", "--camera-port", camera])
 
 
 def free_port() -> int:

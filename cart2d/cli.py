@@ -8,6 +8,7 @@ import argparse
 import contextlib
 import logging
 import signal
+import socket
 import sys
 import threading
 from collections.abc import Sequence
@@ -27,6 +28,7 @@ from cart2d.perception.calibrate_command import add_arguments as add_camera_cali
 from cart2d.perception.calibrate_command import main_camera_calibrate
 from cart2d.recording import cli as recording_cli
 from cart2d.server import addresses, create_app, is_loopback, serving
+from cart2d.simulation.camera import HOST as SIM_CAMERA_HOST
 from cart2d.simulation.camera import SimCameraServer
 from cart2d.simulator import SimOptions, Simulator, SimulatorError, World, default_bootloader
 from cart2d.store import Store
@@ -171,7 +173,12 @@ def cmd_sim(args: argparse.Namespace) -> int:
     where = _listen(store, args)
     if where is None:
         return 1
-    with contextlib.closing(where.sock):
+    with contextlib.closing(where.sock), contextlib.ExitStack() as listeners:
+        camera_socks = _camera_listeners(args)
+        if camera_socks is None:
+            return 1
+        for sock in camera_socks:
+            listeners.enter_context(contextlib.closing(sock))
         store.directory.mkdir(parents=True, exist_ok=True)
         options = SimOptions(
             speed=args.speed,
@@ -188,7 +195,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
         except SimulatorError as exc:
             print(f"cart2d sim: {exc}", file=sys.stderr)
             return 2
-        camera = _start_camera(sim, args)
+        camera = _start_camera(sim, args, camera_socks)
         link = Link(sim.pty).open()
         gateway = Gateway(link, store, where.settings, sim)
         try:
@@ -223,14 +230,40 @@ def cmd_sim(args: argparse.Namespace) -> int:
     return 0
 
 
-def _start_camera(sim: Simulator, args: argparse.Namespace) -> SimCameraServer | None:
-    """The simulated ESP32-CAM's server (None with --no-camera, or once why not is printed: the
-    cart drives without it); its base URL is kept as sim.camera_url, what `serve --camera` takes
-    for a real camera."""
+def _camera_listeners(args: argparse.Namespace) -> list[socket.socket] | None:
+    """The simulated ESP32-CAM's listening sockets, its port and its stream's (the next one),
+    opened before anything starts as the panel's is; [] with --no-camera; None once why not is
+    printed (a port in use: one sentence, not uvicorn's errno)."""
+    if args.no_camera:
+        return []
+    opened: list[socket.socket] = []
+    try:
+        for port in (args.camera_port, args.camera_port + 1):
+            opened.append(addresses.open_listener(SIM_CAMERA_HOST, port))
+    except addresses.CannotListen as exc:
+        for sock in opened:
+            sock.close()
+        print(
+            f"cart2d sim: the simulated camera cannot listen: {exc} (--camera-port P takes P and P + 1, "
+            "--no-camera runs without it)",
+            file=sys.stderr,
+        )
+        return None
+    return opened
+
+
+def _start_camera(
+    sim: Simulator, args: argparse.Namespace, socks: list[socket.socket]
+) -> SimCameraServer | None:
+    """The simulated ESP32-CAM's server on its listening sockets (None with --no-camera, or once
+    why not is printed: the cart drives without it); its base URL is kept as sim.camera_url, what
+    `serve --camera` takes for a real camera."""
     if args.no_camera:
         return None
     try:
-        camera = SimCameraServer(lambda: sim.control_address, args.camera_port).start()
+        camera = SimCameraServer(
+            lambda: sim.control_address, args.camera_port, SIM_CAMERA_HOST, socks
+        ).start()
     except SimulatorError as exc:
         print(f"cart2d sim: {exc}; running without it (--camera-port chooses another port)", file=sys.stderr)
         return None
@@ -331,7 +364,7 @@ def build_parser() -> argparse.ArgumentParser:
     recording_cli.add_live_arguments(sim)
     sim.add_argument(
         "--camera-port",
-        type=cli_args.port_number,
+        type=cli_args.camera_port_number,
         default=8180,
         help="the simulated ESP32-CAM's port (/capture, /status, /control); its stream on the next one "
         "(default 8180)",

@@ -32,6 +32,16 @@ def port_number(text: str) -> int:
     return port
 
 
+def camera_port_number(text: str) -> int:
+    """A port P for the simulated ESP32-CAM, whose stream takes P + 1 as the stock sketch's does."""
+    port = port_number(text)
+    if port == 65535:
+        raise argparse.ArgumentTypeError(
+            "65535 leaves no port for the camera's stream (the next one): give 1 to 65534"
+        )
+    return port
+
+
 def host(text: str) -> str:
     try:
         return address_or_host_name(text)

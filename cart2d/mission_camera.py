@@ -72,7 +72,8 @@ def _wait_until_seeing(gateway: Gateway, frames: int = 3, wall_timeout_s: float 
 def perception_report(gateway: Gateway) -> dict[str, Any]:
     """What perception did in the mission: frames seen, its calibration, the cells it believed
     occupied at the end (x, y, p); each processed frame's capture stamp (simulated s) and the
-    odometry pose it was seen from, and the replans frames caused with those frames' stamps."""
+    odometry pose it was seen from, the replans frames caused with those frames' stamps, and the
+    longest the camera was blind while the cart drove."""
     seeing = gateway.seeing
     view = gateway.perception_view()
     frames = list(seeing.frame_log) if seeing else []
@@ -87,6 +88,9 @@ def perception_report(gateway: Gateway) -> dict[str, Any]:
         "frames_without_pose": seeing.skipped if seeing else 0,
         "frames_left_out_at_rest": seeing.idle_skipped if seeing else 0,
         "calibrated": bool(seeing and seeing.calibration and seeing.calibration.calibrated),
+        # the longest the camera took no frame in while a goal was driven (simulated s; the cart
+        # stops at robot.toml's camera_blind_s)
+        "longest_blind_s": round(gateway.blind_watch.longest_s, 3),
         "resolution_m": view["resolution"],
         "cells": view["cells"],
     }

@@ -94,7 +94,8 @@ def wait_sim_time(sim: Simulator, seconds: float, wall_timeout_s: float = 30.0) 
 
 class GatewayProcess:
     """`cart2d sim` in a process of its own, on a free port of 127.0.0.1 with its own CART2D_HOME
-    and `extra` options, its output in a file."""
+    and `extra` options (without the simulated camera unless they give its port), its output in a
+    file."""
 
     def __init__(self, home: Path, max_open_files: int | None = None, extra: Sequence[str] = ()) -> None:
         with socket.socket() as probe:
@@ -108,9 +109,11 @@ class GatewayProcess:
             if max_open_files is not None:
                 resource.setrlimit(resource.RLIMIT_NOFILE, (max_open_files, max_open_files))
 
+        # the simulated camera only when asked for (its default port may be another run's)
+        camera = [] if "--camera-port" in extra or "--no-camera" in extra else ["--no-camera"]
         with self.log_path.open("wb") as log:
             self.process = subprocess.Popen(
-                [sys.executable, "-m", "cart2d.cli", "sim", "--port", str(self.port), *extra],
+                [sys.executable, "-m", "cart2d.cli", "sim", "--port", str(self.port), *camera, *extra],
                 env={**os.environ, "CART2D_HOME": str(home)},
                 stdout=log,
                 stderr=subprocess.STDOUT,

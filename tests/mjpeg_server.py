@@ -8,21 +8,28 @@ increasing stamps until the client goes away. Steps:
   ("garbage", bytes)          bytes between parts
   ("cut", stamp)              a part whose connection drops halfway through its JPEG
   ("stall", seconds)          nothing is sent for that long (the socket stays open)
+  ("trickle", (where, s))     a part sent one byte every s seconds, where = "headers" (the
+                              boundary and the part's headers; then its JPEG at once) or "body"
+                              (the headers at once, then the JPEG), until the client hangs up
+  ("image", (stamp, jpeg))    a part with that JPEG
 The server is http.server's (the test side of HTTP is a library too); JPEGs by cv2.imencode.
 """
 
 from __future__ import annotations
 
 import http.server
+import io
 import itertools
 import select
 import socket
+import struct
 import threading
 import time
 from typing import Any
 
 import cv2
 import numpy as np
+from PIL import JpegImagePlugin
 
 BOUNDARY = "123456789000000000000987654321"  # the stock sketch's
 
@@ -32,6 +39,15 @@ def jpeg_of(level: int, width: int = 32, height: int = 24) -> bytes:
     ok, data = cv2.imencode(".jpg", np.full((height, width, 3), level, dtype=np.uint8))
     assert ok
     return bytes(data)
+
+
+def declaring(jpeg: bytes, width: int, height: int) -> bytes:
+    """`jpeg` with its frame header (SOF0) declaring `width` x `height`: what a hostile camera
+    sends, a decompression bomb of a few hundred bytes (Pillow reads the size back)."""
+    at = jpeg.index(b"\xff\xc0") + 5  # the marker, its length (2) and precision (1): height, width
+    out = jpeg[:at] + struct.pack(">HH", height, width) + jpeg[at + 4 :]
+    assert JpegImagePlugin.JpegImageFile(io.BytesIO(out)).size == (width, height)  # no bomb warning
+    return out
 
 
 def level_for(stamp: float) -> int:
@@ -111,8 +127,13 @@ class MjpegServer:
                 return  # the handler returns: the server closes the connection mid-part
             elif step == "stall":
                 out.flush()
-                if self.stall(handler, value):
-                    return
+                self.wait(handler, value)
+                return  # the handler returns: the server closes the connection
+            elif step == "trickle":
+                self.trickle(handler, *value)
+                return
+            elif step == "image":
+                out.write(part(value[0], jpeg=value[1]))
             out.flush()
         while not self.closing.is_set():
             stamp = time.monotonic() if self.stamp_now else next(self.stamps) / 10
@@ -120,7 +141,7 @@ class MjpegServer:
             out.flush()
             time.sleep(self.then_every_s)
 
-    def stall(self, handler: http.server.BaseHTTPRequestHandler, seconds: float) -> bool:
+    def wait(self, handler: http.server.BaseHTTPRequestHandler, seconds: float) -> bool:
         """Sends nothing for `seconds`; True as soon as the client hung up (or the server closes),
         as the ESP32 notices a client that went away and takes the next."""
         end = time.monotonic() + seconds
@@ -128,7 +149,23 @@ class MjpegServer:
             readable, _, _ = select.select([handler.connection], [], [], 0.05)
             if readable and handler.connection.recv(1, socket.MSG_PEEK) == b"":
                 return True
-        return True
+        return self.closing.is_set()
+
+    def trickle(self, handler: http.server.BaseHTTPRequestHandler, where: str, every_s: float) -> None:
+        """A part one byte every `every_s` (its headers, or its JPEG), until the client hangs up."""
+        data = part(next(self.stamps) / 10)
+        split = data.index(b"\r\n\r\n", 2) + 4  # the end of the part's headers
+        fast, slow, rest = (
+            (b"", data[:split], data[split:]) if where == "headers" else (data[:split], data[split:], b"")
+        )
+        handler.wfile.write(fast)
+        for byte in slow:
+            handler.wfile.write(bytes([byte]))
+            handler.wfile.flush()
+            if self.wait(handler, every_s):
+                return
+        handler.wfile.write(rest)
+        handler.wfile.flush()
 
     def __enter__(self) -> MjpegServer:
         self.thread.start()
@@ -141,16 +178,20 @@ class MjpegServer:
 
 
 def main() -> None:
-    """`python -m tests.mjpeg_server`: a well-behaved test camera until killed (the panel's tests)."""
+    """`python -m tests.mjpeg_server`: a well-behaved test camera until killed (the panel's tests;
+    one stopped with SIGSTOP stalls)."""
     import argparse
     import signal
 
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--every-s", type=float, default=0.1)
+    parser.add_argument("--width", type=int, help="frames of this size, a plain grey (default 32 x 24)")
+    parser.add_argument("--height", type=int)
     args = parser.parse_args()
     stop = {signal.SIGINT, signal.SIGTERM}
     signal.pthread_sigmask(signal.SIG_BLOCK, stop)  # waited for below, so the server closes
-    with MjpegServer([], then_every_s=args.every_s) as server:
+    jpeg = jpeg_of(128, args.width, args.height) if args.width and args.height else None
+    with MjpegServer([], then_every_s=args.every_s, jpeg=jpeg) as server:
         print(server.url, flush=True)
         signal.sigwait(stop)
 

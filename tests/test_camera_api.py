@@ -1,6 +1,8 @@
 """The camera on the gateway (cart2d/gateway/camera.py, cart2d/server/camera.py): the feed of a
 test camera (tests/mjpeg_server.py), its frames with the processors' overlays, and the re-stream
-to any number of panels, a slow one of which loses frames and holds no more than its backlog."""
+to any number of panels, a slow one of which loses frames and holds no more than its backlog;
+frames an OV2640 does not send refused before decoding, no frame ending the feed's thread, and
+/api/camera saying whether the frames are taken in, and why not."""
 
 from __future__ import annotations
 
@@ -17,12 +19,12 @@ from fastapi import Depends, FastAPI
 from fastapi.testclient import TestClient
 
 from cart2d.gateway import Gateway
-from cart2d.gateway.camera import CameraFeed, Overlay, stream_url_for
-from cart2d.perception.mjpeg import Frame, MjpegReader
+from cart2d.gateway.camera import CameraFeed, Overlay, frame_problem, stream_url_for
+from cart2d.perception.mjpeg import MAX_PART_BYTES, Frame, MjpegReader
 from cart2d.server import create_app, serving
 from cart2d.server.camera import CAMERA_BACKLOG, add_camera_routes
 from tests.conftest import wait_for
-from tests.mjpeg_server import MjpegServer
+from tests.mjpeg_server import MjpegServer, declaring, jpeg_of
 from tests.test_server import Rig
 
 
@@ -213,3 +215,80 @@ def test_a_restream_without_frames_for_a_while_ends() -> None:
             assert b"X-Timestamp: 1.000000\r\n" in answer.content
         finally:
             feed.stop()
+
+
+def camera_api(feed: CameraFeed) -> TestClient:
+    """/api/camera and friends for `feed` alone (no gateway, no simulator)."""
+    app = FastAPI()
+    add_camera_routes(app, cast(Gateway, SimpleNamespace(camera=feed, seeing=None)), Depends(lambda: None))
+    return TestClient(app)
+
+
+def test_an_overlay_that_cannot_be_drawn_leaves_the_frames_coming() -> None:
+    # Once, the overlay drawn for a frame of the size before (the camera's framesize changed)
+    # raised IndexError: only cv2.error was suppressed, the feed's thread ended for good and
+    # /api/camera still said connected at 15 fps.
+    def stale_drawing(frame: Frame, bgr: np.ndarray) -> Overlay:
+        return Overlay(lambda canvas: canvas.__setitem__((239, 319), 255))  # a QVGA pixel, on 32 x 24
+
+    with MjpegServer([], then_every_s=0.01) as camera:
+        feed = CameraFeed(camera.url)
+        feed.add_processor(stale_drawing)
+        feed.start()
+        try:
+            wait_for(lambda: feed.decoded >= 20, 30.0)
+            state = camera_api(feed).get("/api/camera").json()
+            assert state["worker"] == "running" and state["state"] == "seeing"
+            assert state["overlay_errors"] >= 19 and state["taken"] >= 20 and state["worker_errors"] == 0
+            assert state["age_s"] is not None and state["problem"] == ""
+        finally:
+            feed.stop()
+    assert feed.status()["worker"] == "stopped"
+
+
+def test_frames_larger_than_an_ov2640_sends_are_refused_before_decoding() -> None:
+    # Once, a 586 KB JPEG decoding to 10000 x 10000 took the gateway from 178 to 1008 MB.
+    bomb = declaring(jpeg_of(128), 10_000, 10_000)  # declared in a few hundred bytes
+    frames = [bomb, jpeg_of(128, 1601, 1200), jpeg_of(128)]
+    feed = CameraFeed("http://127.0.0.1:1/stream")  # frames handed over as the reader does
+    feed.start()
+    try:
+        for k, jpeg in enumerate(frames):
+            feed._arrived(Frame(jpeg, k + 1, float(k), 0.0))
+            wait_for(lambda n=k: feed.refused + feed.decoded > n, 30.0)  # type: ignore[misc]
+        state = feed.status()
+    finally:
+        feed.stop()
+    assert state["refused"] == 2 and state["decoded"] == 1 and state["decode_errors"] == 0
+    assert (state["width"], state["height"]) == (32, 24)  # only the grey frame after them was decoded
+
+
+def test_the_frame_problem_says_why_in_words() -> None:
+    assert frame_problem(jpeg_of(128, 1600, 1200)) is None
+    assert frame_problem(jpeg_of(128, 1601, 1200)) == (
+        "a frame of 1601 x 1200 pixels was refused (an OV2640 sends at most 1600 x 1200)"
+    )
+    too_big = frame_problem(b"\xff\xd8" + bytes(MAX_PART_BYTES))
+    assert too_big is not None and "bytes was refused" in too_big
+    damaged = frame_problem(b"\xff\xd8\xff\xe0 not a header")
+    assert damaged is not None and damaged.startswith("a frame that is not a readable JPEG was refused")
+
+
+def test_a_camera_whose_frames_perception_cannot_take_is_reported_blind_with_why() -> None:
+    def vga_only(frame: Frame, bgr: np.ndarray) -> None:
+        raise ValueError(f"a {bgr.shape[1]} x {bgr.shape[0]} image; the calibration is for (640, 480)")
+
+    with MjpegServer([], then_every_s=0.01) as camera:
+        feed = CameraFeed(camera.url, blind_s=0.2)
+        feed.add_processor(vga_only)
+        feed.start()
+        try:
+            wait_for(lambda: feed.decoded >= 5, 30.0)
+            state = camera_api(feed).get("/api/camera").json()
+        finally:
+            feed.stop()
+    assert state["connected"] and state["worker"] == "running"  # the stream and the thread are fine...
+    assert state["state"] == "blind" and state["age_s"] is None and state["taken"] == 0  # ...the eyes are not
+    assert state["problem"] == (
+        "a camera frame processor failed: ValueError: a 32 x 24 image; the calibration is for (640, 480)"
+    )

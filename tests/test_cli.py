@@ -93,6 +93,41 @@ def test_a_port_in_use_is_one_sentence_and_no_url(tmp_path: Path, listening_else
     assert not (tmp_path / "settings.json").exists()
 
 
+def listening_after_a_free_port() -> socket.socket:
+    """A socket another program listens on, at a port P whose P - 1 is free (bound for a moment)."""
+    while True:
+        other = socket.socket()
+        other.bind(("127.0.0.1", 0))
+        other.listen()
+        with socket.socket() as before:
+            try:
+                before.bind(("127.0.0.1", other.getsockname()[1] - 1))
+                return other
+            except OSError:
+                other.close()
+
+
+@pytest.mark.parametrize("stream", [False, True])
+def test_a_camera_port_in_use_is_one_sentence_before_anything_starts(tmp_path: Path, stream: bool) -> None:
+    # once uvicorn's "[Errno 98] error while attempting to bind", and the cart ran without camera
+    with listening_after_a_free_port() as other:
+        in_use = other.getsockname()[1]
+        camera_port = in_use - 1 if stream else in_use  # the stream's is the next port
+        done = cart2d(tmp_path, "sim", "--port", str(free_port()), "--camera-port", str(camera_port))
+    assert done.returncode == 1
+    line = one_sentence(done.stderr)
+    assert line.startswith("cart2d sim: the simulated camera cannot listen: ") and "--camera-port" in line
+    assert f"127.0.0.1 port {in_use} is in use" in line
+    assert "Errno" not in line and "simulator running" not in done.stdout and "http://" not in done.stdout
+    assert not (tmp_path / "sim-eeprom.bin").exists()  # the simulator never started
+
+
+def test_the_camera_port_leaves_room_for_its_stream(tmp_path: Path) -> None:
+    done = cart2d(tmp_path, "sim", "--camera-port", "65535")
+    assert done.returncode == 2
+    assert "65535 leaves no port for the camera's stream" in one_sentence(done.stderr)
+
+
 def test_an_address_this_machine_does_not_have_is_one_sentence_and_not_saved(tmp_path: Path) -> None:
     done = cart2d(tmp_path, "sim", "--host", NOT_HERE, "--port", str(free_port()))
     assert done.returncode == 1
@@ -114,7 +149,7 @@ def test_host_and_port_given_apply_to_that_run_only(tmp_path: Path) -> None:
     token is needed from this machine too, and leaves the saved address as it was (only the
     token is kept)."""
     port = free_port()
-    run = ["sim", "--host", "0.0.0.0", "--port", str(port), "--fault", "enc_slip_l=0.05"]
+    run = ["sim", "--host", "0.0.0.0", "--port", str(port), "--fault", "enc_slip_l=0.05", "--no-camera"]
     gateway = subprocess.Popen(
         [sys.executable, "-m", "cart2d.cli", *run],
         env={**os.environ, "CART2D_HOME": str(tmp_path)},

@@ -1,6 +1,6 @@
 """The MJPEG reader (cart2d/perception/mjpeg.py) against a test camera that misbehaves on purpose
-(tests/mjpeg_server.py): dropped connections, a stalled stream, repeated and stale stamps,
-garbage between parts, one stream client at a time."""
+(tests/mjpeg_server.py): dropped connections, a stalled stream and one trickling bytes, repeated
+and stale stamps, garbage between parts, one stream client at a time."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import itertools
 import socket
 import threading
 from collections.abc import AsyncIterator, Iterator
+from typing import Any
 
 import cv2
 import numpy as np
@@ -54,11 +55,11 @@ def level(frame: Frame) -> float:
     return float(image.mean())
 
 
-def reading(server: MjpegServer, collected: Collected, **options: float) -> Iterator[MjpegReader]:
+def reading(server: MjpegServer, collected: Collected, **options: Any) -> Iterator[MjpegReader]:
     return reading_url(server.url, collected, **options)
 
 
-def reading_url(url: str, collected: Collected, **options: float) -> Iterator[MjpegReader]:
+def reading_url(url: str, collected: Collected, **options: Any) -> Iterator[MjpegReader]:
     """The reader, started, for the loop's body; stopped after it."""
     reader = MjpegReader(url, collected, **options).start()
     try:
@@ -108,6 +109,33 @@ def test_a_stalled_stream_is_given_up_and_reopened(collected: Collected) -> None
             wait_for(lambda: 2.0 in collected.stamps(), 10.0)
             assert collected.stamps()[:2] == [1.0, 2.0]
             assert reader.status()["reconnects"] >= 1
+
+
+@pytest.mark.parametrize("where", ["headers", "body"])
+def test_a_camera_trickling_a_byte_at_a_time_inside_a_part_is_called_stalled(
+    collected: Collected, where: str
+) -> None:
+    # A byte every 0.1 s, well within the socket's timeout: once, the reader stayed connected for
+    # good (the stall timer ran on bytes), and the frame's age grew without limit.
+    first = [("frame", 1.0), ("trickle", (where, 0.1))]
+    with MjpegServer([first, [("frame", 2.0)]]) as server:
+        for reader in reading(server, collected, stale_after_s=0.5):
+            wait_for(lambda: 2.0 in collected.stamps(), 30.0)
+            assert collected.stamps()[:2] == [1.0, 2.0]  # the trickled part never handed over
+            status = reader.status()
+            assert (
+                status["reconnects"] >= 1
+                and "no frame read for 0.5 s: the stream stalled" in status["last_error"]
+            )
+
+
+def test_with_a_decoder_the_stall_timer_runs_on_frames_it_decoded(collected: Collected) -> None:
+    # frames keep coming, but none is said to be decoded: the connection is given up again and again
+    with MjpegServer([]) as server:
+        for reader in reading(server, collected, stale_after_s=0.3, decodes_frames=True):
+            wait_for(lambda r=reader: r.status()["reconnects"] >= 2, 30.0)  # type: ignore[misc]
+            assert collected.count() > 0
+            assert "no frame decoded for 0.3 s" in reader.status()["last_error"]
 
 
 def test_repeated_and_stale_stamps_are_dropped_and_counted(collected: Collected) -> None:

@@ -203,7 +203,16 @@ def test_sim_with_foxglove_serves_the_sdk_websocket_and_records(tmp_path: Path) 
     """`cart2d sim --foxglove PORT --record DIR`: a Foxglove client connects with the SDK's
     subprotocol and is told the channels; the session's file is complete after a SIGTERM."""
     port, fox = free_port(), free_port()
-    run = ["sim", "--port", str(port), "--foxglove", str(fox), "--record", str(tmp_path / "rec")]
+    run = [
+        "sim",
+        "--port",
+        str(port),
+        "--foxglove",
+        str(fox),
+        "--record",
+        str(tmp_path / "rec"),
+        "--no-camera",
+    ]
     gateway = subprocess.Popen(
         [sys.executable, "-m", "cart2d.cli", *run],
         env={**os.environ, "CART2D_HOME": str(tmp_path / "home")},

@@ -1,23 +1,32 @@
 """The gateway sees (cart2d/gateway/seeing.py): the pose at a frame's capture from telemetry as it
-arrived, hand-computed; a cleared perceived layer forgets what was seen; and missions in the
-simulator whose boxes the map does not show, driven with the simulated camera and perception
-(cart2d/mission_camera.py) against the same missions driven blind."""
+arrived, hand-computed; a cleared perceived layer forgets what was seen and sees again at once;
+and missions in the simulator whose boxes the map does not show, driven with the simulated camera
+and perception (cart2d/mission_camera.py) against the same missions driven blind."""
 
 from __future__ import annotations
 
 import json
 import math
+import urllib.request
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+from fastapi.testclient import TestClient
 
 from cart2d.gateway.seeing import PoseHistory, Seeing
 from cart2d.mission import MissionSpec, run_mission
+from cart2d.mission_camera import mission_camera
+from cart2d.planning import segment_square_distance
 from cart2d.recording.channels import TOPIC_CAMERA
+from cart2d.server import create_app
+from cart2d.simulator import Box
+from tests.conftest import wait_for
+from tests.test_live_map import WIDE, GatewayRig
 from tests.test_look import QuietGateway
 from tests.test_recording import Read
+from tests.test_server import BASE_URL, JSON
 
 
 def test_the_pose_at_a_time_between_two_frames_is_interpolated_the_short_way_round() -> None:
@@ -113,3 +122,74 @@ def test_a_cart_standing_still_a_second_has_one_frame_in_three_taken_in() -> Non
     assert sum(taken[15:]) == 15  # then one in three
     assert not seeing._idle((0.6, 0.5, 0.0), 4.0)  # moved: every frame again
     assert not seeing._idle((0.6, 0.5, 0.0), 4.1)
+
+
+def test_after_clear_perceived_a_box_seen_is_on_the_map_and_blocks_the_route(tmp_path: Path) -> None:
+    # Once, a clear that left no cell believed after one frame (a cell needs two hits) was taken
+    # for a new clear at every frame: the cart stayed blind until the gateway restarted.
+    rig = GatewayRig(tmp_path, WIDE, speed="1")  # the camera in real time, as `cart2d sim` runs it
+    client = TestClient(create_app(rig.gateway), base_url=BASE_URL, headers=JSON)
+    try:
+        rig.sim.control("place", x=0.4, y=0.8, theta=0.0)
+        rig.link.call("SET_POSE", 0.4, 0.8, 0.0)
+        rig.sim.add_boxes([Box(1.2, 0.8, 0.2, 0.2, id="first")])
+
+        def cells() -> list[list[float]]:
+            answer: list[list[float]] = client.get("/api/perception").json()["cells"]
+            return answer
+
+        with mission_camera(rig.gateway, rig.sim, None):
+            seeing = rig.gateway.seeing
+            assert seeing is not None
+            wait_for(lambda: len(cells()) > 0, 60.0)  # the first box, seen
+            assert client.post("/api/perception/clear").json()["cells"] == []
+            rig.sim.remove_boxes(["first"])
+            box = (0.9, 0.8)  # another, nearer, dropped after the clear
+            rig.sim.add_boxes([Box(*box, 0.2, 0.2, id="second")])
+            seen = seeing.frames
+            wait_for(lambda: seeing.frames >= seen + 15, 60.0)  # a second of frames at 15 fps
+            after = np.array([c[:2] for c in cells()])
+            assert len(after) > 0, "nothing is perceived after the clear"
+            near = np.abs(after - box).max(axis=1) <= 0.1 + 0.2 + 0.05  # the box, its assumed depth, a cell
+            assert near.mean() >= 0.8, after
+            plan = rig.gateway.planner.plan((0.4, 0.8), (1.6, 0.8))
+            legs = zip([plan.start, *plan.waypoints], plan.waypoints, strict=False)
+            assert min(segment_square_distance(a, b, box, 0.1) for a, b in legs) > 0.0  # round it
+            assert plan.length_m > 1.2 + 0.05
+    finally:
+        rig.close()
+
+
+def test_a_change_of_framesize_at_rest_leaves_perception_seeing_once_it_is_back(tmp_path: Path) -> None:
+    # The simulated camera's own /control?var=framesize&val=8 then =5 while the cart stands: once,
+    # the drawing of the last QVGA frame on a VGA one raised IndexError and the feed's thread ended
+    # for good, while /api/camera said connected at 15 fps; the cart then drove into a box.
+    rig = GatewayRig(tmp_path, WIDE, speed="1")
+    client = TestClient(create_app(rig.gateway), base_url=BASE_URL, headers=JSON)
+    try:
+        rig.sim.control("place", x=0.4, y=0.8, theta=0.0)
+        rig.link.call("SET_POSE", 0.4, 0.8, 0.0)
+        rig.sim.add_boxes([Box(1.1, 0.8, 0.2, 0.2)])
+        with mission_camera(rig.gateway, rig.sim, None):
+            seeing, feed = rig.gateway.seeing, rig.gateway.camera
+            assert seeing is not None and feed is not None and feed.base_url is not None
+            wait_for(lambda: seeing.idle_skipped > 0, 60.0)  # at rest: the last drawing is reused
+
+            def framesize(index: int) -> None:
+                with urllib.request.urlopen(f"{feed.base_url}/control?var=framesize&val={index}", timeout=10):
+                    pass
+
+            framesize(8)  # VGA: perception's calibration is for QVGA
+            wait_for(lambda: feed.status()["width"] == 640 and feed.status()["state"] == "blind", 60.0)
+            state = client.get("/api/camera").json()
+            assert state["worker"] == "running" and state["processor_errors"] > 0
+            assert "a 640 x 480 image; the calibration is for (320, 240)" in state["problem"]
+            framesize(5)
+            wait_for(lambda: feed.status()["width"] == 320, 60.0)
+            seen = seeing.frames
+            wait_for(lambda: seeing.frames >= seen + 5, 60.0)
+            state = client.get("/api/camera").json()
+            assert state["worker"] == "running" and state["worker_errors"] == 0
+            assert client.get("/api/perception").json()["cells"]  # the box, still on the map
+    finally:
+        rig.close()

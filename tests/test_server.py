@@ -347,7 +347,17 @@ def test_sigterm_stops_cart2d_sim_and_its_simulator_before_it_exits(tmp_path: Pa
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
     gateway = subprocess.Popen(
-        [sys.executable, "-m", "cart2d.cli", "sim", "--port", str(port), "--host", "127.0.0.1"],
+        [
+            sys.executable,
+            "-m",
+            "cart2d.cli",
+            "sim",
+            "--port",
+            str(port),
+            "--host",
+            "127.0.0.1",
+            "--no-camera",
+        ],
         env={**os.environ, "CART2D_HOME": str(tmp_path)},
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,

@@ -36,6 +36,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict
 from typing import Any
 
+from cart2d.gateway.blind import BlindWatch
 from cart2d.gateway.live_map import Replan, RouteAhead, planner_for
 from cart2d.gateway.look import look_before_driving
 from cart2d.gateway.map_edits import MapMixin
@@ -127,6 +128,8 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self.simulator = SimulatorState()
         self._simulator_back = threading.Event()  # set while the simulator runs (or cannot be started)
         self._simulator_back.set()
+        self.blind_watch = BlindWatch(self, self.cart_time)  # stops a mission the camera went blind in
+        self.stop_reason = "stopped by the user"  # the last stop's: a mission it cut short ends with it
         link.subscribe(self._on_telemetry)
         if sim is not None:
             sim.subscribe_truth(self._on_truth)
@@ -140,11 +143,18 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             with contextlib.suppress(LinkError, CommandRefused):
                 self.read_status()
         self._monitor.start()
+        self.blind_watch.start()
 
     def close(self) -> None:
         self._cancel_stream()
         self._stop.set()
         self._monitor.join(timeout=2.0)
+        self.blind_watch.close()
+
+    def cart_time(self) -> float | None:
+        """The cart's clock, s: simulated time when the gateway runs the simulator (its latest
+        truth message; None before the first), else the monotonic clock."""
+        return self._last_truth_t if self.sim is not None else time.monotonic()
 
     def _check_after_update(self, wait_s: float, hurried: Callable[[], bool]) -> None:
         self.wait_for_firmware(wait_s, 0.1, hurried)
@@ -249,7 +259,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
                 route=plan.waypoints,
             )
             if self.link.stopped_since(token):  # the stop went right after the last frame
-                self._end_mission("failed", "stopped by the user")
+                self._end_mission("failed", self.stop_reason)
                 raise MotionCancelled("the path was sent as a stop came: the stop ended it")
         self._publish({"type": "mission", **self.mission_view()})
         return plan
@@ -334,7 +344,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         try:
             self._send_route(plan, mission.token)
         except MotionCancelled:
-            self._end_mission("failed", "stopped by the user")
+            self._end_mission("failed", self.stop_reason)
             return
         except (LinkError, CommandRefused) as exc:
             with contextlib.suppress(LinkError, CommandRefused):
@@ -399,11 +409,13 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             "grid_length_m": plan.grid_length_m,
         }
 
-    def stop(self) -> Reply:
-        """Emergency stop: motors off now; a mission in progress fails. Every motion request
-        asked for before it is refused, however long it waited. While the robot's program is
-        being replaced (a firmware update, a restart of the simulator) the stop waits for the
-        program that answers (an update not yet answered is rolled back at once) and stops it."""
+    def stop(self, reason: str = "stopped by the user") -> Reply:
+        """Emergency stop: motors off now; a mission in progress fails (with `reason`: the
+        user's, or the gateway's own, a camera gone blind). Every motion request asked for
+        before it is refused, however long it waited. While the robot's program is being
+        replaced (a firmware update, a restart of the simulator) the stop waits for the program
+        that answers (an update not yet answered is rolled back at once) and stops it."""
+        self.stop_reason = reason
         try:
             with self.link.stopping():
                 self._wait_for_the_program()
@@ -414,10 +426,10 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             raise CommandRefused(reply)
         with self._lock:
             if self.mission.state == "driving":
-                self._end_mission("failed", "stopped by the user")
+                self._end_mission("failed", reason)
                 self.mission.resumable = True  # the firmware keeps the path: START resumes it
             if self.routine.state == "running":
-                self._end_routine("failed", "stopped by the user before it squared up")
+                self._end_routine("failed", f"{reason} before it squared up")
         return reply
 
     def _wait_for_the_program(self) -> None:

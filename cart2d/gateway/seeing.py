@@ -187,7 +187,16 @@ class Seeing:
         if cleared:
             perception.clear()  # cleared by the user: forget what was seen, not just what is shown
             self._sent = frozenset()
-        if not cleared and self._idle(pose, frame.received_s - self.latency_s) and self._last_seen:
+            # taken in once: the frames after it build the map again (once, a clear that left no
+            # cell believed after one frame was taken for a new clear at every frame, for good)
+            self._layer = layer
+        # the last drawing fits a frame of its own size only (the camera's framesize may change)
+        resized = self._last_seen is not None and self._last_seen.detection.floor_mask.shape != bgr.shape[:2]
+        if (
+            not (cleared or resized)
+            and self._idle(pose, frame.received_s - self.latency_s)
+            and self._last_seen
+        ):
             self.idle_skipped += 1
             return Overlay(draw=self._last_seen.draw)
         seen = perception.process(np.asarray(bgr, dtype=np.uint8), pose)

@@ -10,8 +10,11 @@ boundary between parts.
 What goes wrong with a camera on Wi-Fi, and what the reader does:
 - the connection drops (Wi-Fi, a reboot): it connects again, with a back-off that doubles from
   `min_backoff_s` to `max_backoff_s` and starts over once a connection delivers a frame;
-- the stream stalls (the socket stays open, nothing or only garbage comes): no frame for
-  `stale_after_s` counts as a dropped connection;
+- the stream stalls (the socket stays open, nothing, garbage or a byte now and then comes): no
+  frame for `stale_after_s` counts as a dropped connection. The timer runs on frames, never on
+  bytes (a camera trickling a byte every 1.5 s inside a part was once connected for good): a
+  watchdog thread ends the connection. With `decodes_frames`, the frames that count are those the
+  caller decoded and said so with frame_decoded() (the gateway's camera feed), else those read;
 - the camera serves one stream client only (the stock sketch answers a second one with an error
   or never): a refused connection is retried with the same back-off, and `stop()` closes the
   connection at once so the camera is free for whoever comes next;
@@ -43,7 +46,9 @@ from urllib.parse import urlsplit
 log = logging.getLogger(__name__)
 
 MAX_LINE_BYTES = 4096  # a line between parts is read in pieces of at most this (garbage is binary)
-MAX_PART_BYTES = 4 * 1024 * 1024  # a UXGA JPEG at the best quality is well under 1 MiB
+# A part larger than a camera's frame buffer: esp32-camera's JPEG buffer is width x height / 5
+# (384 000 bytes at UXGA, the OV2640's largest), 1 MiB in builds that fix it.
+MAX_PART_BYTES = 1024 * 1024
 MAX_SKIP_BYTES = 1024 * 1024  # garbage without a boundary in it: the stream is broken, reconnect
 FPS_WINDOW = 30  # frames the rate is measured over
 # A stamp this far behind the last one is not a stale frame but a camera whose clock started
@@ -95,6 +100,7 @@ class MjpegReader:
         stale_after_s: float = 2.0,
         min_backoff_s: float = 0.1,
         max_backoff_s: float = 2.0,
+        decodes_frames: bool = False,
     ) -> None:
         parts = urlsplit(stream_url)
         if parts.scheme != "http" or not parts.hostname:
@@ -107,8 +113,12 @@ class MjpegReader:
         self.stale_after_s = stale_after_s
         self.min_backoff_s = min_backoff_s
         self.max_backoff_s = max_backoff_s
+        self.decodes_frames = decodes_frames
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self._watchdog: threading.Thread | None = None
+        self._fresh_s = 0.0  # time.monotonic() of this connection's start or its last frame
+        self._stalled = ""  # why the watchdog ended the connection
         self._lock = threading.Lock()  # the counters, the latest frame and the connection
         self._conn: http.client.HTTPConnection | None = None
         self._sock: socket.socket | None = None
@@ -129,14 +139,21 @@ class MjpegReader:
     def start(self) -> MjpegReader:
         if self._thread is None:
             self._thread = threading.Thread(target=self._run, name="mjpeg reader", daemon=True)
+            self._watchdog = threading.Thread(target=self._watch, name="mjpeg watchdog", daemon=True)
             self._thread.start()
+            self._watchdog.start()
         return self
 
     def stop(self) -> None:
         self._stop.set()
         self._close_connection()
-        if self._thread is not None and self._thread is not threading.current_thread():
-            self._thread.join(timeout=5.0)
+        for thread in (self._thread, self._watchdog):
+            if thread is not None and thread is not threading.current_thread():
+                thread.join(timeout=5.0)
+
+    def frame_decoded(self) -> None:
+        """A frame of this stream decoded (with `decodes_frames`): the stall timer starts again."""
+        self._fresh_s = time.monotonic()
 
     def latest(self) -> Frame | None:
         return self._latest
@@ -174,7 +191,7 @@ class MjpegReader:
                 # errors, and theirs when stop() pulls the socket away mid-read): try another
                 if self._stop.is_set():
                     break
-                words = str(exc) or type(exc).__name__
+                words = self._stalled or str(exc) or type(exc).__name__
                 with self._lock:
                     self.errors += 1
                     self.last_error = words
@@ -190,8 +207,29 @@ class MjpegReader:
             self._stop.wait(backoff)
             backoff = min(backoff * 2.0, self.max_backoff_s)
 
+    def _watch(self) -> None:
+        """The watchdog's thread: ends a connection that has had no frame for stale_after_s (its
+        reads then fail, and the reader connects again)."""
+        period = min(0.1, self.stale_after_s / 4.0)
+        while not self._stop.wait(period):
+            with self._lock:
+                sock = self._sock
+                late = (
+                    sock is not None
+                    and not self._stalled
+                    and time.monotonic() - self._fresh_s > self.stale_after_s
+                )
+                if late:
+                    what = "decoded" if self.decodes_frames else "read"
+                    self._stalled = f"no frame {what} for {self.stale_after_s:g} s: the stream stalled"
+            if late and sock is not None:
+                with contextlib.suppress(OSError):
+                    sock.shutdown(socket.SHUT_RDWR)  # wakes the reader's blocked read
+
     def _read_once(self) -> None:
         """One connection, read until it fails (StreamError and friends) or stop()."""
+        with self._lock:
+            self._fresh_s, self._stalled = time.monotonic(), ""
         conn = http.client.HTTPConnection(self._host, self._port, timeout=self.stale_after_s)
         conn.connect()
         with self._lock:
@@ -211,11 +249,10 @@ class MjpegReader:
             self.connected = True
             self.connections += 1
             self._last_stamp = None  # a camera that rebooted restarts its clock
-        seen_s = time.monotonic()  # the last frame on this connection (or its start)
         at_boundary = False
         while not self._stop.is_set():
             if not at_boundary:
-                self._seek(response, delimiter, seen_s)
+                self._seek(response, delimiter)
             headers = http.client.parse_headers(response)
             jpeg, at_boundary = self._part(response, headers, delimiter)
             kind = headers.get_content_type() if "content-type" in headers else "image/jpeg"
@@ -224,15 +261,12 @@ class MjpegReader:
                     self.errors += 1
                     self.last_error = f"a part that is not a JPEG ({kind}, {len(jpeg)} bytes) was skipped"
                 continue
-            seen_s = time.monotonic()
-            self._take(jpeg, _stamp(headers.get("X-Timestamp")), seen_s)
+            self._take(jpeg, _stamp(headers.get("X-Timestamp")), time.monotonic())
 
-    def _seek(self, response: http.client.HTTPResponse, delimiter: bytes, seen_s: float) -> None:
+    def _seek(self, response: http.client.HTTPResponse, delimiter: bytes) -> None:
         """Reads up to and including the next boundary line, skipping anything else."""
         skipped = 0
         while True:
-            if time.monotonic() - seen_s > self.stale_after_s:
-                raise StreamError(f"no frame for {self.stale_after_s:g} s: the stream stalled")
             line = response.readline(MAX_LINE_BYTES)
             if not line:
                 raise StreamError("the camera closed the stream")
@@ -293,6 +327,8 @@ class MjpegReader:
             frame = Frame(jpeg, self._seq, stamp_s, received_s)
             self._latest = frame
             self._received.append(received_s)
+            if not self.decodes_frames:
+                self._fresh_s = received_s
         self.on_frame(frame)
 
     def _close_connection(self) -> None:

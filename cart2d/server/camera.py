@@ -148,7 +148,11 @@ def add_camera_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
     def watchers_of(camera: CameraFeed) -> Watchers:
         return watchers.setdefault(id(camera), Watchers(camera))
 
-    @app.get("/api/camera", summary="the camera: its stream's state (connected, fps, age, reconnects)")
+    @app.get(
+        "/api/camera",
+        summary="the camera: its stream (connected, fps, reconnects) and its frames (taken in, refused; "
+        "seeing or blind, and why)",
+    )
     def camera_state() -> dict[str, Any]:
         camera = gateway.camera
         if camera is None:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import socket
 import threading
 import time
 from collections.abc import AsyncIterator, Callable
@@ -64,6 +65,7 @@ OTHER_VARIABLES = {
     "vflip": 0, "dcw": 1, "colorbar": 0, "led_intensity": 0,
 }  # fmt: skip
 FRAME_WAIT_S = 5.0  # a /capture waits this long (wall) for a frame: the simulator may be paused
+HOST = "127.0.0.1"  # the simulated camera serves this machine
 
 
 def timestamp_text(t_s: float) -> str:
@@ -249,8 +251,17 @@ def stream_app(source: FrameSource) -> Starlette:
 class SimCameraServer:
     """The two servers (control on port, stream on port + 1) in threads of their own."""
 
-    def __init__(self, address: Callable[[], str], port: int, host: str = "127.0.0.1") -> None:
+    def __init__(
+        self,
+        address: Callable[[], str],
+        port: int,
+        host: str = HOST,
+        sockets: list[socket.socket] | None = None,
+    ) -> None:
+        """`sockets`: listening on port and port + 1 already (cart2d sim opens them before anything
+        starts, so that a port in use is said in a sentence); else the servers bind them."""
         self.host, self.port = host, port
+        self._sockets = sockets
         self.source = FrameSource(address, CameraState.from_robot())
         self._servers: list[uvicorn.Server] = []
         self._threads: list[threading.Thread] = []
@@ -265,10 +276,14 @@ class SimCameraServer:
         return f"http://{self.host}:{self.port + 1}/stream"
 
     def start(self, timeout_s: float = 10.0) -> SimCameraServer:
-        for app, port in ((control_app(self.source), self.port), (stream_app(self.source), self.port + 1)):
+        apps = ((control_app(self.source), self.port), (stream_app(self.source), self.port + 1))
+        for k, (app, port) in enumerate(apps):
             config = uvicorn.Config(app, host=self.host, port=port, log_level="warning", lifespan="off")
             server = uvicorn.Server(config)
-            thread = threading.Thread(target=server.run, name=f"sim camera :{port}", daemon=True)
+            sockets = {"sockets": [self._sockets[k]]} if self._sockets else {}
+            thread = threading.Thread(
+                target=server.run, kwargs=sockets, name=f"sim camera :{port}", daemon=True
+            )
             thread.start()
             self._servers.append(server)
             self._threads.append(thread)

@@ -1,6 +1,8 @@
 // The camera card: the gateway's re-stream of the cart's camera (with what perception drew on
 // it), the stream's state, and the button that forgets the perceived cells. Without a camera the
-// card says how to give the gateway one instead of showing a broken image.
+// card says how to give the gateway one instead of showing a broken image. A camera whose frames
+// are not taken in (none coming, refused, failing perception) is "blind", in red, with why: the
+// gateway stops a mission it goes blind in, and the mission's toast says so.
 
 import { api, type PerceivedMessage } from "./api";
 import { byId as $, say } from "./dom";
@@ -14,7 +16,9 @@ interface CameraState {
   message?: string;
   connected?: boolean;
   fps?: number;
-  age_s?: number | null;
+  age_s?: number | null; // the last frame taken in (decoded, through perception)
+  state?: "seeing" | "blind";
+  problem?: string; // why blind, in words
   reconnects?: number;
   stream_url?: string;
   url?: string | null;
@@ -78,6 +82,8 @@ export class CameraCard {
     if (!s.camera) {
       this.none.textContent = s.message ?? "No camera.";
       this.state.textContent = "–";
+      this.state.classList.remove("form-error");
+      delete document.body.dataset["cameraSees"];
       if (this.streaming) this.img.removeAttribute("src");
       this.streaming = false;
       return;
@@ -90,10 +96,12 @@ export class CameraCard {
       this.img.src = `/api/camera/stream?since=${Date.now()}`;
       this.streaming = true;
     }
-    const age = s.age_s === null || s.age_s === undefined ? "no frame yet" : `last frame ${s.age_s.toFixed(1)} s ago`;
-    this.state.textContent = s.connected
-      ? `${(s.fps ?? 0).toFixed(1)} fps, ${age}`
-      : `not connected (${s.reconnects ?? 0} reconnects), ${age}`;
+    const age = s.age_s === null || s.age_s === undefined ? "no frame taken in yet" : `last frame ${s.age_s.toFixed(1)} s ago`;
+    const stream = s.connected ? `${(s.fps ?? 0).toFixed(1)} fps` : `not connected (${s.reconnects ?? 0} reconnects)`;
+    const blind = s.state === "blind";
+    this.state.textContent = blind ? `blind: ${s.problem || "no frame taken in"}; ${stream}, ${age}` : `${stream}, ${age}`;
+    this.state.classList.toggle("form-error", blind);
+    document.body.dataset["cameraSees"] = blind ? "no" : "yes";
   }
 
   private async use(text: string): Promise<void> {
