@@ -245,8 +245,10 @@ def test_play_pause_seek_and_restart_through_the_api(recorded: Recorded) -> None
             refused = act(**body)
             assert refused.status_code == 422 and words in refused.json()["detail"], body
         assert client.get("/api/replay").json()["position_s"] == middle  # a refusal changes nothing
+        end = act(action="seek", position_s=answer["duration_s"]).json()  # the slider's end, rounded
+        assert end["position_s"] == answer["duration_s"] and player.mission_view()["state"] == "arrived"
         restarted = act(action="restart").json()
-        assert restarted["state"] == "playing" and restarted["position_s"] < 1.0 and restarted["seeks"] == 2
+        assert restarted["state"] == "playing" and restarted["position_s"] < 1.0 and restarted["seeks"] == 3
         spec = client.get("/openapi.json").json()["paths"]["/api/replay"]
         schema = json.dumps(spec["post"]["requestBody"])
         assert "ReplayIn" in schema and set(spec) == {"get", "post"}

@@ -40,6 +40,7 @@ class Player:
         self.state = "waiting"  # for its first viewer; then playing, paused or ended
         self.sent = 0  # /ws messages handed to the listeners
         self.seeks = 0  # seeks, restarts and loops: the panel's trails are from before
+        self.version = 0  # counts the changes of state (a panel keeps the newest it was told)
         self.now = ReplayState(recorded)
         self._index = 0  # the next entry to play
         self._position_s = 0.0  # while not playing; playing: _anchor's
@@ -98,6 +99,7 @@ class Player:
                 "loop": self.loop,
                 "sent": self.sent,
                 "seeks": self.seeks,
+                "version": self.version,
             }
 
     def read(self, what: Callable[[ReplayState], T]) -> T:
@@ -123,6 +125,7 @@ class Player:
             if self.state == "playing":
                 self._position_s = self._position()
                 self.state = "paused"
+                self.version += 1
                 self._tell_state()
 
     def seek(self, position_s: float) -> None:
@@ -159,6 +162,7 @@ class Player:
         if self.state == "playing" or self._closed:
             return
         self.state = "playing"
+        self.version += 1
         self._anchor = (time.monotonic(), self._position_s)
         if not self._thread.is_alive():
             self._thread.start()
@@ -171,6 +175,7 @@ class Player:
         self._position_s = position_s
         self._anchor = (time.monotonic(), position_s)
         self.seeks += 1
+        self.version += 1
         self._cond.notify_all()
         for message in self._snapshot():
             self._tell(message)
@@ -182,6 +187,7 @@ class Player:
             "position_s": round(self._position(), 3),
             "duration_s": round(self.recorded.duration_s, 3),
             "seeks": self.seeks,
+            "version": self.version,
         }
         return {"type": "replay", **view}
 
@@ -233,4 +239,5 @@ class Player:
             return
         self._position_s = self.recorded.duration_s
         self.state = "ended"
+        self.version += 1
         self._tell_state()

@@ -53,7 +53,7 @@ def status_view(player: Player) -> dict[str, Any]:
 
 def _control(player: Player, body: ReplayIn) -> None:
     if body.action == "seek":
-        duration_s = player.recorded.duration_s
+        duration_s = round(player.recorded.duration_s, 3)  # as the view gives it (the slider's end)
         if body.position_s is None:
             raise HTTPException(422, "seek needs position_s: where to, in seconds from the recording's start")
         if body.position_s > duration_s:
