@@ -87,7 +87,7 @@ class MissionSpec(BaseModel):
     resets_at_s: list[float] = Field(
         default_factory=list,
         max_length=100,
-        description="simulated seconds after the start at which the MCU is reset (the reset button)",
+        description="simulated seconds after the first goal's start at which the MCU is reset (reset button)",
     )
     world: mission_file.WorldSpec | None = Field(None, description="physical boxes the map does not show")
     perception: bool | None = Field(

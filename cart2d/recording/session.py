@@ -20,8 +20,8 @@ from cart2d.recording.publisher import GatewayLike, Publisher
 log = logging.getLogger(__name__)
 
 DEFAULT_FOXGLOVE_PORT = 8765  # the Foxglove app's default for a "Foxglove WebSocket" connection
-# The camera frames a second a recording keeps: the simulated camera's QVGA frame with its overlay
-# is ~6 KB, so at its 15 fps the camera would be 90 KB/s, eight times the rest of the recording.
+# The camera frames a second a recording keeps: the simulated camera's frame with its overlay is
+# ~4.5 KiB, so its 14 fps would be ~60 KiB/s, seven times the rest of the recording (README).
 DEFAULT_CAMERA_FPS = 2.0
 MAP_TOPICS = frozenset({c.TOPIC_MAP_NODES, c.TOPIC_MAP_FLOOR_PLAN, c.TOPIC_MAP_VIEW})
 
