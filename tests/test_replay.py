@@ -95,7 +95,7 @@ def test_event_times_count_from_the_first_goal_once_the_camera_sees(
     assert report["perception"]["frames"] > 0  # the mission saw
     first = report["goals"][0]
     assert first["reached"], first.get("reason")
-    assert first["started_s"] == pytest.approx(0.0, abs=0.05)
+    assert 0.0 <= first["started_s"] < 0.2  # the events are scheduled in between
     (event,) = report["events"]
     assert EVENT_AT_S <= event["seen_s"] < EVENT_AT_S + 0.3
     # and in the recording: the event's map change against the first goal's start
@@ -107,7 +107,8 @@ def test_event_times_count_from_the_first_goal_once_the_camera_sees(
         and e.message.get("type") == "map"
         and "mission event" in e.message["why"]
     )
-    assert EVENT_AT_S <= changed - started < EVENT_AT_S + 0.3
+    # (a message takes the time of the latest ground truth: 20 ms apart)
+    assert EVENT_AT_S - first["started_s"] - 0.05 <= changed - started < EVENT_AT_S + 0.3
 
 
 def test_every_goal_even_one_refused_at_once_is_in_the_report_and_the_recording(
@@ -211,7 +212,7 @@ def test_a_seek_rebuilds_the_state_at_that_time_and_tells_the_viewers(recorded: 
         player.seek(0.0)  # back to before anything: what came later is taken away
         kinds = {m["type"]: m for m in told}
         assert kinds["replay"]["trail"] == [] and kinds["mission"]["state"] == "idle"
-        assert kinds["perceived"]["cells"] == [] and kinds["sim_world"]["boxes"] == []
+        assert kinds["perceived"]["cells"] == []
         assert client.get("/api/map").json()["version"] == recorded.first_map_view()["version"]  # type: ignore[index]
     finally:
         player.close()
@@ -252,5 +253,18 @@ def test_play_pause_seek_and_restart_through_the_api(recorded: Recorded) -> None
         spec = client.get("/openapi.json").json()["paths"]["/api/replay"]
         schema = json.dumps(spec["post"]["requestBody"])
         assert "ReplayIn" in schema and set(spec) == {"get", "post"}
+    finally:
+        player.close()
+
+
+def test_a_looped_replay_starts_again_from_the_start_with_the_state_there(recorded: Recorded) -> None:
+    player = Player(recorded, speed=1000.0, loop=True)
+    told: list[dict[str, Any]] = []
+    try:
+        player.subscribe(told.append)  # the first viewer starts it
+        wait_for(lambda: player.seeks >= 2, 60.0)
+        assert player.state == "playing"
+        again = [m for m in told if m["type"] == "replay" and "trail" in m]
+        assert again and all(m["position_s"] < 1.0 and m["trail"] == [] for m in again)  # 1 ms is 1 s here
     finally:
         player.close()
