@@ -325,7 +325,7 @@ def cmd_mission(args: argparse.Namespace) -> int:
 
     report = args.report or mission_file.default_report_path(args.mission)
     mcap = recording_cli.mission_mcap_path(args, args.mission, report)
-    return main_mission(args.mission, report, args.speed, args.seed, mcap)
+    return main_mission(args.mission, report, args.speed, args.seed, mcap, args.record_camera_fps)
 
 
 def cmd_replay(args: argparse.Namespace) -> int:

@@ -78,6 +78,19 @@ def replay_speed(text: str) -> float:
     return factor
 
 
+def camera_fps(text: str) -> float:
+    """The camera frames a second a recording keeps (`--record-camera-fps`): 0 for none."""
+    try:
+        fps = float(text)
+    except ValueError:
+        fps = math.nan
+    if not (math.isfinite(fps) and 0.0 <= fps <= 60.0):
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a frame rate: give frames a second from 0 (no camera frames) to 60"
+        )
+    return fps
+
+
 def seed(text: str) -> int:
     try:
         value = int(text)

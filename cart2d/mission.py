@@ -22,7 +22,8 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -37,13 +38,16 @@ from cart2d.link import CommandRefused, Link, LinkError, firmware
 from cart2d.maps import MapError, load_ros_map
 from cart2d.mission_camera import mission_camera, perception_report
 from cart2d.mission_events import EventPlayer, MapEvent, Pacer, snapped
+from cart2d.mission_trace import Recorder
 from cart2d.params import robot, setting_id
 from cart2d.planning import Grid, PlanError, Point, point_polyline_distance, polyline_length
 from cart2d.recording import open_recording
+from cart2d.recording.session import DEFAULT_CAMERA_FPS
 from cart2d.simulator import SimOptions, Simulator, SimulatorError
 from cart2d.store import FloorPlan, GatewaySettings, MapSettings, PlanningStep, Store
 
 Coordinate = Annotated[float, Field(allow_inf_nan=False)]
+Tell = Callable[[dict[str, Any]], None]  # a message of the mission's own for its recording
 Finite = Annotated[float, Field(allow_inf_nan=False)]
 
 
@@ -83,7 +87,7 @@ class MissionSpec(BaseModel):
     resets_at_s: list[float] = Field(
         default_factory=list,
         max_length=100,
-        description="simulated seconds after the start at which the MCU is reset (the reset button)",
+        description="simulated seconds after the first goal's start at which the MCU is reset (reset button)",
     )
     world: mission_file.WorldSpec | None = Field(None, description="physical boxes the map does not show")
     perception: bool | None = Field(
@@ -104,72 +108,6 @@ class MissionSpec(BaseModel):
         if not all(math.isfinite(t) and t >= 0.0 for t in times):
             raise ValueError("reset times must be finite and not negative")
         return sorted(times)
-
-
-class Recorder:
-    """Keeps the ground truth (t, x, y) and the firmware's (tick, mode) from the gateway's stream."""
-
-    def __init__(self) -> None:
-        self._lock = threading.Lock()
-        self.t0 = 0.0  # the simulated time the mission started at
-        self.truth: list[tuple[float, float, float]] = []
-        self.modes: list[tuple[int, str]] = []
-        self.routes: list[list[Point]] = []  # every route the gateway sent (a replan sends one more)
-
-    def __call__(self, message: dict[str, Any]) -> None:
-        with self._lock:
-            if message.get("type") == "truth":
-                self.truth.append((message["t"], message["x"], message["y"]))
-            elif message.get("type") == "telemetry":
-                self.modes.append((message["tick"], message["mode_name"]))
-            elif message.get("type") == "mission" and message.get("plan"):
-                plan = message["plan"]
-                route = [tuple(plan["start"]), *map(tuple, plan["waypoints"])]
-                if not self.routes or self.routes[-1] != route:
-                    self.routes.append(route)
-
-    def routes_since(self, mark: int) -> list[list[Point]]:
-        with self._lock:
-            return self.routes[mark:]
-
-    def mark(self) -> tuple[int, int]:
-        with self._lock:
-            return len(self.truth), len(self.modes)
-
-    def driving_ticks(self, since: int) -> tuple[int, int] | None:
-        """The ticks of the first telemetry frame in PATH mode after `since` and of the first
-        frame out of it after the last PATH frame; None until both have arrived."""
-        with self._lock:
-            frames = self.modes[since:]
-        path = [k for k, (_, mode) in enumerate(frames) if mode == "PATH"]
-        if not path or path[-1] + 1 >= len(frames):
-            return None
-        return frames[path[0]][0], frames[path[-1] + 1][0]
-
-    def _until_path(self, since: int) -> tuple[list[tuple[int, str]], int | None]:
-        """The telemetry frames (tick, mode) after `since`, and the index of the first in PATH mode."""
-        with self._lock:
-            frames = self.modes[since:]
-        return frames, next((k for k, (_, mode) in enumerate(frames) if mode == "PATH"), None)
-
-    def starting_ticks(self, since: int) -> int | None:
-        """The ticks from the first telemetry frame after `since` to the first in PATH mode: from a
-        goal's request to driving (planning, the look while the gateway sees, the upload)."""
-        frames, first_path = self._until_path(since)
-        return None if first_path is None else frames[first_path][0] - frames[0][0]
-
-    def looking_ticks(self, since: int) -> int:
-        """The ticks from the first telemetry frame in MANUAL mode after `since` to the first in PATH
-        mode: the gateway's look before driving off while it sees (cart2d/gateway/look.py)."""
-        frames, first_path = self._until_path(since)
-        if first_path is None:
-            return 0
-        first_manual = next((k for k, (_, mode) in enumerate(frames[:first_path]) if mode == "MANUAL"), None)
-        return 0 if first_manual is None else frames[first_path][0] - frames[first_manual][0]
-
-    def samples(self, since: int) -> list[tuple[float, float, float]]:
-        with self._lock:
-            return self.truth[since:]
 
 
 def _apply_settings(link: Link, settings: dict[str, float]) -> None:
@@ -268,19 +206,27 @@ def _drive_with_cart2d(
     return first, "" if mission["state"] == "arrived" else mission["reason"]
 
 
-def _drive_to(
-    gateway: Gateway,
-    sim: Simulator,
-    pacer: Pacer,
-    recorder: Recorder,
-    goal: Point,
-    deadline_t: float,
-    seed: bool,
-) -> dict[str, Any]:
+@dataclass(frozen=True)
+class _Run:
+    """What driving the goals needs: the rig, the deadline (simulated s), where goals are told."""
+
+    gateway: Gateway
+    sim: Simulator
+    pacer: Pacer
+    recorder: Recorder
+    spec: MissionSpec
+    deadline: float
+    tell: Tell
+
+
+def _drive_to(run: _Run, goal: Point) -> dict[str, Any]:
+    gateway, sim, pacer, recorder = run.gateway, run.sim, run.pacer, run.recorder
+    seed, deadline_t = run.spec.behaviour == "seed", run.deadline
     result: dict[str, Any] = {"goal": list(goal), "reached": False}
     truth_mark, modes_mark = recorder.mark()
     routes_mark = len(recorder.routes)
     t_goal = sim.truth()["t"]
+    result["started_s"] = t_goal - recorder.t0
     drive = _drive_like_the_seed if seed else _drive_with_cart2d
     try:
         planned, reason = drive(gateway, sim, pacer, goal, deadline_t)
@@ -374,6 +320,7 @@ def run_mission(
     base_dir: Path | None = None,
     mcap_path: Path | None = None,
     camera_calibration: Path | None = None,
+    camera_fps: float = DEFAULT_CAMERA_FPS,
 ) -> dict[str, Any]:
     """Runs the mission in a fresh simulator (blank EEPROM); returns the report. `report`, if
     given, is filled as the mission goes (each goal as it ends): what it holds is the report so
@@ -399,10 +346,14 @@ def run_mission(
         wall_start = time.monotonic()
         with Simulator(options) as sim, Link(sim.pty) as link, contextlib.ExitStack() as recording:
             gateway = Gateway(link, store, settings, sim)
+            tell: Tell = lambda message: None  # noqa: E731
             if mcap_path is not None:  # closed after gateway.close(): the file holds the whole run
-                recording.enter_context(open_recording(gateway, mcap_path, overwrite=True))
+                session = recording.enter_context(
+                    open_recording(gateway, mcap_path, overwrite=True, camera_fps=camera_fps)
+                )
+                tell = session.publish_event if session is not None else tell
             if spec.world is not None:  # after the gateway has made the simulator's walls follow its map
-                sim.add_boxes([b.box() for b in spec.world.boxes])
+                gateway.add_sim_boxes([b.box() for b in spec.world.boxes])  # viewers (the recording) told
             grid = gateway.map_planner.grid
             points = snapped(grid, [grid.node_xy(i, j) for i, j in map_settings.obstacles])
             sim.change_obstacles(add=points, step=grid.step_m)  # virtual: counted, not felt
@@ -414,30 +365,33 @@ def run_mission(
             _apply_settings(link, spec.settings)
             link.call("SET_POSE", *spec.start)
             gateway.start()
-            t0 = sim.truth()["t"]
-            recorder.t0 = t0
-            deadline = t0 + spec.timeout_s
             resets: list[dict[str, Any]] = report["resets"]
             keys = ("time", "cause", "cause_words", "boot_count", "message")
             gateway.subscribe(
                 lambda m: resets.append({key: m[key] for key in keys}) if m.get("type") == "reset" else None
             )
             pacer = Pacer(sim)
-            events = EventPlayer(gateway, sim, pacer, spec.events, t0)
-            seeing = contextlib.ExitStack()
-            sees = mission_file.perception_on(spec.perception, spec.world is not None)
-            if sees and spec.behaviour != "seed":
-                seeing.enter_context(mission_camera(gateway, sim, camera_calibration))
-                seeing.enter_context(pacer.real_time())  # perception runs in wall-clock time
+            t0 = sim.truth()["t"]
+            events: EventPlayer | None = None
             try:
-                with seeing, _resets_at(sim, [t0 + t for t in spec.resets_at_s]), events:
-                    _drive_goals(gateway, sim, pacer, recorder, spec, deadline, progress, report["goals"])
-                    if gateway.seeing is not None:
-                        report["perception"] = perception_report(gateway)
+                with contextlib.ExitStack() as seeing:
+                    sees = mission_file.perception_on(spec.perception, spec.world is not None)
+                    if sees and spec.behaviour != "seed":
+                        seeing.enter_context(mission_camera(gateway, sim, camera_calibration))
+                        seeing.enter_context(pacer.real_time())  # perception runs in wall-clock time
+                    # The mission's time starts with its first goal, once the camera sees: the
+                    # events, the resets and the timeout count from here.
+                    t0 = recorder.t0 = sim.truth()["t"]
+                    events = EventPlayer(gateway, sim, pacer, spec.events, t0)
+                    with _resets_at(sim, [t0 + t for t in spec.resets_at_s]), events:
+                        run = _Run(gateway, sim, pacer, recorder, spec, t0 + spec.timeout_s, tell)
+                        _drive_goals(run, progress, report["goals"])
+                        if gateway.seeing is not None:
+                            report["perception"] = perception_report(gateway)
             finally:
                 gateway.close()
                 if spec.events:
-                    report["events"] = events.applied
+                    report["events"] = events.applied if events is not None else []
                 if spec.behaviour != "seed":
                     report["replans"] = [r for g in report["goals"] for r in g.get("replans", [])]
                 with contextlib.suppress(SimulatorError):  # the simulator may be what failed
@@ -453,25 +407,23 @@ def run_mission(
         return report
 
 
-def _drive_goals(
-    gateway: Gateway,
-    sim: Simulator,
-    pacer: Pacer,
-    recorder: Recorder,
-    spec: MissionSpec,
-    deadline: float,
-    progress: bool,
-    goals: list[dict[str, Any]],
-) -> None:
-    for goal in tqdm(spec.goals, desc="goals", unit="goal", disable=not progress):
-        result = _drive_to(gateway, sim, pacer, recorder, goal, deadline, spec.behaviour == "seed")
-        truth = sim.truth()
-        x, y, _ = gateway.link.call("POSE")
+def _drive_goals(run: _Run, progress: bool, goals: list[dict[str, Any]]) -> None:
+    """Each goal in turn, each in the report and told to the recording (its start and its end),
+    even one refused at once."""
+    spec = run.spec
+    for index, goal in enumerate(tqdm(spec.goals, desc="goals", unit="goal", disable=not progress), 1):
+        told = {"type": "goal", "index": index, "of": len(spec.goals), "goal": list(goal)}
+        run.tell({**told, "state": "started"})
+        result = _drive_to(run, goal)
+        truth = run.sim.truth()
+        x, y, _ = run.gateway.link.call("POSE")
         result.update(
             final_error_m=math.dist((truth["x"], truth["y"]), goal),
             odometry_error_m=math.dist((truth["x"], truth["y"]), (x, y)),
         )
         goals.append(result)
+        ended = "reached" if result["reached"] else "failed"
+        run.tell({**told, "state": ended, "reason": result.get("reason", "")})
 
 
 def check_mission(mission_path: Path, report_path: Path) -> tuple[MissionSpec | None, list[str]]:
@@ -498,7 +450,12 @@ def check_mission(mission_path: Path, report_path: Path) -> tuple[MissionSpec | 
 
 
 def main_mission(
-    mission_path: Path, report_path: Path | None, speed: str, seed: int, mcap_path: Path | None = None
+    mission_path: Path,
+    report_path: Path | None,
+    speed: str,
+    seed: int,
+    mcap_path: Path | None = None,
+    camera_fps: float = DEFAULT_CAMERA_FPS,
 ) -> int:
     """The `cart2d mission` command. Everything is checked first: each problem is a line on
     stderr and the exit status is 2, with nothing run and no report. Once the mission runs, the
@@ -520,6 +477,7 @@ def main_mission(
             report=report,
             base_dir=mission_path.parent,
             mcap_path=mcap_path,
+            camera_fps=camera_fps,
         )
     except (LinkError, CommandRefused, SimulatorError, PlanError, MapError, OSError) as exc:
         report["error"] = str(exc)

@@ -1,11 +1,11 @@
 """A mission's timed map changes (`"events"`), and the pacing of the simulator around the
 gateway's work.
 
-An event adds and removes obstacles at a simulated time after the mission's start. Twice: in
-the simulator, scheduled in advance at that exact time, as physical obstacles (boxes of their
-cells: the cart cannot pass them, touching one counts as a collision); and in the gateway's
-map once the simulator has reached that time, as a user's click would, so the gateway checks
-the rest of the path and replans if the change blocks it.
+An event adds and removes obstacles at a simulated time after the mission's start (its first
+goal's: cart2d/mission.py). Twice: in the simulator, scheduled in advance at that exact time, as
+physical obstacles (boxes of their cells: the cart cannot pass them, touching one counts as a
+collision); and in the gateway's map once the simulator has reached that time, as a user's click
+would, so the gateway checks the rest of the path and replans if the change blocks it.
 
 The simulator runs faster than real time, the gateway at its own pace: while the gateway plans
 and uploads, the simulator is paced to the wall clock (as a real cart would go on driving),
@@ -34,7 +34,9 @@ EVENT_LEAD_S = 0.25
 
 class MapEvent(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    at_s: float = Field(ge=0.0, le=1e5, allow_inf_nan=False, description="simulated seconds after the start")
+    at_s: float = Field(
+        ge=0.0, le=1e5, allow_inf_nan=False, description="simulated seconds after the first goal's start"
+    )
     add: list[tuple[Coordinate, Coordinate]] = Field(default_factory=list, max_length=10_000)
     remove: list[tuple[Coordinate, Coordinate]] = Field(default_factory=list, max_length=10_000)
 

@@ -140,10 +140,15 @@ def test_replay_serves_the_recorded_ws_messages_in_order(
         wait_for(lambda: server.started, 20)
         assert player.state == "waiting"  # until the first viewer
         with connect(f"ws://127.0.0.1:{port}/ws") as ws:
-            assert json.loads(ws.recv(timeout=10.0))["type"] == "hello"
+            # first the state at the position (the start: nothing played yet), then the stream
+            first = [json.loads(ws.recv(timeout=10.0)) for _ in range(len(player.snapshot()) + 1)]
+            assert first[0]["type"] == "replay" and first[0]["trail"] == []
+            assert first[-1]["type"] == "hello"
             with contextlib.suppress(TimeoutError):  # a dropped message would never come
                 while len(got) < len(expected):
-                    got.append(json.loads(ws.recv(timeout=10.0)))
+                    message = json.loads(ws.recv(timeout=10.0))
+                    if message["type"] != "replay":  # the replay's own: playing, ended
+                        got.append(message)
             dropped = sum(viewer.dropped for viewer in app.state.viewers.viewers)
         assert dropped == 0 and got == expected
         assert Counter(m["type"] for m in got)["truth"] == len(

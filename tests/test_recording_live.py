@@ -18,6 +18,7 @@ from websockets.sync.client import ClientConnection, connect
 from cart2d.maps import OccupancyMap
 from cart2d.recording import channels as c
 from cart2d.recording import open_recording
+from cart2d.recording.session import DEFAULT_CAMERA_FPS
 
 MESSAGE_DATA = 0x01  # the Foxglove WebSocket protocol's binary opcode for a message
 
@@ -112,7 +113,7 @@ def test_camera_frames_are_recorded_as_given(tmp_path: Path) -> None:
     jpeg = encoded.tobytes()
     path = tmp_path / "camera.mcap"
     stamps = [1_700_000_000_000_000_000 + k * 40_000_000 for k in range(5)]
-    with open_recording(StandIn(), path) as recording:
+    with open_recording(StandIn(), path, camera_fps=25.0) as recording:  # 25 fps: every one kept
         assert recording is not None
         for stamp in stamps:
             recording.publish_camera_jpeg(jpeg, stamp)
@@ -123,6 +124,27 @@ def test_camera_frames_are_recorded_as_given(tmp_path: Path) -> None:
     for schema, message in frames:
         assert schema is not None and schema.name == "foxglove.CompressedImage"
         assert jpeg in message.data  # the JPEG's bytes whole, in the message's `data` field
+
+
+def _recorded_frames(path: Path, camera_fps: float = DEFAULT_CAMERA_FPS) -> list[int]:
+    """The log times of the camera frames kept of 3 s of a 15 fps camera, 0.2 s into the session."""
+    start = time.time_ns() + 200_000_000
+    with open_recording(StandIn(), path, camera_fps=camera_fps) as recording:
+        assert recording is not None
+        for k in range(45):
+            recording.publish_camera_jpeg(b"\xff\xd8 a frame \xff\xd9", start + k * 66_666_667)
+    with path.open("rb") as stream:
+        reader = make_reader(stream)
+        return [m.log_time for _, _, m in reader.iter_messages(topics=[c.TOPIC_CAMERA])]
+
+
+def test_the_camera_is_recorded_at_a_bounded_rate(tmp_path: Path) -> None:
+    """2 frames a second by default (the camera's 15 would be most of the file), as asked, or none."""
+    assert len(_recorded_frames(tmp_path / "default.mcap")) == 6  # one every 0.5 s of the 3 s
+    assert len(_recorded_frames(tmp_path / "five.mcap", camera_fps=5.0)) == 15
+    assert _recorded_frames(tmp_path / "none.mcap", camera_fps=0.0) == []
+    with open_recording(StandIn(), foxglove_port=0) as live:  # no file: the live view gets every frame
+        assert live is not None and live.camera_fps is None
 
 
 def test_the_map_is_recorded_as_grids_of_the_nodes_and_the_floor_plan(tmp_path: Path) -> None:

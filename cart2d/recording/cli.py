@@ -11,7 +11,23 @@ from pathlib import Path
 
 from cart2d import cli_args
 from cart2d.recording.publisher import GatewayLike
-from cart2d.recording.session import DEFAULT_FOXGLOVE_PORT, Recording, open_recording, session_file_name
+from cart2d.recording.session import (
+    DEFAULT_CAMERA_FPS,
+    DEFAULT_FOXGLOVE_PORT,
+    Recording,
+    open_recording,
+    session_file_name,
+)
+
+
+def add_camera_fps_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--record-camera-fps",
+        type=cli_args.camera_fps,
+        default=DEFAULT_CAMERA_FPS,
+        metavar="FPS",
+        help=f"camera frames a second kept in the recording (default {DEFAULT_CAMERA_FPS:g}; 0: none)",
+    )
 
 
 def add_live_arguments(parser: argparse.ArgumentParser) -> None:
@@ -36,6 +52,7 @@ def add_live_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help="record the session to an MCAP file in DIR (cart2d-DATE-TIME.mcap; `cart2d replay` plays it)",
     )
+    add_camera_fps_argument(parser)
 
 
 def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
@@ -46,6 +63,7 @@ def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
         help="where to record the run (default: MISSION.mcap beside the report)",
     )
     parser.add_argument("--no-mcap", action="store_true", help="do not record the run")
+    add_camera_fps_argument(parser)
 
 
 def mission_mcap_path(args: argparse.Namespace, mission: Path, report: Path) -> Path | None:
@@ -81,7 +99,9 @@ def record_problem(args: argparse.Namespace) -> str | None:
 def live_session(gateway: GatewayLike, args: argparse.Namespace) -> Iterator[Recording | None]:
     """The Foxglove server and the recording asked for on the command line, with a line each."""
     path = args.record / session_file_name() if args.record is not None else None
-    with open_recording(gateway, path, args.foxglove, args.foxglove_host) as recording:
+    with open_recording(
+        gateway, path, args.foxglove, args.foxglove_host, camera_fps=args.record_camera_fps
+    ) as recording:
         if recording is not None and recording.server is not None:
             host = args.foxglove_host
             shown = f"[{host}]" if ":" in host else host

@@ -12,6 +12,7 @@ over; it never decreases within a session. A camera frame's header keeps the tim
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import queue
 import threading
@@ -23,6 +24,7 @@ from foxglove import messages as fm
 
 from cart2d.recording import channels as c
 from cart2d.recording.clock import SessionClock
+from cart2d.simulator import SimulatorError
 
 QUEUE_LENGTH = 4096  # ~40 s of telemetry (25 Hz) and truth (50 Hz) with a stalled worker
 _STOP = object()
@@ -65,6 +67,7 @@ class Publisher:
     def start(self) -> Publisher:
         self._worker.start()
         self.refresh_map()
+        self._put_world()
         self._unsubscribe = self.gateway.subscribe(self.on_message)
         logging.getLogger("cart2d").addHandler(self._log_handler)
         return self
@@ -97,6 +100,15 @@ class Publisher:
     def refresh_map(self) -> None:
         """Publishes the map again (at start, and for a viewer that subscribes to it later)."""
         self._put(_MapRefresh())
+
+    def _put_world(self) -> None:
+        """In simulation, the boxes standing at the start, as a /ws `sim_world` message (the panel
+        fetches them; viewers are told only of changes)."""
+        sim_world_view = getattr(self.gateway, "sim_world_view", None)
+        if getattr(self.gateway, "sim", None) is None or sim_world_view is None:
+            return
+        with contextlib.suppress(SimulatorError):
+            self._put({"type": "sim_world", **sim_world_view()})
 
     def publish_camera_jpeg(self, jpeg: bytes, stamp_ns: int) -> None:
         """A camera frame, JPEG-encoded, taken at `stamp_ns` (wall clock, ns)."""
@@ -200,6 +212,10 @@ _EVENT_WORDS: dict[str, Callable[[dict[str, Any]], str]] = {
     "routine": lambda m: f"reset routine {m.get('state', '')}: {m.get('words', '')}",
     "pose_trust": lambda m: f"pose trusted ({m.get('how', '')})" if m.get("trusted") else "pose untrusted",
     "simulator": lambda m: f"simulator {m.get('state', '')}: {m.get('message', '')}",
+    "goal": lambda m: (
+        f"goal {m.get('index')} of {m.get('of')} {m.get('goal')} {m.get('state', '')}"
+        + (f": {m['reason']}" if m.get("reason") else "")
+    ),
 }
 
 

@@ -20,6 +20,9 @@ from cart2d.recording.publisher import GatewayLike, Publisher
 log = logging.getLogger(__name__)
 
 DEFAULT_FOXGLOVE_PORT = 8765  # the Foxglove app's default for a "Foxglove WebSocket" connection
+# The camera frames a second a recording keeps: the simulated camera's frame with its overlay is
+# ~4.5 KiB, so its 14 fps would be ~60 KiB/s, seven times the rest of the recording (README).
+DEFAULT_CAMERA_FPS = 2.0
 MAP_TOPICS = frozenset({c.TOPIC_MAP_NODES, c.TOPIC_MAP_FLOOR_PLAN, c.TOPIC_MAP_VIEW})
 
 
@@ -42,11 +45,14 @@ class _MapOnSubscribe(ServerListener):
 
 
 class Recording:
-    """One gateway's publisher and the sinks it feeds; close() stops the server and finishes the file."""
+    """One gateway's publisher and the sinks it feeds; close() stops the server and finishes the file.
+    `camera_fps`: the camera's frames kept a second at most (0: none; None: every frame)."""
 
-    def __init__(self, gateway: GatewayLike) -> None:
+    def __init__(self, gateway: GatewayLike, camera_fps: float | None = None) -> None:
         self.context = foxglove.Context()
         self.gateway = gateway
+        self.camera_fps = camera_fps
+        self._camera_kept_ns: int | None = None
         self.publisher: Publisher | None = None
         self.server: WebSocketServer | None = None
         self.mcap_path: Path | None = None
@@ -89,9 +95,20 @@ class Recording:
             self.server = None
 
     def publish_camera_jpeg(self, jpeg: bytes, stamp_ns: int) -> None:
-        """The camera's hook: a JPEG frame taken at stamp_ns (wall clock, ns)."""
+        """The camera's hook: a JPEG frame taken at stamp_ns (wall clock, ns), kept if it comes at
+        least 1 / camera_fps after the last frame kept."""
+        if self.publisher is None or self.camera_fps == 0:
+            return
+        last = self._camera_kept_ns
+        if self.camera_fps is not None and last is not None and stamp_ns - last < 1e9 / self.camera_fps:
+            return
+        self._camera_kept_ns = stamp_ns
+        self.publisher.publish_camera_jpeg(jpeg, stamp_ns)
+
+    def publish_event(self, message: dict[str, Any]) -> None:
+        """A /ws-shaped message of the session's own (a mission's goals), recorded with the gateway's."""
         if self.publisher is not None:
-            self.publisher.publish_camera_jpeg(jpeg, stamp_ns)
+            self.publisher.on_message(message)
 
 
 @contextlib.contextmanager
@@ -101,12 +118,15 @@ def open_recording(
     foxglove_port: int | None = None,
     host: str = "127.0.0.1",
     overwrite: bool = False,
+    camera_fps: float = DEFAULT_CAMERA_FPS,
 ) -> Iterator[Recording | None]:
-    """A Recording with the sinks asked for, closed on exit; None when neither is asked for."""
+    """A Recording with the sinks asked for, closed on exit; None when neither is asked for. The
+    camera is kept at camera_fps when there is a file (the live view shares its channel), else
+    whole."""
     if mcap_path is None and foxglove_port is None:
         yield None
         return
-    recording = Recording(gateway)
+    recording = Recording(gateway, camera_fps if mcap_path is not None else None)
     add_camera_sink = getattr(gateway, "add_camera_sink", None)  # a gateway that may have a camera
     stop_camera: Callable[[], None] | None = None
     try:

@@ -43,6 +43,7 @@ from cart2d.server.models import (
     PoseIn,
     SettingIn,
     errors,
+    invalid_request,
     read_body,
 )
 from cart2d.server.motion import MotionTokens, motion_token
@@ -98,14 +99,7 @@ def create_app(
     viewers = Viewers(gateway)
     app.state.viewers = viewers  # for tests and benchmarks: the viewers and their queues
 
-    @app.exception_handler(RequestValidationError)
-    async def invalid(_: Request, exc: RequestValidationError) -> JSONResponse:
-        # A sentence per problem, without echoing the input (NaN cannot even be written in JSON).
-        problems = []
-        for error in exc.errors():
-            where = ".".join(str(p) for p in error["loc"] if p != "body") or "body"
-            problems.append(f"{where}: {error['msg']}")
-        return JSONResponse({"detail": "; ".join(problems)}, status_code=422)
+    app.add_exception_handler(RequestValidationError, invalid_request)  # type: ignore[arg-type]
 
     @app.exception_handler(StarletteHTTPException)
     async def http_error(request: Request, exc: StarletteHTTPException) -> Response:

@@ -6,6 +6,8 @@ from __future__ import annotations
 from typing import Annotated, Any
 
 from fastapi import HTTPException, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field, JsonValue, field_validator
 
 from cart2d.link.protocol import MAX_ARGS
@@ -168,3 +170,13 @@ class MapUploadIn(Strict):
         "is occupied if any of its cells is, so no obstacle is lost",
     )
     unknown_is_free: bool = Field(False, description="plan through unknown cells (default: blocked)")
+
+
+async def invalid_request(_: Request, exc: RequestValidationError) -> JSONResponse:
+    """A 422 with a sentence per problem, without echoing the input (NaN cannot even be written in
+    JSON): the apps' handler of RequestValidationError."""
+    problems = []
+    for error in exc.errors():
+        where = ".".join(str(p) for p in error["loc"] if p != "body") or "body"
+        problems.append(f"{where}: {error['msg']}")
+    return JSONResponse({"detail": "; ".join(problems)}, status_code=422)

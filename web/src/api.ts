@@ -107,11 +107,37 @@ export interface StatusView {
 
 export interface ReplayView {
   file: string;
-  state: "waiting" | "playing" | "ended";
+  state: "waiting" | "playing" | "paused" | "ended";
   position_s: number;
   duration_s: number;
   speed: number;
+  loop: boolean;
   sent: number;
+  seeks: number; // seeks, restarts and loops so far
+  version: number; // counts its changes of state: an older answer is out of date
+}
+
+/** The replay's own /ws message: its state changed; after a seek (and to a panel that opens)
+ * also the cart's trails up to the position, before the state there. */
+export interface ReplayMessage {
+  type: "replay";
+  state: ReplayView["state"];
+  position_s: number;
+  duration_s: number;
+  seeks: number;
+  version: number;
+  trail?: Point[]; // odometry
+  truth_trail?: Point[];
+}
+
+/** A recorded mission's goal started or ended (`cart2d mission`'s recordings). */
+export interface GoalMessage {
+  type: "goal";
+  index: number;
+  of: number;
+  goal: Point;
+  state: "started" | "reached" | "failed";
+  reason?: string;
 }
 
 export interface ProtocolCommand {
@@ -175,7 +201,9 @@ export type LiveMessage =
   | { type: "map"; version: number; why: string }
   | PerceivedMessage
   | CameraMessage
-  | SimWorldMessage;
+  | SimWorldMessage
+  | ReplayMessage
+  | GoalMessage;
 
 /** A box standing in the simulated world (GET /api/sim/world): centre and size, m; height, m. */
 export interface SimBox {

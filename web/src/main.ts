@@ -30,6 +30,7 @@ import { uploadBody, uploadMap } from "./map_upload";
 import { parseNumber } from "./parse";
 import { LivePlots } from "./plots";
 import { TelemetryRecord } from "./record";
+import { ReplayBar } from "./replay";
 import { RestartNotice } from "./restart";
 import { StepResponse } from "./step";
 import { gatewayAnswers, TokenForm, wsUrl } from "./token";
@@ -77,6 +78,7 @@ function showReplay(s: StatusView): void {
     const r = s.replay;
     badge.textContent = `replay of ${r.file}: ${r.position_s.toFixed(1)} / ${r.duration_s.toFixed(1)} s (${r.state})`;
   }
+  replayBar.show(s.replay);
 }
 // Keys drive and stop the cart: in a replay there is none (a capture listener runs before theirs).
 window.addEventListener(
@@ -93,7 +95,7 @@ window.addEventListener(
 function renderLink(): void {
   let state: "connected" | "stale" | "reconnecting" | "lost";
   let text: string;
-  const stale = clock.stale();
+  const stale = clock.stale() && !replaying; // a paused replay's telemetry is as it was then, not late
   if (!gatewayUp) {
     state = "lost";
     text = "lost: the gateway does not answer";
@@ -335,6 +337,7 @@ const driver = new Driver(ctx, () => ({ vMax: tuning.value("v_max_mps") ?? 0.5, 
 const gatewayPanel = new GatewayPanel(ctx);
 const simFaults = new SimFaults(ctx);
 const restartNotice = new RestartNotice(ctx);
+const replayBar = new ReplayBar(ctx, liveMap, record);
 window.addEventListener("cart2d-settings-imported", () => void loadMap());
 
 // -- live stream -------------------------------------------------------------------------------
@@ -401,6 +404,10 @@ function onMessage(msg: LiveMessage): void {
       break;
     case "sim_world":
       simWorld.show(msg);
+      break;
+    case "replay":
+    case "goal":
+      replayBar.onMessage(msg);
       break;
   }
 }

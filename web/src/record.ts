@@ -48,6 +48,12 @@ export class TelemetryRecord {
     if (this.truth.length > TRUTH_CAPACITY) this.truth.splice(0, this.truth.length - TRUTH_CAPACITY);
   }
 
+  /** Forgets everything (a replay that jumped to another time). */
+  clear(): void {
+    for (const list of [this.t, this.wallMs, this.frames, this.truth]) list.length = 0;
+    this.lastTick = null;
+  }
+
   get lastT(): number {
     return this.t[this.t.length - 1] ?? 0;
   }

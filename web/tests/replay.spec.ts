@@ -1,59 +1,27 @@
 // `cart2d replay` in the panel: a mission's recording played back shows the cart's trail, the
 // mission and the plots, says it is a replay, and offers nothing that drives or changes anything.
 
-import { type ChildProcess, spawn, spawnSync } from "node:child_process";
-import { mkdtempSync, rmSync, writeFileSync } from "node:fs";
-import { createServer } from "node:net";
+import { mkdtempSync, rmSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 
 import { expect, test } from "@playwright/test";
 
-import { ROOT } from "./gateway";
+import { type Replay, recordMission, startReplay } from "./replay-helpers";
 
-const CART2D = join(ROOT, "build", "venv", "bin", "cart2d");
 let dir = "";
-let replay: ChildProcess | null = null;
+let replay: Replay | null = null;
 let base = "";
-
-function freePort(): Promise<number> {
-  return new Promise((ok, fail) => {
-    const server = createServer();
-    server.once("error", fail);
-    server.listen(0, "127.0.0.1", () => {
-      const address = server.address();
-      const port = typeof address === "object" && address ? address.port : 0;
-      server.close(() => ok(port));
-    });
-  });
-}
 
 test.beforeAll(async () => {
   dir = mkdtempSync(join(tmpdir(), "cart2d-replay-"));
-  writeFileSync(join(dir, "m.json"), JSON.stringify({ obstacles: [[0.4, 0.2]], goals: [[0.8, 0.4]] }));
-  const mission = spawnSync(CART2D, ["mission", join(dir, "m.json")], { cwd: ROOT, encoding: "utf8", timeout: 120_000 });
-  expect(mission.status, mission.stderr).toBe(0);
-  const port = await freePort();
-  base = `http://127.0.0.1:${port}`;
-  replay = spawn(CART2D, ["replay", join(dir, "m.mcap"), "--speed", "4", "--port", String(port)], {
-    cwd: ROOT,
-    env: { ...process.env, CART2D_HOME: dir },
-    stdio: "ignore",
-  });
-  const deadline = Date.now() + 20_000;
-  while (Date.now() < deadline) {
-    try {
-      if ((await fetch(`${base}/api/status`)).ok) return;
-    } catch {
-      /* not listening yet */
-    }
-    await new Promise((r) => setTimeout(r, 200));
-  }
-  throw new Error(`cart2d replay did not come up at ${base}`);
+  const file = recordMission(dir, { obstacles: [[0.4, 0.2]], goals: [[0.8, 0.4]] });
+  replay = await startReplay(file, dir, ["--speed", "4"]);
+  base = replay.base;
 });
 
 test.afterAll(() => {
-  replay?.kill("SIGINT");
+  replay?.stop();
   rmSync(dir, { recursive: true, force: true });
 });
 
