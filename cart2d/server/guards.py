@@ -213,7 +213,7 @@ def vouched(headers: Headers) -> bool:
     may add Authorization)."""
     return (
         headers.get("origin") is not None
-        or headers.get("sec-fetch-site") in ("same-origin", "none")
+        or headers.get("sec-fetch-site") == "same-origin"
         or "x-cart2d-token" in headers
     )
 
