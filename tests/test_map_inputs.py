@@ -211,3 +211,18 @@ def test_a_floor_plan_is_written_and_read_back_within_the_bounds(tmp_path: Path)
 def test_a_report_carries_no_float_noise(tmp_path: Path) -> None:
     write_report(tmp_path / "r.json", {"length_m": 0.1 + 0.2, "trace": [[1.2000000000000002, 3.0]]})
     assert json.loads((tmp_path / "r.json").read_text()) == {"length_m": 0.3, "trace": [[1.2, 3.0]]}
+
+
+def test_a_map_mission_whose_start_is_in_a_wall_is_refused_before_it_runs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    cells = np.zeros((40, 40), np.int8)
+    cells[0, :] = cells[-1, :] = cells[:, 0] = cells[:, -1] = OCCUPIED
+    plan = OccupancyMap((-2.0, -2.0), 0.1, cells)
+    (tmp_path / "room.pgm").write_bytes(image_bytes(plan))
+    (tmp_path / "room.yaml").write_text(ros_yaml(plan, "room.pgm"))
+    said = refused(
+        write_mission(tmp_path, '{"map": "room.yaml", "start": [-1.95, 0, 0], "goals": [[0, 0]]}'), capsys
+    )
+    assert "start: the cart's position (-1.950, 0.000) is inside a wall of the floor plan" in said
+    assert "choose a start on the map's free floor" in said and "POST /api/pose" not in said

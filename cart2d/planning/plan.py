@@ -87,11 +87,16 @@ _GOAL_ADVICE = {
 }
 
 
-def blocked_words(graph: GridGraph, point: Point, kinds: CellKinds | None, start: bool) -> str:
-    """Why the cart cannot stand at `point` (metres; the planner found it blocked), with advice."""
+def _blocked(graph: GridGraph, point: Point, kinds: CellKinds | None) -> tuple[str, str]:
+    """What keeps the cart off `point` (metres; the planner found it blocked), and in words."""
     u, v = graph.grid.to_grid(*point)
     kind = (kinds or CellKinds()).what_blocks(graph, u, v)
-    words = _BLOCKED_WORDS[kind].format(r=graph.footprint_radius_m)
+    return kind, _BLOCKED_WORDS[kind].format(r=graph.footprint_radius_m)
+
+
+def blocked_words(graph: GridGraph, point: Point, kinds: CellKinds | None, start: bool) -> str:
+    """Why the cart cannot stand at `point` (metres; the planner found it blocked), with advice."""
+    kind, words = _blocked(graph, point, kinds)
     if start:
         return f"the cart's position {_fmt(*point)} is {words}: {_START_ADVICE[kind]}"
     return f"the goal {_fmt(*point)} is {words}{_GOAL_ADVICE.get(kind, '')}"
@@ -252,17 +257,16 @@ class Planner:
         """A plan from the cart's measured position `start` to `goal` (metres); see plan_path."""
         return plan_path(self.graph, start, goal, self.start_slack_m, self.kinds)
 
-    def start_problem(self, position: Point) -> str | None:
-        """Why a plan could not start at `position` (off the map, blocked), with advice; None if
-        it could."""
+    def start_problem(self, position: Point, advice: bool = True) -> str | None:
+        """Why a plan could not start at `position` (off the map, blocked), with what to do on a
+        gateway (`advice`: set the pose, move the plan); None if it could."""
         x, y = position
+        _finite(x, y, "the cart's position")
         if not self.grid.inside(x, y):
-            return (
-                f"the cart's position {_fmt(x, y)} is off the map, which spans {self.grid.bounds_text()}: "
-                f"{_START_ADVICE['wall']}"
-            )
-        try:
-            self.plan(position, position)
-        except StartBlocked as exc:
-            return str(exc)
-        return None
+            kind, words = "wall", f"off the map, which spans {self.grid.bounds_text()}"
+        elif self.graph._point_clear(*self.grid.to_grid(x, y)):
+            return None
+        else:
+            kind, words = _blocked(self.graph, position, self.kinds)
+        said = f"the cart's position {_fmt(x, y)} is {words}"
+        return f"{said}: {_START_ADVICE[kind]}" if advice else said
