@@ -153,8 +153,9 @@ class MapMixin:
 
     def update_settings(self, settings: GatewaySettings, why: str = "new settings were loaded") -> None:
         """Replaces the gateway's settings (a new map takes effect now) and saves them. The new
-        map's planners are built before the lock is taken (seconds for a 2000 x 2000 plan): a stop,
-        a mission's end, a view wait for none of that."""
+        map's planners are built before the lock is taken, the simulator's new walls sent after it
+        is released (seconds, and half a second, for a 2000 x 2000 plan): a stop, a mission's end,
+        a view wait for none of that."""
         layer = self.perceived
         map_planner = planner_for(settings.map)  # validates the map first
         planner = with_perceived(settings.map, layer, map_planner)
@@ -171,22 +172,25 @@ class MapMixin:
             self.settings = settings
             self.map_planner, self.planner = map_planner, planner
             self._apply_camera(camera)
-            if new_walls:
-                self._sync_world()
             if new_map:
                 self._map_changed(why)
+        if new_walls:
+            self._sync_world()
 
     def _sync_world(self) -> None:
-        """The simulator's walls follow the map (and do so again after a restart)."""
+        """The simulator's walls follow the map (and do so again after a restart), under the
+        simulator's lifecycle lock as its boxes' changes: the map it reads is the latest, whoever
+        sends last."""
         if self.sim is None:
             return
-        world = with_boxes(world_for(self.settings.map), self.sim.options.world)  # boxes stay
-        self.sim.options.world = world
-        if self.sim.running():
-            try:
-                self.sim.set_world(world)
-            except SimulatorError as exc:
-                log.warning("the simulator's walls could not follow the map: %s", exc)
+        with self.sim.lifecycle:
+            world = with_boxes(world_for(self.settings.map), self.sim.options.world)  # boxes stay
+            self.sim.options.world = world
+            if self.sim.running():
+                try:
+                    self.sim.set_world(world)
+                except SimulatorError as exc:
+                    log.warning("the simulator's walls could not follow the map: %s", exc)
 
     def _map_changed(self, why: str) -> None:
         """Tells viewers, and replans a driven path the change blocks (lock held)."""
