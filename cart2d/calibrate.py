@@ -700,16 +700,34 @@ def _run_serial(args: argparse.Namespace, passes: int, say: Callable[[str], None
     return result
 
 
-def main_calibrate(args: argparse.Namespace, say: Callable[[str], None] = print) -> int:
-    """The `cart2d calibrate` command; exit status 1 if it failed or made things worse."""
+def option_problems(args: argparse.Namespace) -> tuple[dict[str, float], list[str]]:
+    """The simulator's faults, and one line per bad option value (checked before anything runs)."""
+    problems, faults = [], {}
     if not 0.2 <= args.side <= 20.0 or args.runs < 1 or (args.passes is not None and args.passes < 1):
-        print("cart2d calibrate: --side from 0.2 to 20 m, --runs and --passes at least 1", file=sys.stderr)
+        problems.append("--side from 0.2 to 20 m, --runs and --passes at least 1")
+    if args.sim:
+        try:
+            faults = sim_faults(args)
+        except ValueError as exc:
+            problems.append(str(exc))
+    if args.report is not None and not args.report.parent.is_dir():
+        problems.append(f"--report {args.report}: its folder does not exist")
+    return faults, problems
+
+
+def main_calibrate(args: argparse.Namespace, say: Callable[[str], None] = print) -> int:
+    """The `cart2d calibrate` command; exit status 2 for bad option values (nothing run), 1 if it
+    failed or made things worse."""
+    faults, problems = option_problems(args)
+    for problem in problems:
+        print(f"cart2d calibrate: {problem}", file=sys.stderr)
+    if problems:
         return 2
     passes = args.passes if args.passes is not None else (2 if args.sim else 1)
     try:
         if args.sim:
             result = calibrate_in_sim(
-                sim_faults(args),
+                faults,
                 args.side,
                 args.runs,
                 passes,

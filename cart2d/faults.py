@@ -11,6 +11,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from cart2d.shown import quoted
+
 
 @dataclass(frozen=True)
 class Fault:
@@ -63,13 +65,21 @@ def value_problem(name: str, value: object) -> str | None:
     """None if `value` is valid for fault `name`, else what is wrong, in a sentence."""
     fault = BY_NAME.get(name)
     if fault is None:
-        return f"unknown fault {name!r} (known: {', '.join(BY_NAME)})"
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        return f"fault {name} takes a number {fault.range_text()}, not {value!r}"
+        return f"unknown fault {quoted(name)} (known: {', '.join(BY_NAME)})"
+    if isinstance(value, bool) or not isinstance(value, int | float) or not _finite(value):
+        return f"fault {name} takes a number {fault.range_text()}, not {quoted(value)}"
     if not fault.low <= value <= fault.high or (fault.whole and value != int(value)):
         whole = "a whole number" if fault.whole else "a number"
-        return f"fault {name} takes {whole} {fault.range_text()} ({fault.doc}), not {value:g}"
+        given = f"{value:g}" if isinstance(value, float) else quoted(value)  # an int may not fit a float
+        return f"fault {name} takes {whole} {fault.range_text()} ({fault.doc}), not {given}"
     return None
+
+
+def _finite(value: float) -> bool:
+    try:
+        return math.isfinite(value)
+    except OverflowError:  # an int past any float
+        return False
 
 
 def problems(faults: dict[str, object]) -> list[str]:

@@ -442,7 +442,10 @@ def check_mission(mission_path: Path, report_path: Path) -> tuple[MissionSpec | 
             problems += mission_file.map_problems(grid, spec.start, spec.obstacles)
         else:
             try:
-                mission_map(spec, mission_path.parent)
+                planner = planner_for(mission_map(spec, mission_path.parent))
+                start = planner.start_problem(spec.start[:2], advice=False)
+                if start is not None:  # else the simulator starts with the cart in a wall
+                    problems.append(f"start: {start}: choose a start on the map's free floor")
             except (MapError, PlanError, OSError) as exc:
                 problems.append(f"map: {exc}")
     problems += mission_file.report_problems(report_path, mission_path)

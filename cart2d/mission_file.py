@@ -17,11 +17,16 @@ from typing import Any, TypeVar
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from cart2d import faults as fault_table
+from cart2d.files import read_regular
 from cart2d.params import footprint_radius_m, robot, settings_table
 from cart2d.planning import Grid, PlanError
+from cart2d.shown import clipped, for_people, quoted
 from cart2d.simulator import Box
 
 Model = TypeVar("Model", bound=BaseModel)
+MAX_COORDINATE_M = 1e5  # what the simulator takes (sim/src/world_change.cpp, kMaxCoordinateM)
+MAX_PROBLEMS = 20  # a file's problems listed, then how many more
+MAX_FILE_BYTES = 16 * 1024 * 1024  # a mission or world file: 10 000 boxes take about 1 MB
 
 
 def default_report_path(mission: Path) -> Path:
@@ -31,8 +36,9 @@ def default_report_path(mission: Path) -> Path:
 
 def _where(loc: tuple[int | str, ...]) -> str:
     text = ""
-    for part in loc:
-        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+    for part in loc:  # a part may be a key of the file: cut short
+        key = clipped(str(part), 40)
+        text += f"[{part}]" if isinstance(part, int) else (f".{key}" if text else key)
     return text or "the mission"
 
 
@@ -43,13 +49,13 @@ def _sentence(error: Any, keys: list[str]) -> str:
     if kind == "extra_forbidden":
         parent = _where(loc[:-1]) if len(loc) > 1 else ""
         if parent:
-            return f"unknown key {loc[-1]!r} in {parent}"
-        return f"unknown key {where!r} (a mission has: {', '.join(keys)})"
+            return f"unknown key {quoted(loc[-1])} in {parent}"
+        return f"unknown key {quoted(where)} (a mission has: {', '.join(keys)})"
     if loc == ("goals",) and kind in ("missing", "too_short"):
         return "no goals: a mission needs at least one goal [x, y]"
     if kind == "missing":
         return f"{where} is missing"
-    message = str(error["msg"])
+    message = clipped(str(error["msg"]))
     return f"{where}: {message[0].lower()}{message[1:]}"
 
 
@@ -62,13 +68,19 @@ def parse(data: bytes, model: type[Model], name: str) -> tuple[Model | None, lis
         return None, [f"{name} is not UTF-8 text"]
     except json.JSONDecodeError as exc:
         return None, [f"{name} is not JSON: {exc.msg} at line {exc.lineno}, column {exc.colno}"]
+    except RecursionError:
+        return None, [f"{name} is nested too deep to be a mission (lists or objects inside each other)"]
+    except ValueError:  # Python's bound on an integer's digits (sys.get_int_max_str_digits)
+        return None, [f"{name} holds an integer with too many digits"]
     if not isinstance(raw, dict):
         return None, [f"{name} holds {type(raw).__name__ if raw is not None else 'null'}, not a JSON object"]
     try:
         return model.model_validate(raw), []
     except ValidationError as exc:
         keys = list(model.model_fields)
-        return None, [_sentence(error, keys) for error in exc.errors()]
+        errors = exc.errors()
+        more = [f"and {len(errors) - MAX_PROBLEMS} more problems"] if len(errors) > MAX_PROBLEMS else []
+        return None, [_sentence(error, keys) for error in errors[:MAX_PROBLEMS]] + more
 
 
 class BoxSpec(BaseModel):
@@ -76,8 +88,8 @@ class BoxSpec(BaseModel):
     for the camera."""
 
     model_config = ConfigDict(extra="forbid")
-    x: float = Field(allow_inf_nan=False)
-    y: float = Field(allow_inf_nan=False)
+    x: float = Field(ge=-MAX_COORDINATE_M, le=MAX_COORDINATE_M, allow_inf_nan=False)
+    y: float = Field(ge=-MAX_COORDINATE_M, le=MAX_COORDINATE_M, allow_inf_nan=False)
     sx: float = Field(gt=0.0, le=100.0, allow_inf_nan=False)
     sy: float = Field(gt=0.0, le=100.0, allow_inf_nan=False)
     height: float = Field(0.3, gt=0.0, le=10.0, allow_inf_nan=False)
@@ -124,7 +136,9 @@ def settings_problems(settings: dict[str, float]) -> list[str]:
     for name, value in settings.items():
         entry = table.get(name)
         if entry is None:
-            problems.append(f"settings: unknown firmware setting {name!r} (config/robot.toml lists them)")
+            problems.append(
+                f"settings: unknown firmware setting {quoted(name)} (config/robot.toml lists them)"
+            )
         elif not entry["min"] <= value <= entry["max"]:
             unit = f" {entry['unit']}" if entry["unit"] else ""
             low, high = entry["min"], entry["max"]
@@ -191,13 +205,17 @@ def finite(value: Any) -> Any:
 
 
 def write_report(path: Path, report: dict[str, Any]) -> None:
-    path.write_text(json.dumps(finite(report), indent=2, allow_nan=False) + "\n", encoding="utf-8")
+    """The report as JSON for people: no NaN, no float noise (for_people)."""
+    text = json.dumps(for_people(finite(report)), indent=2, allow_nan=False)
+    path.write_text(text + "\n", encoding="utf-8")
 
 
 def read_problems(path: Path) -> tuple[bytes | None, list[str]]:
     """The mission file's bytes, or why it cannot be read."""
     try:
-        return path.read_bytes(), []
+        return read_regular(path, MAX_FILE_BYTES), []
+    except ValueError:  # a NUL in the name
+        return None, [f"the mission file {quoted(str(path))} cannot be read: its name holds a NUL"]
     except FileNotFoundError:
         return None, [f"there is no mission file {path}"]
     except IsADirectoryError:

@@ -295,8 +295,15 @@ def test_the_command_refuses_bad_numbers(capsys: pytest.CaptureFixture[str]) -> 
     assert main(["calibrate", "--sim", "--side", "0.1"]) == 2
     assert main(["calibrate", "--serial", "/dev/null", "--runs", "0"]) == 2
     assert "--side from 0.2 to 20 m" in capsys.readouterr().err
-    assert main(["calibrate", "--sim", "--faults", "[1]"]) == 1
-    assert "JSON object" in capsys.readouterr().err
+    for bad, words in [
+        (["--faults", "[1]"], "JSON object"),
+        (["--faults", "{not json"], "not JSON"),
+        (["--faults", '{"enc_slip_l": 9}'], "enc_slip_l"),
+        (["--enc-track-error-m", "9"], "enc_track_error_m"),
+        (["--report", "/nonexistent/r.json"], "folder does not exist"),
+    ]:
+        assert main(["calibrate", "--sim", *bad]) == 2, bad  # bad option values: 2, as elsewhere
+        assert words in capsys.readouterr().err
 
 
 # -- in the simulator -------------------------------------------------------------------------

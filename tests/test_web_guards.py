@@ -178,6 +178,48 @@ def test_cross_origin_requests_change_nothing(live: LiveGateway) -> None:
     assert after == {key: value for key, value in before["map"].items() if key != "version"}
 
 
+def floor_plan_form() -> tuple[bytes, str]:
+    """A floor plan as a cross-origin HTML form would post it (multipart/form-data): a 4 x 4 m
+    PGM at 0.1 m with a wall across it."""
+    boundary = "----cart2dform"
+    image = b"P5 40 40 255\n" + bytes([254] * 800 + [0] * 40 + [254] * 760)
+    head = f'--{boundary}\r\nContent-Disposition: form-data; name="image"; filename="p.pgm"\r\n\r\n'
+    tail = (
+        f'\r\n--{boundary}\r\nContent-Disposition: form-data; name="resolution_m"\r\n\r\n0.1'
+        f'\r\n--{boundary}\r\nContent-Disposition: form-data; name="origin_m"\r\n\r\n[-2, -2]'
+        f"\r\n--{boundary}--\r\n"
+    )
+    return head.encode() + image + tail.encode(), f"multipart/form-data; boundary={boundary}"
+
+
+def test_a_floor_plan_form_is_taken_only_with_proof_that_no_page_elsewhere_sent_it(
+    live: LiveGateway,
+) -> None:
+    """POST /api/map takes multipart/form-data, a type any page can post: from a browser that says
+    nothing of where the form comes from, it is refused, as from another origin."""
+    before = live.snapshot()
+    body, kind = floor_plan_form()
+    form = {"Content-Type": kind}
+    for headers in [
+        {},  # a browser that sends neither Origin nor Sec-Fetch-Site
+        {"Sec-Fetch-Site": "none"},
+        {"Authorization": "Basic dXNlcjpwYXNz"},  # a proxy's credentials, resent by the browser
+        {"Origin": "http://evil.example", "Sec-Fetch-Site": "cross-site"},
+        {"Origin": f"http://127.0.0.1:{live.port + 1}", "Sec-Fetch-Site": "same-site"},
+        {"Origin": "null"},
+    ]:
+        status, _, answer = live.request("POST", "/api/map", body, {**form, **headers})
+        assert status == 403 and json.loads(answer)["detail"], (headers, status, answer)
+    assert_unchanged(before, live.snapshot())
+    # the gateway's own page, or a program that says so with the token's header
+    exported = live.request("GET", "/api/settings/file")[2]
+    for proof in ({"Origin": live.origin, "Sec-Fetch-Site": "same-origin"}, {"X-Cart2d-Token": "curl"}):
+        status, _, answer = live.request("POST", "/api/map", body, {**form, **proof})
+        assert status == 200 and json.loads(answer)["floor_plan"]["width"] == 40, (proof, answer)
+    own = {"Content-Type": "application/json", "Origin": live.origin}
+    assert live.request("POST", "/api/settings/file", exported, own)[0] == 200  # the map as it was
+
+
 def test_the_gateways_own_requests_keep_their_connection(live: LiveGateway) -> None:
     """Closing after refusals and cut bodies must not close every connection: the panel's requests
     (reads, bodiless and JSON changes) share one."""

@@ -65,6 +65,7 @@ from cart2d.link.flashing import HURRIED_CHECK_S, Flasher
 from cart2d.link.protocol import Reply, Telemetry
 from cart2d.params import robot, setting_id
 from cart2d.planning import Plan, PlanError, Point, StartBlocked, polyline_length
+from cart2d.shown import for_people
 from cart2d.simulator import Simulator, SimulatorError
 from cart2d.smoothing import round_corners
 from cart2d.spec import load_spec
@@ -401,13 +402,16 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
 
     @staticmethod
     def plan_view(plan: Plan) -> dict[str, Any]:
-        return {
-            "start": list(plan.start),
-            "waypoints": [list(p) for p in plan.waypoints],
-            "grid_path": [list(p) for p in plan.path],
-            "length_m": plan.length_m,
-            "grid_length_m": plan.grid_length_m,
-        }
+        view: dict[str, Any] = for_people(
+            {
+                "start": plan.start,
+                "waypoints": plan.waypoints,
+                "grid_path": plan.path,
+                "length_m": plan.length_m,
+                "grid_length_m": plan.grid_length_m,
+            }
+        )
+        return view
 
     def stop(self, reason: str = "stopped by the user") -> Reply:
         """Emergency stop: motors off now; a mission in progress fails (with `reason`: the
@@ -454,14 +458,17 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         with self._lock:
             m = self.mission
             elapsed = (m.ended_s or time.monotonic()) - m.started_s if m.started_s else 0.0
-            return {
-                "state": m.state,
-                "goal": list(m.goal) if m.goal else None,
-                "reason": m.reason,
-                "elapsed_s": round(elapsed, 3),
-                "plan": m.plan,
-                "replans": [asdict(r) for r in m.replans],
-            }
+            view: dict[str, Any] = for_people(
+                {
+                    "state": m.state,
+                    "goal": m.goal,
+                    "reason": m.reason,
+                    "elapsed_s": round(elapsed, 3),
+                    "plan": m.plan,
+                    "replans": [asdict(r) for r in m.replans],
+                }
+            )
+            return view
 
     def _end_mission(self, state: str, reason: str) -> None:
         self.mission.state = state

@@ -21,9 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from cart2d.maps import OccupancyMap
+from cart2d.maps import OCCUPIED, UNKNOWN, OccupancyMap
 from cart2d.params import planning_radius_m, robot
-from cart2d.planning import Grid, GridGraph, Node, Planner, Point, point_segment_distance
+from cart2d.planning import CellKinds, Grid, GridGraph, Node, Planner, Point, point_segment_distance
 from cart2d.planning.refine import occupied_cells, odd_factor, refined_cells, refined_grid
 from cart2d.simulator import WallGrid, World, arena_world
 from cart2d.store import MapSettings
@@ -44,13 +44,23 @@ class Layout:
     blocked: npt.NDArray[np.bool_] | None
     outside_blocked: bool
     start_slack_m: float = 0.0  # made finer: the map's own half step (plan_path)
+    kinds: CellKinds | None = None  # a floor plan's: which blocked cells are walls, which unknown
 
     def planner(self, also_blocked: npt.NDArray[np.bool_] | None = None) -> Planner:
-        blocked = self.blocked
+        blocked, kinds = self.blocked, self.kinds
         if also_blocked is not None:
             blocked = also_blocked if blocked is None else blocked | also_blocked
+            if kinds is not None:  # what the camera saw is an obstacle, whatever the plan says
+                seen = ~also_blocked
+                kinds = CellKinds(*(None if a is None else a & seen for a in (kinds.unknown, kinds.walls)))
         return Planner(
-            self.grid, planning_radius_m(), self.obstacles, blocked, self.outside_blocked, self.start_slack_m
+            self.grid,
+            planning_radius_m(),
+            self.obstacles,
+            blocked,
+            self.outside_blocked,
+            self.start_slack_m,
+            kinds,
         )
 
 
@@ -76,13 +86,27 @@ def layout_for(m: MapSettings, finest_m: float | None = None) -> Layout:
     coarse = occupancy.coarsened(k)
     fine_k = k if finest_m is None else _floor_plan_factor(occupancy, k, finest_m)
     if fine_k == k:
-        return Layout(coarse.grid(), tuple(m.obstacles), coarse.blocked(m.unknown_is_free), True)
+        kinds = _kinds(coarse, m.unknown_is_free)
+        return Layout(coarse.grid(), tuple(m.obstacles), coarse.blocked(m.unknown_is_free), True, kinds=kinds)
     # a floor plan's grid is its own cells in blocks: finer blocks of a divisor of k, so that
     # each of the map's cells (the user's obstacles) is exactly q x q of them
     fine, q = occupancy.coarsened(fine_k), k // fine_k
     users = np.kron(occupied_cells(coarse.grid(), m.obstacles), np.ones((q, q), dtype=np.bool_))
-    blocked = fine.blocked(m.unknown_is_free) | users[: fine.height, : fine.width].astype(np.bool_)
-    return Layout(fine.grid(), (), blocked, True, coarse.grid().step_m / 2)
+    users = users[: fine.height, : fine.width].astype(np.bool_)
+    blocked = fine.blocked(m.unknown_is_free) | users
+    kinds = _kinds(fine, m.unknown_is_free, users)
+    return Layout(fine.grid(), (), blocked, True, coarse.grid().step_m / 2, kinds)
+
+
+def _kinds(
+    plan: OccupancyMap, unknown_is_free: bool, users: npt.NDArray[np.bool_] | None = None
+) -> CellKinds:
+    """The floor plan's walls and (when blocked) unknown cells, without the user's obstacles."""
+    unknown = None if unknown_is_free else plan.cells == UNKNOWN
+    walls = plan.cells == OCCUPIED
+    if users is not None:
+        unknown, walls = (None if unknown is None else unknown & ~users), walls & ~users
+    return CellKinds(unknown, walls)
 
 
 def _floor_plan_factor(occupancy: OccupancyMap, k: int, finest_m: float) -> int:

@@ -13,9 +13,11 @@ from typing import TYPE_CHECKING, Any
 from cart2d.gateway.live_map import arena, planner_for, world_for
 from cart2d.gateway.perceived import PerceivedLayer, with_perceived
 from cart2d.gateway.sim_world import with_boxes
+from cart2d.link import CommandRefused, Link, LinkError
 from cart2d.maps import OccupancyMap
 from cart2d.params import footprint_radius_m
 from cart2d.planning import Planner, Point
+from cart2d.shown import for_people
 from cart2d.simulator import Simulator, SimulatorError
 from cart2d.store import FloorPlan, GatewaySettings, MapSettings, Store
 
@@ -36,6 +38,7 @@ class MapMixin:
 
     # what the Gateway has (core.py, perceived.py)
     _lock: threading.RLock
+    link: Link
     settings: GatewaySettings
     store: Store
     sim: Simulator | None
@@ -85,7 +88,8 @@ class MapMixin:
                     "cells": plan.occupancy().counts(),
                     "image": f"/api/map/image?version={self.map_version}",
                 }
-            return view
+            rounded: dict[str, Any] = for_people(view)  # 0.3, not 0.30000000000000004
+            return rounded
 
     def floor_plan(self) -> OccupancyMap | None:
         with self._lock:
@@ -142,15 +146,34 @@ class MapMixin:
         self.update_settings(
             self.settings.model_copy(update={"map": m}), f"the floor plan {name!r} was loaded"
         )
-        return self.map_view()
+        return {**self.map_view(), "pose_warning": self._pose_problem()}
+
+    def _pose_problem(self) -> str | None:
+        """Why no plan can start where the cart's pose says it stands on the map, with what to do;
+        None if one can, or the pose cannot be read (a goal's refusal will say why then)."""
+        if not self.link.connected.is_set():
+            return None
+        try:
+            x, y, _ = self.link.call("POSE")
+        except (LinkError, CommandRefused):
+            return None
+        with self._lock:
+            return self.map_planner.start_problem((x, y))
 
     def update_settings(self, settings: GatewaySettings, why: str = "new settings were loaded") -> None:
-        """Replaces the gateway's settings (a new map takes effect now) and saves them."""
+        """Replaces the gateway's settings (a new map takes effect now) and saves them. The new
+        map's planners are built before the lock is taken, the simulator's new walls sent after it
+        is released (seconds, and half a second, for a 2000 x 2000 plan): a stop, a mission's end,
+        a view wait for none of that."""
+        layer = self.perceived
+        map_planner = planner_for(settings.map)  # validates the map first
+        planner = with_perceived(settings.map, layer, map_planner)
+        saved = self.store.encode(settings)
         with self._lock:
-            map_planner = planner_for(settings.map)  # validates the map first
-            planner = with_perceived(settings.map, self.perceived, map_planner)
+            if self.perceived is not layer:  # the camera saw more meanwhile
+                planner = with_perceived(settings.map, self.perceived, map_planner)
             camera = self._camera_change(settings)  # and the camera (perceived.py)
-            self.store.save(settings)
+            self.store.write(saved)
             new_map = settings.map != self.settings.map
             # Only new walls replace the simulated world: an obstacle drawn on the map must not
             # sweep away the boxes standing in it (a mission's world, its events).
@@ -158,22 +181,25 @@ class MapMixin:
             self.settings = settings
             self.map_planner, self.planner = map_planner, planner
             self._apply_camera(camera)
-            if new_walls:
-                self._sync_world()
             if new_map:
                 self._map_changed(why)
+        if new_walls:
+            self._sync_world()
 
     def _sync_world(self) -> None:
-        """The simulator's walls follow the map (and do so again after a restart)."""
+        """The simulator's walls follow the map (and do so again after a restart), under the
+        simulator's lifecycle lock as its boxes' changes: the map it reads is the latest, whoever
+        sends last."""
         if self.sim is None:
             return
-        world = with_boxes(world_for(self.settings.map), self.sim.options.world)  # boxes stay
-        self.sim.options.world = world
-        if self.sim.running():
-            try:
-                self.sim.set_world(world)
-            except SimulatorError as exc:
-                log.warning("the simulator's walls could not follow the map: %s", exc)
+        with self.sim.lifecycle:
+            world = with_boxes(world_for(self.settings.map), self.sim.options.world)  # boxes stay
+            self.sim.options.world = world
+            if self.sim.running():
+                try:
+                    self.sim.set_world(world)
+                except SimulatorError as exc:
+                    log.warning("the simulator's walls could not follow the map: %s", exc)
 
     def _map_changed(self, why: str) -> None:
         """Tells viewers, and replans a driven path the change blocks (lock held)."""

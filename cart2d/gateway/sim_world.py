@@ -19,7 +19,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from cart2d.mission_file import WorldSpec, parse
+from cart2d.files import read_regular
+from cart2d.mission_file import MAX_FILE_BYTES, WorldSpec, parse
 from cart2d.params import footprint_radius_m
 from cart2d.simulator import Box, Simulator, World
 
@@ -146,7 +147,9 @@ def world_file_boxes(path: Path, start: tuple[float, float] = (0.0, 0.0)) -> tup
     each with an id, or one sentence per problem: unreadable, not JSON, a bad box, a box under the
     cart at its start."""
     try:
-        data = path.read_bytes()
+        data = read_regular(path, MAX_FILE_BYTES)
+    except ValueError:  # a NUL in the name
+        return [], [f"the world file {path!r} cannot be read: its name holds a NUL"]
     except FileNotFoundError:
         return [], [f"there is no world file {path}"]
     except IsADirectoryError:

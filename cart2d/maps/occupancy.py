@@ -32,6 +32,9 @@ UNKNOWN = -1
 # The largest map the gateway takes, cells per side (the API's schema says so), and the most
 # nodes the planner is given: a map of more cells is planned on coarser blocks.
 MAX_MAP_CELLS = 2000
+# A floor plan's cell side, m: what the gateway takes from a file or an upload (finer than a
+# millimetre is no floor plan; the planner's own step has its limits in MapSettings)
+MIN_RESOLUTION_M, MAX_RESOLUTION_M = 0.001, 10.0
 MAX_PLANNING_NODES = 1024 * 1024
 
 CellArray = npt.NDArray[np.int8]

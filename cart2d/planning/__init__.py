@@ -53,7 +53,7 @@ from cart2d.planning.grid import (
     StartBlocked,
     Unreachable,
 )
-from cart2d.planning.plan import Plan, Planner, plan_path
+from cart2d.planning.plan import CellKinds, Plan, Planner, plan_path
 from cart2d.planning.search import shortest_path
 from cart2d.planning.simplification import simplify
 
@@ -62,6 +62,7 @@ __all__ = [
     "EPS",
     "MAX_FOOTPRINT_STEPS",
     "SQRT2",
+    "CellKinds",
     "GoalBlocked",
     "Grid",
     "GridGraph",

@@ -315,6 +315,22 @@ class GridGraph:
                     return False
         return True
 
+    def _point_blockers(self, u: float, v: float) -> list[int]:
+        """The indices of the occupied cells the disc at (u, v) touches (grid units), as
+        _point_clear decides: what a refusal names."""
+        occ = self._occ
+        cols, rows = self.grid.cols, self.grid.rows
+        reach = self._r + EPS
+        pad = reach + 0.5 + 1e-7
+        reach2 = reach * reach
+        found = []
+        for j in range(max(0, math.ceil(v - pad)), min(rows - 1, math.floor(v + pad)) + 1):
+            for i in range(max(0, math.ceil(u - pad)), min(cols - 1, math.floor(u + pad)) + 1):
+                k = i + j * cols
+                if occ[k] and _segment_box_d2(u, v, u, v, i - 0.5, i + 0.5, j - 0.5, j + 0.5) <= reach2:
+                    found.append(k)
+        return found
+
     def _segments_clear(self, a: FloatArray, b: FloatArray) -> npt.NDArray[np.bool_]:
         """_segment_clear for many segments at once (arrays of shape (m, 2)): the same cells, the
         same decisions."""

@@ -43,9 +43,75 @@ class Plan:
     length_m: float
 
 
-def plan_path(graph: GridGraph, start: Point, goal: Point, start_slack_m: float = 0.0) -> Plan:
+@dataclass(frozen=True)
+class CellKinds:
+    """Which of a planner's blocked cells, (rows, cols), are a floor plan's unknown space and its
+    walls (the rest: the user's obstacles, what the camera saw): a refusal says what is in the
+    way, and gives advice that can be followed (a wall cannot be removed; unknown space can be
+    planned through)."""
+
+    unknown: npt.NDArray[np.bool_] | None = None
+    walls: npt.NDArray[np.bool_] | None = None
+
+    def what_blocks(self, graph: GridGraph, u: float, v: float) -> str:
+        """'edge', 'unknown', 'wall' or 'obstacle': what keeps the disc at (u, v) (grid units) off."""
+        cells = graph._point_blockers(u, v)
+        if not cells:
+            return "edge" if not graph._inside(u, v) else "obstacle"
+        unknown = [bool(self.unknown.flat[k]) if self.unknown is not None else False for k in cells]
+        walls = [bool(self.walls.flat[k]) if self.walls is not None else False for k in cells]
+        if all(unknown):
+            return "unknown"
+        if all(a or b for a, b in zip(unknown, walls, strict=True)):
+            return "wall"
+        return "obstacle"
+
+
+_BLOCKED_WORDS = {
+    "edge": "too close to the map's edge for the cart, which keeps {r:g} m inside it",
+    "unknown": "in unknown space (cells the floor plan does not know) or too close to it for the cart, "
+    "which keeps {r:g} m from it",
+    "wall": "inside a wall of the floor plan or too close to one for the cart, which keeps {r:g} m from "
+    "walls",
+    "obstacle": "inside an obstacle or too close to one for the cart, which keeps {r:g} m from obstacles",
+}
+_START_ADVICE = {
+    "edge": "set the pose where the cart really stands on the map (Set pose, POST /api/pose)",
+    "unknown": "set the pose where the cart really stands, or plan through unknown cells (unknown_is_free)",
+    "wall": "set the pose where the cart really stands on the floor plan (Set pose, POST /api/pose), "
+    "or load the plan with an origin that puts the cart where it stands",
+    "obstacle": "remove that obstacle or move the cart",
+}
+_GOAL_ADVICE = {
+    "unknown": ": pick a goal on known floor, or plan through unknown cells (unknown_is_free)",
+}
+
+
+def _blocked(graph: GridGraph, point: Point, kinds: CellKinds | None) -> tuple[str, str]:
+    """What keeps the cart off `point` (metres; the planner found it blocked), and in words."""
+    u, v = graph.grid.to_grid(*point)
+    kind = (kinds or CellKinds()).what_blocks(graph, u, v)
+    return kind, _BLOCKED_WORDS[kind].format(r=graph.footprint_radius_m)
+
+
+def blocked_words(graph: GridGraph, point: Point, kinds: CellKinds | None, start: bool) -> str:
+    """Why the cart cannot stand at `point` (metres; the planner found it blocked), with advice."""
+    kind, words = _blocked(graph, point, kinds)
+    if start:
+        return f"the cart's position {_fmt(*point)} is {words}: {_START_ADVICE[kind]}"
+    return f"the goal {_fmt(*point)} is {words}{_GOAL_ADVICE.get(kind, '')}"
+
+
+def plan_path(
+    graph: GridGraph,
+    start: Point,
+    goal: Point,
+    start_slack_m: float = 0.0,
+    kinds: CellKinds | None = None,
+) -> Plan:
     """The shortest grid path from the measured `start` to the exact `goal` (metres), and its
-    simplification. Raises OffMap, StartBlocked, GoalBlocked or Unreachable; changes nothing."""
+    simplification. Raises OffMap, StartBlocked, GoalBlocked or Unreachable; changes nothing.
+    `kinds`: what the blocked cells are, for the refusals' words."""
     grid = graph.grid
     sx, sy = float(start[0]), float(start[1])
     gx, gy = float(goal[0]), float(goal[1])
@@ -69,15 +135,9 @@ def plan_path(graph: GridGraph, start: Point, goal: Point, start_slack_m: float 
         )
     s, g = grid.to_grid(sx, sy), grid.to_grid(gx, gy)
     if not graph._point_clear(*s):
-        raise StartBlocked(
-            f"the cart's position {_fmt(sx, sy)} is inside an obstacle or too close to one for the "
-            f"cart, which keeps {r:g} m from obstacles: remove that obstacle or move the cart"
-        )
+        raise StartBlocked(blocked_words(graph, (sx, sy), kinds, start=True))
     if not graph._point_clear(*g):
-        raise GoalBlocked(
-            f"the goal {_fmt(gx, gy)} is inside an obstacle or too close to one "
-            f"for the cart, which keeps {r:g} m from obstacles"
-        )
+        raise GoalBlocked(blocked_words(graph, (gx, gy), kinds, start=False))
 
     direct_m = math.dist((sx, sy), (gx, gy))
     # The goal is one more neighbour of the start when it lies as close as the start's nodes do.
@@ -134,9 +194,11 @@ class Planner:
         blocked: npt.NDArray[np.bool_] | None = None,
         outside_blocked: bool = False,
         start_slack_m: float = 0.0,
+        kinds: CellKinds | None = None,
     ) -> None:
         self.grid = grid if grid is not None else Grid()
         self.start_slack_m = start_slack_m  # see plan_path
+        self.kinds = kinds  # see plan_path
         self.blocked = None if blocked is None else np.array(blocked, dtype=np.bool_)
         self.outside_blocked = outside_blocked
         self._graph = self._build(obstacles, footprint_radius_m)  # validates everything
@@ -193,4 +255,18 @@ class Planner:
 
     def plan(self, start: Point, goal: Point) -> Plan:
         """A plan from the cart's measured position `start` to `goal` (metres); see plan_path."""
-        return plan_path(self.graph, start, goal, self.start_slack_m)
+        return plan_path(self.graph, start, goal, self.start_slack_m, self.kinds)
+
+    def start_problem(self, position: Point, advice: bool = True) -> str | None:
+        """Why a plan could not start at `position` (off the map, blocked), with what to do on a
+        gateway (`advice`: set the pose, move the plan); None if it could."""
+        x, y = position
+        _finite(x, y, "the cart's position")
+        if not self.grid.inside(x, y):
+            kind, words = "wall", f"off the map, which spans {self.grid.bounds_text()}"
+        elif self.graph._point_clear(*self.grid.to_grid(x, y)):
+            return None
+        else:
+            kind, words = _blocked(self.graph, position, self.kinds)
+        said = f"the cart's position {_fmt(x, y)} is {words}"
+        return f"{said}: {_START_ADVICE[kind]}" if advice else said

@@ -18,7 +18,14 @@ from cart2d.link import LinkError
 from cart2d.server.addresses import address_problem
 from cart2d.server.models import MAX_MAP_BODY_BYTES, errors, inline_refs, read_body
 from cart2d.simulator import SimulatorError
-from cart2d.store import Integer, NetworkSettings, SettingsFile, gateway_part, parse_settings
+from cart2d.store import (
+    GatewaySettings,
+    Integer,
+    NetworkSettings,
+    SettingsFile,
+    gateway_part,
+    parse_settings,
+)
 
 NO_SIMULATOR = "there is no simulator: this gateway drives a real cart; faults exist only in simulation"
 
@@ -112,19 +119,25 @@ def add_admin_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
     )
     async def import_settings(request: Request) -> dict[str, Any]:
         body = await read_body(request, MAX_MAP_BODY_BYTES)
-        try:
-            file = parse_settings(body)
-        except ValueError as exc:
-            raise HTTPException(422, str(exc)) from exc
-        todo = None
-        if file.firmware is not None:
-            todo, problems = backup.plan(file.firmware)
-            if problems:
-                raise HTTPException(422, "invalid settings file: " + "; ".join(problems))
-        problem = await asyncio.to_thread(address_problem, file.network.host)  # a name may ask DNS
-        if problem is not None:
-            raise HTTPException(422, f"invalid settings file: network.host: {problem}")
-        imported = gateway_part(file).model_copy(update={"token": gateway.settings.token})
+
+        def check() -> tuple[GatewaySettings, backup.RestorePlan | None]:
+            """The file checked whole (a second for a 2000 x 2000 plan's obstacles: off the event
+            loop, as everything after it: a stop never waits for an import)."""
+            try:
+                file = parse_settings(body)
+            except ValueError as exc:
+                raise HTTPException(422, str(exc)) from exc
+            todo = None
+            if file.firmware is not None:
+                todo, problems = backup.plan(file.firmware)
+                if problems:
+                    raise HTTPException(422, "invalid settings file: " + "; ".join(problems))
+            problem = address_problem(file.network.host)  # a name may ask DNS
+            if problem is not None:
+                raise HTTPException(422, f"invalid settings file: network.host: {problem}")
+            return gateway_part(file).model_copy(update={"token": gateway.settings.token}), todo
+
+        imported, todo = await asyncio.to_thread(check)
 
         def apply() -> dict[str, Any] | None:
             if todo is not None:

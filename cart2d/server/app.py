@@ -7,8 +7,6 @@ every state-changing request and the WebSocket need the access token."""
 
 from __future__ import annotations
 
-import base64
-import binascii
 import hmac
 import logging
 from collections.abc import Sequence
@@ -24,7 +22,6 @@ from starlette.routing import Match
 
 from cart2d.gateway import Gateway, PoseUntrusted
 from cart2d.link import CommandRefused, LinkError, MotionCancelled
-from cart2d.maps import MapError, Thresholds, map_from_image, map_from_ros
 from cart2d.maps.ros import image_bytes
 from cart2d.planning import PlanError
 from cart2d.server import api_docs, guards
@@ -32,11 +29,10 @@ from cart2d.server.admin import add_admin_routes
 from cart2d.server.camera import add_camera_routes
 from cart2d.server.guards import is_loopback
 from cart2d.server.live import Viewers
+from cart2d.server.map_upload import add_map_upload_route
 from cart2d.server.models import (
-    MAX_MAP_BODY_BYTES,
     CommandIn,
     DriveIn,
-    MapUploadIn,
     ObstacleIn,
     ObstaclesClearedOut,
     PointIn,
@@ -177,35 +173,6 @@ def create_app(
         return Response(
             image_bytes(plan, ".png"), media_type="image/png", headers={"Cache-Control": "no-cache"}
         )
-
-    @app.post(
-        "/api/map",
-        dependencies=[Guarded],
-        summary="load a floor plan (a ROS map_server .yaml and its image, or a plain image)",
-        description="Up to 2000 x 2000 cells, planned on blocks of them (`planning_step_m`) so that even "
-        "the largest plans in well under a second; the user's obstacles are cleared; in simulation the "
-        "plan's occupied cells become the simulated walls. A mission in progress is replanned if the new "
-        f"map blocks its path. The body may have up to {MAX_MAP_BODY_BYTES} bytes.",
-        responses=errors(400, 401, 422),
-        openapi_extra={"x-max-body-bytes": MAX_MAP_BODY_BYTES},
-    )
-    def upload_map(body: MapUploadIn) -> dict[str, Any]:
-        try:
-            data = base64.b64decode(body.image.encode("ascii"), validate=True)
-        except (binascii.Error, UnicodeEncodeError):
-            raise HTTPException(422, "image: not base64") from None
-        try:
-            if body.yaml is not None:
-                occupancy = map_from_ros(body.yaml, data)
-            elif body.resolution_m is None:
-                raise HTTPException(422, "a plain image needs resolution_m (or send its map_server yaml)")
-            else:
-                origin = (body.origin_m[0], body.origin_m[1])
-                thresholds = Thresholds(negate=body.negate)
-                occupancy = map_from_image(data, body.resolution_m, origin, thresholds)
-            return gateway.load_floor_plan(occupancy, body.name, body.planning_step_m, body.unknown_is_free)
-        except MapError as exc:
-            raise HTTPException(422, str(exc)) from exc
 
     @app.get("/api/mission", summary="idle / driving / arrived / failed, with the planned path")
     def mission() -> dict[str, Any]:
@@ -395,6 +362,7 @@ def create_app(
         return gateway.flasher.job.view()
 
     add_admin_routes(app, gateway, Guarded)
+    add_map_upload_route(app, gateway, Guarded)
     add_camera_routes(app, gateway, Guarded)
     add_sim_world_routes(app, gateway, Guarded)
 

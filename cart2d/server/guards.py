@@ -11,7 +11,10 @@
   OpenAPI requestBody names another, as the firmware upload's application/octet-stream), bodiless
   or not; else 415. No HTML form, sendBeacon, ping or no-cors fetch can send these types without a
   CORS preflight, which this gateway never grants: the defence holds even in a browser that sent
-  no Origin.
+  no Origin. The one type a form can send that an operation takes (multipart/form-data, a map
+  upload) is taken only with proof that no page elsewhere sent it: the browser's own word (an
+  `Origin` or `Sec-Fetch-Site: same-origin`, checked above) or an `X-Cart2d-Token` header, which
+  no simple request can carry; else 403.
 - The **body** is counted as it streams and cut at the limit (413: 256 KiB, or the operation's
   `x-max-body-bytes`, the map uploads' 8 MiB) before any handler or the token
   check has read it, and must arrive within a time limit (408). A response sent before the whole
@@ -41,6 +44,8 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 from cart2d.server.models import ERRORS, MAX_BODY_BYTES
 
 SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
+# The types a page may send anywhere without a CORS preflight (the Fetch standard's safelisted ones)
+SIMPLE_TYPES = frozenset({"application/x-www-form-urlencoded", "multipart/form-data", "text/plain"})
 BODY_TIMEOUT_S = 20.0  # a 256 KiB body at 13 KiB/s; a settings file or a firmware over loopback takes ms
 WILDCARD_BINDS = frozenset({"", "0.0.0.0", "::"})
 LOOPBACK_NAMES = frozenset({"localhost", "127.0.0.1", "::1"})
@@ -201,6 +206,18 @@ def cross_origin_refusal(headers: Headers, scheme: str) -> Refusal | None:
     return None
 
 
+def vouched(headers: Headers) -> bool:
+    """Whether a change in a simple type shows that no page elsewhere sent it: the browser says
+    where it comes from (cross_origin_refusal took only the gateway's own origin), or it carries
+    X-Cart2d-Token, a header no simple request can have (a browser never adds it by itself, as it
+    may add Authorization)."""
+    return (
+        headers.get("origin") is not None
+        or headers.get("sec-fetch-site") == "same-origin"
+        or "x-cart2d-token" in headers
+    )
+
+
 def body_limit(route: APIRoute | None, default: int) -> int:
     """The most bytes an operation's body may have: its OpenAPI `x-max-body-bytes` (a map upload,
     a settings file with its floor plan), else `default`."""
@@ -269,6 +286,12 @@ class RequestGuard:
         if given not in accepted:
             wanted = " or ".join(sorted(accepted))
             return Refusal(415, f"a change must be sent as {wanted} (this one: {given or 'no content type'})")
+        if given in SIMPLE_TYPES and not vouched(headers):
+            return Refusal(
+                403,
+                f"{given} is taken from the gateway's own page, or with an X-Cart2d-Token header (any value "
+                "on loopback): a page elsewhere can send this type without either",
+            )
         return None
 
     def route_of(self, scope: Scope) -> APIRoute | None:

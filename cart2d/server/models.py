@@ -11,8 +11,10 @@ from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field, JsonValue, field_validator
 
 from cart2d.link.protocol import MAX_ARGS
+from cart2d.maps import MAX_RESOLUTION_M, MIN_RESOLUTION_M
+from cart2d.shown import error_sentences, quoted
 from cart2d.spec import load_spec
-from cart2d.store import Integer, PlanningStep
+from cart2d.store import Integer, Metres, PlanningStep
 
 MAX_BODY_BYTES = 256 * 1024  # the largest request but a map's
 # A floor plan: a map upload (a 2000 x 2000 PGM is 4 MB, 5.3 MB in base64) or a settings file
@@ -114,7 +116,7 @@ class CommandIn(Strict):
     @classmethod
     def known_command(cls, name: str) -> str:
         if name not in COMMAND_NAMES:
-            raise ValueError(f"unknown command {name!r}; GET /api/protocol lists them")
+            raise ValueError(f"unknown command {quoted(name)}; GET /api/protocol lists them")
         return name
 
 
@@ -136,17 +138,9 @@ class SettingIn(Strict):
     value: Number
 
 
-class MapUploadIn(Strict):
-    """A floor plan: a ROS map_server map (its .yaml's text and the image it names), or a plain
-    image with its resolution. Up to 2000 x 2000 cells."""
+class MapFieldsIn(Strict):
+    """A floor plan's fields but its image (POST /api/map, as JSON or multipart/form-data)."""
 
-    image: str = Field(
-        min_length=1,
-        max_length=MAX_MAP_BODY_BYTES,
-        description="base64 of the image file: PGM or PNG (any 8-bit format Pillow reads); dark is "
-        "occupied, light free, between unknown (map_server's trinary thresholds); at most 2000 x 2000 "
-        "pixels",
-    )
     yaml: str | None = Field(
         None,
         max_length=64 * 1024,
@@ -155,9 +149,13 @@ class MapUploadIn(Strict):
     )
     name: str = Field("", max_length=200, description="a name for the map (its file name)")
     resolution_m: float | None = Field(
-        None, gt=0.0, le=10.0, allow_inf_nan=False, description="a plain image's cell side, m"
+        None,
+        ge=MIN_RESOLUTION_M,
+        le=MAX_RESOLUTION_M,
+        allow_inf_nan=False,
+        description="a plain image's cell side, m",
     )
-    origin_m: list[Number] = Field(
+    origin_m: list[Metres] = Field(
         default_factory=lambda: [0.0, 0.0],
         min_length=2,
         max_length=2,
@@ -175,8 +173,18 @@ class MapUploadIn(Strict):
 async def invalid_request(_: Request, exc: RequestValidationError) -> JSONResponse:
     """A 422 with a sentence per problem, without echoing the input (NaN cannot even be written in
     JSON): the apps' handler of RequestValidationError."""
-    problems = []
-    for error in exc.errors():
-        where = ".".join(str(p) for p in error["loc"] if p != "body") or "body"
-        problems.append(f"{where}: {error['msg']}")
-    return JSONResponse({"detail": "; ".join(problems)}, status_code=422)
+    # bounded: a location holds the body's own keys, a validator's message may quote a value
+    return JSONResponse({"detail": error_sentences(exc.errors(), "body", drop={"body"})}, status_code=422)
+
+
+class MapUploadIn(MapFieldsIn):
+    """A floor plan: a ROS map_server map (its .yaml's text and the image it names), or a plain
+    image with its resolution. Up to 2000 x 2000 cells."""
+
+    image: str = Field(
+        min_length=1,
+        max_length=MAX_MAP_BODY_BYTES,
+        description="base64 of the image file: PNG or PGM (Netpbm's PPM and PBM are taken too, no other "
+        "format); dark is occupied, light free, between unknown (map_server's trinary thresholds); at most "
+        "2000 x 2000 pixels",
+    )

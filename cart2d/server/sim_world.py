@@ -14,21 +14,19 @@ from cart2d.gateway import Gateway
 from cart2d.gateway.sim_world import NotSimulated
 from cart2d.mission_file import BoxSpec
 from cart2d.server.models import errors
+from cart2d.shown import quoted
 from cart2d.simulator import SimulatorError
 
 NO_SIMULATOR = "there is no simulator: this gateway drives a real cart; boxes exist only in simulation"
 MAX_BOXES_PER_REQUEST = 1000
 MIN_SIZE_M = 0.01
-MAX_COORDINATE_M = 1e5  # what the simulator takes (sim/src/world_change.cpp, kMaxCoordinateM)
 
 
 class BoxIn(BoxSpec):
-    """A mission's box (BoxSpec), within the simulator's reach, at least 1 cm across, its id fit
+    """A mission's box (BoxSpec: within the simulator's reach), at least 1 cm across, its id fit
     for a URL path; numbers must be numbers (strict: no true for 1)."""
 
     model_config = ConfigDict(extra="forbid", strict=True)
-    x: float = Field(ge=-MAX_COORDINATE_M, le=MAX_COORDINATE_M, allow_inf_nan=False)
-    y: float = Field(ge=-MAX_COORDINATE_M, le=MAX_COORDINATE_M, allow_inf_nan=False)
     sx: float = Field(ge=MIN_SIZE_M, le=100.0, allow_inf_nan=False)
     sy: float = Field(ge=MIN_SIZE_M, le=100.0, allow_inf_nan=False)
     id: str | None = Field(None, min_length=1, max_length=100, pattern=r"^[A-Za-z0-9_.~-]+$")
@@ -87,7 +85,7 @@ def add_sim_world_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> No
         try:
             return answer(gateway.remove_sim_box, box_id)
         except KeyError as exc:
-            raise HTTPException(404, f"there is no box {box_id!r} in the simulated world") from exc
+            raise HTTPException(404, f"there is no box {quoted(box_id)} in the simulated world") from exc
 
     @app.delete(
         "/api/sim/boxes",

@@ -217,7 +217,7 @@ async function loadFloorPlan(): Promise<void> {
   const files = [...(mapFile.files ?? [])];
   mapFile.value = "";
   if (!files.length) return;
-  const body = await uploadBody(files, $<HTMLInputElement>("map-resolution").value);
+  const body = await uploadBody(files, $<HTMLInputElement>("map-resolution").value, $<HTMLInputElement>("map-origin").value);
   if (typeof body === "string") {
     notify(body);
     return;
@@ -228,6 +228,7 @@ async function loadFloorPlan(): Promise<void> {
     liveMap.fit();
     const plan = view.floor_plan;
     notify(plan ? `Loaded ${plan.name}: ${plan.width} × ${plan.height} cells of ${plan.resolution_m} m.` : "Map loaded.", "info");
+    if (view.pose_warning) notify(view.pose_warning); // the cart off the plan's floor: what to do
   } catch (err) {
     notify(errorText(err));
   }

@@ -155,3 +155,48 @@ test("a GOTO sent from the command form is drawn, with a warning that it bypasse
   await expect(page.locator("#map")).toHaveAttribute("data-raw-path", "1");
   expect(errors).toEqual([]);
 });
+
+/** A 4 x 4 m room at 0.1 m a cell as a plain PGM: walls round its edge, free inside. */
+function roomPgm(): Buffer {
+  const pixels = Buffer.alloc(40 * 40, 254);
+  for (let k = 0; k < 40; k++) {
+    for (const [i, j] of [[k, 0], [k, 39], [0, k], [39, k]] as const) pixels[j * 40 + i] = 0;
+  }
+  return Buffer.concat([Buffer.from("P5 40 40 255\n"), pixels]);
+}
+
+test("a plain floor plan goes where its origin says, and one that leaves the cart off its floor says what to do", async ({ page }) => {
+  const errors = await open(page);
+  const saved = await (await page.request.get(`${BASE}/api/settings/file`)).body();
+  const toasts = page.locator("#messages .msg");
+  const load = async (origin: string): Promise<void> => {
+    await page.fill("#map-resolution", "0.1");
+    await page.fill("#map-origin", origin);
+    await page.setInputFiles("#map-file", { name: "room.pgm", mimeType: "image/x-portable-graymap", buffer: roomPgm() });
+  };
+  // at the default origin the plan's corner is where the cart stands: loaded, with what to do
+  await load("0, 0");
+  await expect(toasts.filter({ hasText: "Loaded room.pgm" })).toHaveCount(1);
+  const warning = toasts.filter({ hasText: "the cart's position (0.000, 0.000) is off the map" });
+  await expect(warning).toHaveCount(1);
+  await expect(warning).toContainText("Set pose");
+  await expect(warning).toContainText("origin");
+  // the origin typed in the card: the room round the cart, no warning
+  while ((await toasts.count()) > 0) await toasts.first().locator("button").click();
+  await load("-2, -2");
+  await expect(toasts.filter({ hasText: "Loaded room.pgm" })).toHaveCount(1);
+  const map = await (await page.request.get(`${BASE}/api/map`)).json();
+  expect(map.floor_plan.origin_m).toEqual([-2, -2]);
+  expect(map.arena).toEqual({ x_min: -2, y_min: -2, x_max: 2, y_max: 2 });
+  await expect(toasts.filter({ hasText: "off the map" })).toHaveCount(0);
+  await expect(toasts.filter({ hasText: "inside a wall" })).toHaveCount(0);
+  // an origin that is not two numbers is refused in the page, and nothing is sent
+  const version = map.version;
+  await load("-2");
+  await expect(toasts.filter({ hasText: "x, y in metres" })).toHaveCount(1);
+  expect((await (await page.request.get(`${BASE}/api/map`)).json()).version).toBe(version);
+  // the map as it was, for the other tests
+  const back = await page.request.post(`${BASE}/api/settings/file`, { data: saved, headers: { "Content-Type": "application/json" } });
+  expect(back.status()).toBe(200);
+  expect(errors).toEqual([]);
+});
