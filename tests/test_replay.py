@@ -118,7 +118,11 @@ def test_every_goal_even_one_refused_at_once_is_in_the_report_and_the_recording(
     goals = report["goals"]
     assert [g["goal"] for g in goals] == GOALS
     refused = goals[1]
-    assert not refused["reached"] and "inside an obstacle" in refused["reason"] and refused["time_s"] == 0.0
+    assert (
+        not refused["reached"]
+        and "inside a wall of the floor plan" in refused["reason"]
+        and refused["time_s"] == 0.0
+    )
     assert goals[2]["reached"], goals[2].get("reason")
     told = [(m["index"], m["state"], m.get("reason", "")) for m in Read(path).ws("goal")]
     assert told == [
