@@ -110,10 +110,11 @@ bool Simulator::parent_gone() {
   return ::read(STDIN_FILENO, &byte, 1) == 0;
 }
 
-// Runs one slice, or less if a "run" message asked to pause, or a world change is due, earlier.
+// Runs one slice, or less if a "run" message asked to pause, a world change is due or a hold
+// stands, earlier.
 void Simulator::run_slice(uint64_t slice) {
   const uint64_t now = rig_.cycle();
-  const uint64_t stop = std::min(pause_at_cycle_, next_change_cycle());
+  const uint64_t stop = std::min({pause_at_cycle_, next_change_cycle(), hold_cycle_});
   const uint64_t left = stop > now ? stop - now : 0;
   rig_.run_cycles(left < slice ? left : slice);
   apply_due_changes();
@@ -121,6 +122,30 @@ void Simulator::run_slice(uint64_t slice) {
   paused_ = true;
   pause_at_cycle_ = UINT64_MAX;
   control_.broadcast(json::Object().add("type", "event").add("event", "paused").add("t", rig_.time_s()).str());
+}
+
+bool Simulator::at_hold(double wall_s) {
+  const bool held = !paused_ && rig_.mcu().alive() && rig_.cycle() >= hold_cycle_;
+  if (held && held_since_s_ < 0.0) {
+    held_since_s_ = wall_s;
+    ++holds_reached_;
+  } else if (!held && held_since_s_ >= 0.0) {
+    held_total_s_ += wall_s - held_since_s_;
+    held_since_s_ = -1.0;
+  }
+  return held;
+}
+
+std::string Simulator::hold_json() const {
+  const double waiting = held_since_s_ >= 0.0 ? wall_now_s() - held_since_s_ : 0.0;
+  return json::Object()
+      .add_raw("until", hold_cycle_ == UINT64_MAX
+                            ? "null"
+                            : json::number(static_cast<double>(hold_cycle_) / rig_.mcu().frequency_hz()))
+      .add("held", held_since_s_ >= 0.0)
+      .add("waits", static_cast<unsigned long long>(holds_reached_))
+      .add("wait_s", held_total_s_ + waiting)
+      .str();
 }
 
 void Simulator::publish_events() {
@@ -222,7 +247,10 @@ int Simulator::run(volatile std::sig_atomic_t* stop) {
     control_.poll_input(opts_.truth_hz, [this](int client, const std::string& line) { handle_line(client, line); });
     if (quit_) break;
 
-    const bool running = !paused_ && rig_.mcu().alive();
+    // Waiting at a hold is not running: the sockets are served and the pacing starts again from
+    // where it stands once the hold moves on (no sprint to catch up with the wall clock).
+    const bool held = at_hold(wall_now_s());
+    const bool running = !paused_ && rig_.mcu().alive() && !held;
     if (running) run_slice(slice);
     rig_.uart().write_host(rig_.cycle());
     publish_events();
