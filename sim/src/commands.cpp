@@ -173,15 +173,16 @@ std::string Simulator::cmd_run(const json::Value& msg) {
 
 // {"type":"hold","until":T}: simulated time runs on (paced as ever) up to T seconds and waits
 // there, the sockets served, until a later hold moves T; "until":null ends holding. A hold at or
-// before the time now stops it where it is. The ack carries "t", the simulated time now, and
-// "hold" (as in stats). A lockstep with a consumer of the camera's frames (sim/README.md).
+// before the time now stops it where it is. The host's requests are still answered (hold.hpp).
+// The ack carries "t", the simulated time now, and "hold" (as in stats). A lockstep with a
+// consumer of the camera's frames (sim/README.md).
 std::string Simulator::cmd_hold(const json::Value& msg, std::string* extra) {
   const json::Value* until = msg.find("until");
   double t = 0.0;
   if (until && until->is_null()) {
-    hold_cycle_ = UINT64_MAX;
+    hold_.clear();
   } else if (number_member(msg, "until", &t) && t >= 0.0 && t <= 1e9) {
-    hold_cycle_ = static_cast<uint64_t>(std::llround(t * rig_.mcu().frequency_hz()));
+    hold_.set(static_cast<uint64_t>(std::llround(t * rig_.mcu().frequency_hz())));
   } else {
     return "hold needs until: simulated seconds in [0, 1e9], or null to stop holding";
   }
