@@ -89,6 +89,11 @@ class MissionSpec(BaseModel):
     perception: bool | None = Field(
         None, description="the simulated camera and perception (default: on when the mission has a world)"
     )
+    lockstep: bool = Field(
+        True,
+        description="with perception: the simulator waits while perception is behind "
+        "(cart2d/simulation/lockstep.py); false: it drives on, as a cart behind a slow gateway would",
+    )
 
     @model_validator(mode="after")
     def map_or_grid(self) -> MissionSpec:
@@ -426,14 +431,15 @@ def run_mission(
             events = EventPlayer(gateway, sim, pacer, spec.events, t0)
             seeing = contextlib.ExitStack()
             sees = mission_file.perception_on(spec.perception, spec.world is not None)
+            step = None
             if sees and spec.behaviour != "seed":
-                seeing.enter_context(mission_camera(gateway, sim, camera_calibration))
+                step = seeing.enter_context(mission_camera(gateway, sim, camera_calibration, spec.lockstep))
                 seeing.enter_context(pacer.real_time())  # perception runs in wall-clock time
             try:
                 with seeing, _resets_at(sim, [t0 + t for t in spec.resets_at_s]), events:
                     _drive_goals(gateway, sim, pacer, recorder, spec, deadline, progress, report["goals"])
                     if gateway.seeing is not None:
-                        report["perception"] = perception_report(gateway)
+                        report["perception"] = perception_report(gateway, step)
             finally:
                 gateway.close()
                 if spec.events:
