@@ -155,16 +155,16 @@ def test_in_lockstep_a_slow_perception_sees_the_box_in_the_same_simulated_time(
     goal = report["goals"][0]
     assert goal["reached"], goal.get("reason")
     assert report["box_contacts"] == 0 and report["collisions"] == 0
-    lockstep_report = report["perception"]["lockstep"]
-    assert lockstep_report["perception_wait_s"] > 0.0  # the simulator waited for perception
     # The frame that made the gateway replan was captured at most the lockstep's reach before
     # the new path was in the firmware (the frames ahead, and the firmware answering the route
     # check and the upload): as with a fast perception. Driven on without the lockstep the
-    # same mission's first replan came 1.4 to 2.6 s after its frame, and the cart touched the box.
+    # same mission's replans came up to 1.4 to 2.6 s after their frames, and in 2 of 3 runs the
+    # cart touched the box.
     causes = [r for r in report["perception"]["replan_frames"] if r["outcome"] == "replanned"]
     assert causes
-    reach = lockstep_report["ahead_s"] + 0.1
+    reach = CameraTiming.of_the_simulator().hold_after(0.0) + 0.1
     assert all(0.0 < r["sim_t"] - r["frame_stamp_s"] < reach for r in causes), causes
+    assert report["perception"]["lockstep"]["perception_wait_s"] > 0.0  # it waited for perception
 
 
 def test_a_mission_file_may_turn_the_lockstep_off() -> None:
