@@ -6,7 +6,11 @@ BOX_HEIGHT_M high, cardboard-coloured (the floor is light grey); the map has no 
 cart drives with the simulated ESP32-CAM and the gateway's perception (cart2d/mission_camera.py),
 seeing with a calibration made once in the simulator (calibrate_in_simulator, the real
 procedure's floor board) and saved as a user's would be. Missions that see run the simulator in
-real time (perception runs in wall-clock time on the gateway). Each is compared with the same
+real time and in lockstep with perception (cart2d/simulation/lockstep.py): perception runs on the
+gateway's wall clock, and the simulator waits while it is more than two camera frames behind, so
+what the cart has seen where it stands, and the times below, do not depend on the machine's load
+(*waited s*: the wall seconds the simulator waited for perception; *rtf*: simulated seconds per
+wall second over the whole mission). Each is compared with the same
 scene with the map known (its obstacles on the map, no boxes: bench/missions.py's run_one), same
 simulator seed. *time unknown / known*: from the goal's request to arrival, in firmware ticks:
 *start* up to the first telemetry frame in PATH mode (planning and the upload; while it sees, the
@@ -73,7 +77,7 @@ from cart2d.perception.sim_calibration import calibrate_in_simulator, sim_option
 from cart2d.perception.synthetic import true_pixels
 
 TIME_TARGET = 1.3  # unknown map / known map
-SEEDS = (1, 2, 3)  # simulator seeds each unknown-arena scene runs with (perception is in real time)
+SEEDS = (1, 2, 3)  # simulator seeds each unknown-arena scene runs with (its noise and the camera's)
 BOX_HEIGHT_M = 0.3
 BOX_COLOUR = "#b8742f"  # cardboard
 RECALL_RANGE_M = DetectorConfig().max_range_m
@@ -287,6 +291,7 @@ def scene_row(scene: Scene, calibration: Path, seed: int) -> dict[str, Any]:
         "backwards_m": driven_backwards_m(perception.get("frame_log", [])),
         "calibrated": perception.get("calibrated", False),
         "real_time_factor": unknown.get("real_time_factor"),
+        "perception_wait_s": _waited(unknown),
         "cause_to_firmware_s": latencies,
         "mapping": quality,
         "trace": trace.round(3).tolist(),
@@ -295,6 +300,13 @@ def scene_row(scene: Scene, calibration: Path, seed: int) -> dict[str, Any]:
         "box_list": boxes_of(scene),
         "size_m": scene.grid.size_m,
     }
+
+
+def _waited(report: dict[str, Any]) -> float | None:
+    """The wall seconds the simulator waited for perception (the lockstep's report)."""
+    lockstep = (report.get("perception") or {}).get("lockstep") or {}
+    waited: float | None = lockstep.get("perception_wait_s")
+    return waited
 
 
 def in_view(pose: tuple[float, float, float], box: dict[str, Any], mount: Mount) -> bool:
@@ -357,6 +369,8 @@ def latency_run(calibration: Path, seed: int, mount: Mount) -> dict[str, Any]:
         "in_view_t": first,
         "cause_t": cause["frame_stamp_s"] if cause else None,
         "firmware_t": cause["sim_t"] if cause else None,
+        "perception_wait_s": _waited(report),
+        "real_time_factor": report.get("real_time_factor"),
     }
     if first is not None and cause is not None and cause["sim_t"] is not None:
         out["in_view_to_cause_s"] = cause["frame_stamp_s"] - first
@@ -444,6 +458,7 @@ def _scene_cells(runs: list[dict[str, Any]]) -> list[object]:
         med("cells", True, ".0f"),
         med("frames", fmt=".0f"),
         _fmt(max(r["backwards_m"] for r in runs)),
+        f"{med('perception_wait_s', fmt='.1f')} ({med('real_time_factor')})",
     ]
 
 
@@ -477,6 +492,7 @@ def measure(out: Path, quick: bool, mount: Mount) -> tuple[str, dict[str, Any], 
         "cells",
         "frames",
         "driven backwards m",
+        "waited s (rtf)",
     ]
     cause_to_fw = [x for r in rows for x in r["cause_to_firmware_s"]]
     lat_body = [
@@ -487,6 +503,7 @@ def measure(out: Path, quick: bool, mount: Mount) -> tuple[str, dict[str, Any], 
             _fmt(x.get("in_view_to_cause_s"), ".3f"),
             _fmt(x.get("cause_to_firmware_s"), ".3f"),
             _fmt(x.get("in_view_to_firmware_s"), ".3f"),
+            f"{_fmt(x.get('perception_wait_s'), '.1f')} ({_fmt(x.get('real_time_factor'))})",
         ]
         for x in latency
     ]
@@ -528,6 +545,7 @@ def measure(out: Path, quick: bool, mount: Mount) -> tuple[str, dict[str, Any], 
                 "in view -> cause",
                 "cause -> firmware",
                 "in view -> firmware",
+                "waited s (rtf)",
             ],
             lat_body,
         )

@@ -43,6 +43,7 @@ from cart2d.params import robot, setting_id
 from cart2d.planning import Grid, PlanError, Point, point_polyline_distance, polyline_length
 from cart2d.recording import open_recording
 from cart2d.recording.session import DEFAULT_CAMERA_FPS
+from cart2d.simulation.lockstep import Lockstep
 from cart2d.simulator import SimOptions, Simulator, SimulatorError
 from cart2d.store import FloorPlan, GatewaySettings, MapSettings, PlanningStep, Store
 
@@ -92,6 +93,11 @@ class MissionSpec(BaseModel):
     world: mission_file.WorldSpec | None = Field(None, description="physical boxes the map does not show")
     perception: bool | None = Field(
         None, description="the simulated camera and perception (default: on when the mission has a world)"
+    )
+    lockstep: bool = Field(
+        True,
+        description="with perception: the simulator waits while perception is behind "
+        "(cart2d/simulation/lockstep.py); false: it drives on, as a cart behind a slow gateway would",
     )
 
     @model_validator(mode="after")
@@ -373,11 +379,14 @@ def run_mission(
             pacer = Pacer(sim)
             t0 = sim.truth()["t"]
             events: EventPlayer | None = None
+            step: Lockstep | None = None
             try:
                 with contextlib.ExitStack() as seeing:
                     sees = mission_file.perception_on(spec.perception, spec.world is not None)
                     if sees and spec.behaviour != "seed":
-                        seeing.enter_context(mission_camera(gateway, sim, camera_calibration))
+                        step = seeing.enter_context(
+                            mission_camera(gateway, sim, camera_calibration, spec.lockstep)
+                        )
                         seeing.enter_context(pacer.real_time())  # perception runs in wall-clock time
                     # The mission's time starts with its first goal, once the camera sees: the
                     # events, the resets and the timeout count from here.
@@ -387,7 +396,7 @@ def run_mission(
                         run = _Run(gateway, sim, pacer, recorder, spec, t0 + spec.timeout_s, tell)
                         _drive_goals(run, progress, report["goals"])
                         if gateway.seeing is not None:
-                            report["perception"] = perception_report(gateway)
+                            report["perception"] = perception_report(gateway, step)
             finally:
                 gateway.close()
                 if spec.events:

@@ -3,7 +3,10 @@ gateway as a real camera is (cart2d/gateway/camera.py), and perception on its fr
 (cart2d/gateway/seeing.py), with the camera calibration a user would have made.
 
 Perception runs in wall-clock time on the gateway, so a mission that sees runs the simulator in
-real time: at "max" the cart would cover metres while a frame is processed.
+real time (at "max" the cart would cover metres while a frame is processed), and in lockstep with
+perception (cart2d/simulation/lockstep.py): simulated time waits while perception is behind, so
+what the cart has seen, where it is, does not depend on the machine's load. Without the lockstep
+the simulated cart drives on as a real one would behind a slow gateway.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 from cart2d.gateway.camera import CameraFeed
 from cart2d.perception.calibration import calibration_path
 from cart2d.simulation.camera import SimCameraServer
+from cart2d.simulation.lockstep import Lockstep
 from cart2d.simulator import Simulator, SimulatorError
 
 if TYPE_CHECKING:
@@ -41,19 +45,27 @@ def free_port_pair(host: str = "127.0.0.1", tries: int = 50) -> int:
 
 
 @contextlib.contextmanager
-def mission_camera(gateway: Gateway, sim: Simulator, calibration: Path | None) -> Iterator[None]:
-    """The simulated camera and perception for the mission's run. `calibration`: a saved camera
-    calibration (cart2d camera calibrate) to see with; None: the nominal model."""
+def mission_camera(
+    gateway: Gateway, sim: Simulator, calibration: Path | None, lockstep: bool = True
+) -> Iterator[Lockstep | None]:
+    """The simulated camera and perception for the mission's run, with the simulator in lockstep
+    with perception unless `lockstep` is false (yields the Lockstep, or None). `calibration`: a
+    saved camera calibration (cart2d camera calibrate) to see with; None: the nominal model."""
     if calibration is not None:
         shutil.copyfile(calibration, calibration_path(gateway.store.directory))
     server = SimCameraServer(lambda: sim.control_address, free_port_pair()).start()
+    step: Lockstep | None = None
     try:
         feed = CameraFeed.of(server.url, None)
         assert feed is not None  # a base URL always gives a feed
         gateway.use_camera(feed.start())
+        if lockstep:
+            step = Lockstep(sim, feed).start()
         _wait_until_seeing(gateway)
-        yield
+        yield step
     finally:
+        if step is not None:
+            step.close()
         gateway.use_camera(None)
         server.stop()
 
@@ -69,11 +81,12 @@ def _wait_until_seeing(gateway: Gateway, frames: int = 3, wall_timeout_s: float 
     raise SimulatorError(f"the simulated camera gave perception no frame in {wall_timeout_s:g} s")
 
 
-def perception_report(gateway: Gateway) -> dict[str, Any]:
+def perception_report(gateway: Gateway, lockstep: Lockstep | None = None) -> dict[str, Any]:
     """What perception did in the mission: frames seen, its calibration, the cells it believed
     occupied at the end (x, y, p); each processed frame's capture stamp (simulated s) and the
-    odometry pose it was seen from, the replans frames caused with those frames' stamps, and the
-    longest the camera was blind while the cart drove."""
+    odometry pose it was seen from, the replans frames caused with those frames' stamps, the
+    longest the camera was blind while the cart drove, and the lockstep's cost
+    (Lockstep.report(), None without it)."""
     seeing = gateway.seeing
     view = gateway.perception_view()
     frames = list(seeing.frame_log) if seeing else []
@@ -93,4 +106,5 @@ def perception_report(gateway: Gateway) -> dict[str, Any]:
         "longest_blind_s": round(gateway.blind_watch.longest_s, 3),
         "resolution_m": view["resolution"],
         "cells": view["cells"],
+        "lockstep": lockstep.report() if lockstep is not None else None,
     }

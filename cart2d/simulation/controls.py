@@ -1,5 +1,6 @@
 """The simulator's camera and checkerboard target over the side channel (sim/README.md, "The
-camera"): `Simulator.camera(on)`, `Simulator.place_target(board)`, `Simulator.wait_frame()`.
+camera"): `Simulator.camera(on)`, `Simulator.place_target(board)`, `Simulator.wait_frame()`; and
+the hold that keeps the simulator in step with a consumer of its frames, `Simulator.hold(t)`.
 
 Frames are JSON lines {"type":"frame","seq":k,"t":t_k,"jpeg":base64}: frame k is captured at
 simulated time t_k = k / fps from the cart's true pose and arrives once the camera's latency has
@@ -127,6 +128,12 @@ class CameraControls:
         ack = self.control("camera", on=on, **settings)
         out: dict[str, Any] = ack["camera"]
         return out
+
+    def hold(self, until_s: float | None) -> dict[str, Any]:
+        """Simulated time runs up to until_s (s) and waits there until a later hold moves it;
+        None ends holding (sim/README.md, "Lockstep": cart2d/simulation/lockstep.py holds it to
+        what perception has taken in). Returns the ack: "t", the simulated time now, and "hold"."""
+        return self.control("hold", until=until_s)
 
     def place_target(self, board: Board | dict[str, Any] | None) -> None:
         """Places the checkerboard (None removes it)."""

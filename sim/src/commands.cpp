@@ -97,6 +97,7 @@ std::string Simulator::dispatch(int client, const std::string& type, const json:
   if (type == "link") return cmd_link(msg, extra);
   if (type == "profile") return cmd_profile(msg, extra);
   if (type == "run") return cmd_run(msg);
+  if (type == "hold") return cmd_hold(msg, extra);
   if (type == "stats") {
     *extra = "\"stats\":" + stats_json();
     if (const json::Value* r = msg.find("reset"); r && r->is_bool() && r->boolean) rig_.cpu().reset_total();
@@ -167,6 +168,25 @@ std::string Simulator::cmd_run(const json::Value& msg) {
     return "run needs seconds in (0, 1e6]";
   pause_at_cycle_ = rig_.cycle() + static_cast<uint64_t>(std::llround(seconds * rig_.mcu().frequency_hz()));
   paused_ = false;
+  return "";
+}
+
+// {"type":"hold","until":T}: simulated time runs on (paced as ever) up to T seconds and waits
+// there, the sockets served, until a later hold moves T; "until":null ends holding. A hold at or
+// before the time now stops it where it is. The host's requests are still answered (hold.hpp).
+// The ack carries "t", the simulated time now, and "hold" (as in stats). A lockstep with a
+// consumer of the camera's frames (sim/README.md).
+std::string Simulator::cmd_hold(const json::Value& msg, std::string* extra) {
+  const json::Value* until = msg.find("until");
+  double t = 0.0;
+  if (until && until->is_null()) {
+    hold_.clear();
+  } else if (number_member(msg, "until", &t) && t >= 0.0 && t <= 1e9) {
+    hold_.set(static_cast<uint64_t>(std::llround(t * rig_.mcu().frequency_hz())));
+  } else {
+    return "hold needs until: simulated seconds in [0, 1e9], or null to stop holding";
+  }
+  *extra = "\"t\":" + json::number(rig_.time_s()) + ",\"hold\":" + hold_json();
   return "";
 }
 
@@ -272,6 +292,7 @@ std::string Simulator::stats_json() const {
   if (pacer_.unlimited()) o.add("speed", "max");
   else o.add("speed", pacer_.factor());
   o.add("paused", paused_)
+      .add_raw("hold", hold_json())
       .add("mcu", rig_.mcu().state_name())
       .add_raw("cpu", cpu_json(rig_.cpu().total(), period))
       .add_raw("cpu_window", cpu_json(rig_.cpu().window(), period))

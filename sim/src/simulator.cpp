@@ -17,6 +17,15 @@ namespace cart2d {
 
 constexpr double kSliceS = 0.001;          // simulated time between two looks at the sockets
 constexpr double kEepromCheckS = 0.25;     // wall time between two EEPROM change checks
+// A hold runs time on for the host's request (hold.hpp): until its answer has gone out and the
+// line from the MCU has been quiet this long (a reply goes out whole), within a tick and the
+// longest reply's time on the wire at most.
+constexpr double kAnswerQuietS = 0.001;
+constexpr double kAnswerLimitS = 0.008 + 0.0063;
+
+uint64_t Simulator::cycles_of(double seconds) const {
+  return static_cast<uint64_t>(seconds * rig_.mcu().frequency_hz() + 0.5);
+}
 
 Simulator::Simulator(const Options& opts)
     : opts_(opts), eeprom_(opts.eeprom.empty() ? EepromStore::default_path() : opts.eeprom) {
@@ -110,10 +119,11 @@ bool Simulator::parent_gone() {
   return ::read(STDIN_FILENO, &byte, 1) == 0;
 }
 
-// Runs one slice, or less if a "run" message asked to pause, or a world change is due, earlier.
+// Runs one slice, or less if a "run" message asked to pause, a world change is due or a hold
+// stands, earlier.
 void Simulator::run_slice(uint64_t slice) {
   const uint64_t now = rig_.cycle();
-  const uint64_t stop = std::min(pause_at_cycle_, next_change_cycle());
+  const uint64_t stop = std::min({pause_at_cycle_, next_change_cycle(), hold_stop()});
   const uint64_t left = stop > now ? stop - now : 0;
   rig_.run_cycles(left < slice ? left : slice);
   apply_due_changes();
@@ -121,6 +131,39 @@ void Simulator::run_slice(uint64_t slice) {
   paused_ = true;
   pause_at_cycle_ = UINT64_MAX;
   control_.broadcast(json::Object().add("type", "event").add("event", "paused").add("t", rig_.time_s()).str());
+}
+
+void Simulator::note_host_request() {
+  // The firmware serves a request within a control tick (8 ms) and its longest reply takes 6.3 ms
+  // on the wire; the adapter's USB delay and FTDI timer come on top before the host reads it.
+  const AdapterSettings& a = rig_.uart().adapter();
+  const double to_host_s = a.to_host_delay_s + a.latency_timer_s;
+  const uint64_t arrives = rig_.uart().to_mcu_idle_cycle();
+  hold_.host_wrote(arrives, arrives + cycles_of(kAnswerLimitS + to_host_s));
+}
+
+uint64_t Simulator::hold_stop() const {
+  const AdapterSettings& a = rig_.uart().adapter();
+  const uint64_t quiet = cycles_of(kAnswerQuietS + a.to_host_delay_s + a.latency_timer_s);
+  const UartLink& u = rig_.uart();
+  return hold_.stop_cycle(rig_.cycle(), u.mcu_frame_start_cycle(), u.mcu_line_free_cycle(), quiet);
+}
+
+bool Simulator::at_hold(double wall_s) {
+  const bool held = !paused_ && rig_.mcu().alive() && rig_.cycle() >= hold_stop();
+  hold_.account(held, wall_s);
+  return held;
+}
+
+std::string Simulator::hold_json() const {
+  return json::Object()
+      .add_raw("until", hold_.until() == Hold::kNone
+                            ? "null"
+                            : json::number(static_cast<double>(hold_.until()) / rig_.mcu().frequency_hz()))
+      .add("held", hold_.waiting())
+      .add("waits", static_cast<unsigned long long>(hold_.waits()))
+      .add("wait_s", hold_.waited_s(wall_now_s()))
+      .str();
 }
 
 void Simulator::publish_events() {
@@ -218,11 +261,14 @@ int Simulator::run(volatile std::sig_atomic_t* stop) {
       break;
     }
     serve_host_port();
-    rig_.uart().read_host();
+    if (rig_.uart().read_host() > 0) note_host_request();
     control_.poll_input(opts_.truth_hz, [this](int client, const std::string& line) { handle_line(client, line); });
     if (quit_) break;
 
-    const bool running = !paused_ && rig_.mcu().alive();
+    // Waiting at a hold is not running: the sockets are served and the pacing starts again from
+    // where it stands once the hold moves on (no sprint to catch up with the wall clock).
+    const bool held = at_hold(wall_now_s());
+    const bool running = !paused_ && rig_.mcu().alive() && !held;
     if (running) run_slice(slice);
     rig_.uart().write_host(rig_.cycle());
     publish_events();

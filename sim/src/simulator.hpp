@@ -11,6 +11,7 @@
 
 #include "control_channel.hpp"
 #include "eeprom_store.hpp"
+#include "hold.hpp"
 #include "json.hpp"
 #include "options.hpp"
 #include "pacer.hpp"
@@ -40,7 +41,16 @@ class Simulator {
   std::string eeprom_ops_json() const;
   std::string cmd_profile(const json::Value& msg, std::string* extra);
   std::string cmd_run(const json::Value& msg);
+  std::string cmd_hold(const json::Value& msg, std::string* extra);
   void run_slice(uint64_t slice);
+  // The host wrote to the MCU: a hold lets the firmware answer (hold.hpp).
+  void note_host_request();
+  // Where a hold stops simulated time from now (Hold::kNone: nowhere).
+  uint64_t hold_stop() const;
+  // Whether simulated time stands at the hold now; counts the wall time it waits there.
+  bool at_hold(double wall_s);
+  std::string hold_json() const;
+  uint64_t cycles_of(double seconds) const;
   static bool parent_gone();
   // world_commands.cpp
   std::string cmd_world_change(const std::string& type, const json::Value& msg, std::string* extra);
@@ -80,6 +90,7 @@ class Simulator {
   Pacer pacer_;
   bool paused_ = false;
   uint64_t pause_at_cycle_ = UINT64_MAX;  // set by a "run" message
+  Hold hold_;  // a "hold" message's: simulated time waits there (a lockstep with a consumer)
   bool quit_ = false;
   struct ScheduledChange {
     uint64_t cycle;  // the first cycle it applies at

@@ -96,6 +96,7 @@ void UartLink::on_output(avr_irq_t*, uint32_t value, void* param) {
   const FrameFormat format = self->tx_format();
   const uint64_t bit = self->bit_cycles();
   const uint64_t start = std::max(self->avr_->cycle, self->tx_line_free_cycle_);
+  self->tx_frame_start_cycle_ = start;
   self->tx_line_free_cycle_ = start + bit * static_cast<uint64_t>(format.bits());
   ++self->stats_.tx_bytes;
   uint8_t byte = static_cast<uint8_t>(value);
@@ -155,12 +156,13 @@ void UartLink::rearm_after_reset() {
   tx_line_free_cycle_ = avr_->cycle;
 }
 
-void UartLink::read_host() {
+size_t UartLink::read_host() {
   std::string in;
   pty_.read(&in);
-  if (in.empty()) return;
+  if (in.empty()) return 0;
   for (const char c : in) send_to_mcu(static_cast<uint8_t>(c));
   line_changed();
+  return in.size();
 }
 
 void UartLink::inject(const std::string& bytes) {

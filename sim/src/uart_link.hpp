@@ -76,9 +76,14 @@ class UartLink {
   const AdapterSettings& adapter() const { return adapter_.settings(); }
 
   // Host side, called by the simulation loop between slices.
-  void read_host();                     // pty → line
+  size_t read_host();                   // pty → line; the bytes read
   void write_host(uint64_t now_cycle);  // what the host can read by now → pty
   bool host_output_pending() const { return !host_out_.empty(); }
+  // When the host's bytes written so far have all reached the MCU; when the MCU's last frame
+  // started and its transmitter went idle (a lockstep's hold lets it answer the host: hold.hpp).
+  uint64_t to_mcu_idle_cycle() const { return static_cast<uint64_t>(adapter_.to_mcu_idle_at() + 0.5); }
+  uint64_t mcu_frame_start_cycle() const { return tx_frame_start_cycle_; }
+  uint64_t mcu_line_free_cycle() const { return tx_line_free_cycle_; }
 
   // Without a pty (tests): the host writes bytes now / reads what reached it by now_cycle
   // (and, if asked, the cycle at which each byte became readable).
@@ -117,6 +122,7 @@ class UartLink {
   UsbSerialAdapter adapter_;
   UsartReceiver usart_rx_;
   uint64_t tx_line_free_cycle_ = 0;  // the MCU's transmitter is busy until then
+  uint64_t tx_frame_start_cycle_ = 0;  // its last frame's start bit
   std::string host_out_;             // bytes for the host the pty had no room for yet
 };
 
