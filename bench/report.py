@@ -32,6 +32,7 @@ SECTIONS = (
     "drivetrain",
     "serial",
     "network_link",
+    "noisy_link",
     "flashing",
     "control",
     "system",
