@@ -2,7 +2,7 @@
 restarted on the same stable port name, as a USB cable unplugged and plugged in). Each open
 resets the simulated Nano, which answers once through Optiboot: about 0.5 s of simulated time,
 any amount of wall time on a busy machine, so the test waits for its VERSION as the gateway does
-(it asked within 0.3 s of wall time, and failed 2 runs in 6 with both cores busy)."""
+(it asked within 0.3 s of wall time, and failed 3 runs in 12 with both cores busy)."""
 
 from __future__ import annotations
 
