@@ -37,7 +37,9 @@ STOP_RESEND_S = 0.025  # a STOP (15 bytes both ways, 1.3 ms of line) unanswered 
 RTT_GAIN = 1 / 8  # RFC 6298's alpha and beta
 RTT_VAR_GAIN = 1 / 4
 LOSS_GAIN = 0.05  # the loss rate follows about the last 20 tries (the mean of all, until there are 20)
-ALIVE_S = 0.2  # a line that sent a byte this recently is alive (telemetry comes every 40 ms)
+# A line that sent a byte this recently is alive: telemetry comes every 40 ms, but a busy host's
+# reader may not look for a few hundred (a Nano in its bootloader is silent for 0.5 to 1.5 s).
+ALIVE_S = 1.0
 REPLY_OVERHEAD = 8  # a reply's bytes besides its results: 0x7E, LEN, SEQ, STATUS, CMD, ARGC, CRC
 
 
