@@ -34,7 +34,7 @@ from typing import Any
 from bench.common import Section, section_main, table
 from bench.firmware import SQUARE, circle_route
 from cart2d.link import Link
-from cart2d.link.firmware import upload_path
+from cart2d.link.path_stream import upload_path
 from cart2d.params import robot
 from cart2d.simulator import SimOptions, Simulator
 from cart2d.spec import load_spec

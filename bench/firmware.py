@@ -44,7 +44,7 @@ import serial
 
 from bench.common import Section, percentile, section_main, spread, table
 from cart2d.link import Link
-from cart2d.link.firmware import POINTS_PER_FRAME
+from cart2d.link.path_stream import POINTS_PER_FRAME
 from cart2d.link.protocol import Decoder, Reply, Telemetry, decode_reply, encode_request
 from cart2d.params import robot
 from cart2d.simulator import SimOptions, Simulator, default_firmware
@@ -130,7 +130,7 @@ def circle_route(phase: int, sides: int = 16) -> Route:
 
 STREAMED = "streamed circle"
 WINDOW = int(robot()["control"]["waypoint_capacity"])
-STREAM_BATCH = max(1, WINDOW // 4)  # cart2d/link/firmware.py, PathStream: an append per quarter window
+STREAM_BATCH = max(1, WINDOW // 4)  # cart2d/link/path_stream.py, PathStream: an append per quarter window
 
 
 def streamed_route(phase: int) -> Route:

@@ -33,6 +33,7 @@ SECTIONS = (
     "drivetrain",
     "serial",
     "network_link",
+    "noisy_link",
     "flashing",
     "control",
     "system",

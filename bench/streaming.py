@@ -2,7 +2,7 @@
 
 The cart drives a serpentine in the 4 m arena: rows 3 m long with a waypoint every 5 cm, joined
 by half-circle turns of 0.25 m radius in 12-degree chords (as cart2d/smoothing.py rounds corners).
-The gateway's uploader (cart2d/link/firmware.py, PathStream) sends the first frame, then keeps the
+The gateway's uploader (cart2d/link/path_stream.py, PathStream) sends the first frame, then keeps the
 firmware's window full as telemetry reports the waypoints passed. The simulator runs in real
 time, as a cart would, so the uploader's latency is the real one. Ground truth gives the speed
 trace; telemetry gives the STARVED flag (the cart had fewer points ahead than it needs to brake
@@ -30,7 +30,7 @@ from typing import Any
 import matplotlib.pyplot as plt
 
 from bench.common import Section, section_main, table
-from cart2d.link import Link, firmware
+from cart2d.link import Link, firmware, path_stream
 from cart2d.link.protocol import Telemetry
 from cart2d.mission import MissionSpec, run_mission
 from cart2d.params import planning_radius_m, robot, settings_table
@@ -120,7 +120,7 @@ class Drive:
     points: list[Point]
     truth: list[dict[str, Any]] = field(default_factory=list)
     frames: list[Telemetry] = field(default_factory=list)
-    stream: firmware.PathStream | None = None
+    stream: path_stream.PathStream | None = None
     status: firmware.Status | None = None
     wall_s: float = 0.0
 
@@ -142,7 +142,7 @@ def drive(sim: Simulator, link: Link, points: list[Point], timeout_s: float = 30
     sim.side.subscribe(on_truth)
     link.subscribe(result.frames.append)
     started = time.monotonic()
-    result.stream = firmware.upload_path(link, points)
+    result.stream = path_stream.upload_path(link, points)
     while True:
         status = firmware.read_status(link)
         if status.mode != "PATH":
@@ -258,7 +258,7 @@ def mission_paths() -> list[tuple[str, Point, list[Point]]]:
         planner = Planner(s.grid, planning_radius_m(), set(s.obstacles))
         plan = planner.plan(s.start[:2], s.goal)
         rounded = round_corners(
-            plan.start, plan.waypoints, planner.graph.segment_free, firmware.MAX_PATH_POINTS
+            plan.start, plan.waypoints, planner.graph.segment_free, path_stream.MAX_PATH_POINTS
         )
         out.append((f"{s.name}, {s.arena}", plan.start, rounded))
     m = serpentine_mission()
@@ -266,7 +266,9 @@ def mission_paths() -> list[tuple[str, Point, list[Point]]]:
     nodes = {grid.nearest_node(x, y) for x, y in m["obstacles"]}
     planner = Planner(grid, planning_radius_m(), nodes)
     plan = planner.plan(tuple(m["start"][:2]), tuple(m["goals"][0]))
-    rounded = round_corners(plan.start, plan.waypoints, planner.graph.segment_free, firmware.MAX_PATH_POINTS)
+    rounded = round_corners(
+        plan.start, plan.waypoints, planner.graph.segment_free, path_stream.MAX_PATH_POINTS
+    )
     out.append(("serpentine mission, 4 m", plan.start, rounded))
     return out
 

@@ -50,7 +50,7 @@ from typing import Any, Literal, Protocol
 
 from cart2d import cli_args
 from cart2d import faults as fault_table
-from cart2d.link import CommandRefused, Link, LinkError, firmware
+from cart2d.link import CommandRefused, Link, LinkError, firmware, path_stream
 from cart2d.link.firmware import ControllerRestarted, ResetWatch
 from cart2d.params import robot, setting_id
 from cart2d.simulator import SimOptions, Simulator, SimulatorError
@@ -262,7 +262,7 @@ def drive_square(
             if k:
                 turn_on_the_spot(link, k * turn, expired, omega_max)
                 check()
-            firmware.upload_path(link, [corner])
+            path_stream.upload_path(link, [corner])
             _wait_arrived(link, expired, poll_s, watch)
         x, y, _ = link.call("POSE")
         check()

@@ -42,6 +42,9 @@ FAULTS: tuple[Fault, ...] = (
     Fault("uart_rx_corrupt", 0.0, 1.0, 0.0, "", "probability that a byte towards the MCU has a bit flipped"),
     Fault("uart_tx_drop", 0.0, 1.0, 0.0, "", "probability that a byte from the MCU is dropped"),
     Fault("uart_tx_corrupt", 0.0, 1.0, 0.0, "", "probability that a byte from the MCU has a bit flipped"),
+    Fault("uart_burst_hz", 0.0, 100.0, 0.0, "1/s", "bursts of line errors per second (both ways at once)"),
+    Fault("uart_burst_ms", 0.0, 10000.0, 0.0, "ms", "how long each burst of line errors lasts"),
+    Fault("uart_burst_drop", 0.0, 1.0, 0.0, "", "probability that a byte either way is lost in a burst"),
     Fault(
         "hbridge_pulldowns",
         0.0,

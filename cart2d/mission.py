@@ -34,7 +34,7 @@ from cart2d import mission_file
 from cart2d.baseline import SEED_SETTINGS, seed_path
 from cart2d.gateway import Gateway, PoseUntrusted
 from cart2d.gateway.live_map import planner_for, world_for
-from cart2d.link import CommandRefused, Link, LinkError, firmware
+from cart2d.link import CommandRefused, Link, LinkError, firmware, path_stream
 from cart2d.maps import MapError, load_ros_map
 from cart2d.mission_camera import mission_camera, perception_report
 from cart2d.mission_events import EventPlayer, MapEvent, Pacer, snapped
@@ -116,6 +116,11 @@ class MissionSpec(BaseModel):
         return sorted(times)
 
 
+# Faults that make the link retry: its waits are wall-clock time, so a mission with them runs
+# in real time (at full speed a 20 ms retry would let the cart drive on for half a second).
+LINE_FAULTS = ("uart_rx_drop", "uart_rx_corrupt", "uart_tx_drop", "uart_tx_corrupt", "uart_burst_hz")
+
+
 def _apply_settings(link: Link, settings: dict[str, float]) -> None:
     for name, value in settings.items():
         firmware.write_setting(link, setting_id(name), value)
@@ -178,7 +183,7 @@ def _drive_like_the_seed(
     capacity = gateway.waypoint_capacity
     for first in range(0, len(waypoints), capacity):
         with pacer.real_time():
-            firmware.upload_path(gateway.link, waypoints[first : first + capacity])
+            path_stream.upload_path(gateway.link, waypoints[first : first + capacity])
         reason = _wait_for_path_end(gateway.link, sim, deadline_t, watch)
         if reason:
             break
@@ -388,6 +393,8 @@ def run_mission(
                             mission_camera(gateway, sim, camera_calibration, spec.lockstep)
                         )
                         seeing.enter_context(pacer.real_time())  # perception runs in wall-clock time
+                    elif any(spec.faults.get(key, 0.0) for key in LINE_FAULTS):
+                        seeing.enter_context(pacer.real_time())  # the link's retries wait on the wall clock
                     # The mission's time starts with its first goal, once the camera sees: the
                     # events, the resets and the timeout count from here.
                     t0 = recorder.t0 = sim.truth()["t"]

@@ -65,6 +65,11 @@ class Command:
             return None
         return 0 if self.args in (NO_ARGS, "") else len(self.args.split(","))
 
+    @property
+    def result_count(self) -> int:
+        """Number of results its OK reply carries, from the spec's "results" column."""
+        return 0 if self.results in (NO_ARGS, "") else len(self.results.split(","))
+
 
 @dataclass(frozen=True)
 class Spec:

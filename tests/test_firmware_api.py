@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from cart2d.link import CommandRefused, Link, firmware
+from cart2d.link import CommandRefused, Link, firmware, path_stream
 from cart2d.params import settings_table
 from cart2d.simulator import Simulator
 from cart2d.spec import load_spec
@@ -42,7 +42,7 @@ def test_settings_are_read_by_stable_id_with_their_defaults(link: Link) -> None:
 
 def test_a_long_path_is_uploaded_in_frames_and_driven(sim: Simulator, link: Link) -> None:
     points = [(0.05 * (i + 1), 0.0) for i in range(30)] + [(1.5, 0.3)]
-    firmware.upload_path(link, points)
+    path_stream.upload_path(link, points)
     status = wait_idle(link)
     assert int(status[2]) == len(points)
     assert abs(sim.truth()["x"] - 1.5) < 0.01 and abs(sim.truth()["y"] - 0.3) < 0.01
@@ -50,7 +50,7 @@ def test_a_long_path_is_uploaded_in_frames_and_driven(sim: Simulator, link: Link
 
 def test_a_path_over_the_maximum_is_refused_before_anything_moves(link: Link) -> None:
     with pytest.raises(ValueError, match="1 to 65535 points"):
-        firmware.upload_path(link, [(0.0, 0.0)] * 65536)
+        path_stream.upload_path(link, [(0.0, 0.0)] * 65536)
     with pytest.raises(CommandRefused, match="more waypoints than a path holds"):
         link.call("WAIT_XY_ARRAY", 65536.0)
     assert firmware.read_status(link).mode == "IDLE"
@@ -60,7 +60,7 @@ def test_a_path_longer_than_the_window_is_streamed_with_telemetry_off(sim: Simul
     # 80 points 2 cm apart (window: 32): with telemetry off the uploader follows STATUS.
     link.call("TELEMETRY", 0.0)
     points = [(0.02 * (i + 1), 0.0) for i in range(80)]
-    stream = firmware.upload_path(link, points)
+    stream = path_stream.upload_path(link, points)
     assert stream.sending and stream.window == firmware.read_version(link).waypoint_capacity
     status = wait_idle(link)
     assert stream.join(1.0) and not stream.failure and stream.sent == 80

@@ -7,9 +7,11 @@ timeouts and its wait after opening the port are wall-clock times, as with a rea
 from __future__ import annotations
 
 import contextlib
+import os
 import shutil
 import socket
 import subprocess
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -85,6 +87,36 @@ def run_avrdude(sim: Simulator, *operations: str) -> tuple[subprocess.CompletedP
     t0, wall0 = float(sim.truth()["t"]), time.monotonic()
     done = flashing.run_avrdude(cmd, print)  # as the gateway does: once more if it never got in sync
     return done, float(sim.truth()["t"]) - t0, time.monotonic() - wall0
+
+
+def test_avrdude_that_never_got_in_sync_is_run_once_more() -> None:
+    # avrdude 7.1's arduino programmer gets in sync while it opens the port, and says "unable to
+    # open programmer" when it never did; the retry looked for "initialization failed" only, so
+    # an update whose avrdude lost the race with Optiboot's start failed ("not in sync:
+    # resp=0xaa": the application's telemetry, once Optiboot had given up; 1 full run in 14 with
+    # both cores busy). Here the real avrdude, on a port where an application sends telemetry
+    # frames' first bytes and no bootloader answers.
+    master, slave = os.openpty()
+    done_talking = threading.Event()
+
+    def telemetry() -> None:
+        while not done_talking.wait(0.005):
+            with contextlib.suppress(OSError):
+                os.write(master, b"\xaa\xbb")
+
+    talker = threading.Thread(target=telemetry, daemon=True)
+    talker.start()
+    try:
+        notes: list[str] = []
+        cmd = [avrdude(), "-p", "m328p", "-c", "arduino", "-P", os.ttyname(slave), "-b", "115200"]
+        done = flashing.run_avrdude([*cmd, "-U", f"flash:v:{HEX}:i"], notes.append)
+    finally:
+        done_talking.set()
+        talker.join()
+        os.close(master)
+        os.close(slave)
+    assert done.returncode != 0 and "not in sync" in done.stderr, done.stderr
+    assert notes == ["avrdude could not get in sync with the bootloader: once more"]
 
 
 def test_avrdude_flashes_the_simulated_nano_through_optiboot(nano: Simulator, other_build: Path) -> None:

@@ -227,14 +227,19 @@ def test_the_next_reply_is_not_held_back_by_a_corrupted_length_from_the_firmware
         link.call("TELEMETRY", 0.0)  # quiet between replies: only a retry's reply could fill the gap
         time.sleep(0.1)  # the last frame already on its way
         # Opening the port reset the MCU (DTR): a request during its start-up may have needed a
-        # retry. Count from here.
+        # retry, and a partial frame of the start-up (the reset cuts the frame being sent short)
+        # reaches the link when the splice relays it after the link has opened (on a busy
+        # machine 9 runs in 15 counted 6 partials, not 5). Everything before TELEMETRY's reply
+        # has been decoded or dropped by the time it came (the decoder keeps the stream's order):
+        # count from here.
         link.retransmissions = 0
+        partials_before = link.partials_dropped
         for k in range(5):
             splice.inject(BOGUS_HEADER)
             assert link.call("TOL_SET", 0.01 + 0.001 * k)[0] == pytest.approx(0.01 + 0.001 * k)
             assert link.call("TOL_GET")[0] == pytest.approx(0.01 + 0.001 * k)
         assert link.retransmissions == 0
-        assert link.partials_dropped == 5
+        assert link.partials_dropped - partials_before == 5
     finally:
         link.close()
         splice.close()

@@ -23,7 +23,7 @@ from bench.streaming import (
     speed_floors,
     start_sim,
 )
-from cart2d.link import Link, firmware
+from cart2d.link import Link, firmware, path_stream
 from cart2d.link.protocol import Telemetry
 from cart2d.params import settings_table
 from cart2d.simulator import Simulator
@@ -127,7 +127,7 @@ def test_a_path_replaced_mid_drive_is_followed_at_once_without_a_speed_jump(
     sim, link = cart
     link.call("TELEMETRY", 50.0)
     frames, truth = _frames(link), _truth(sim)
-    old = firmware.upload_path(link, line(ROW_X_M[0], 3.5, 0.6))
+    old = path_stream.upload_path(link, line(ROW_X_M[0], 3.5, 0.6))
     wait_for(lambda: sim.truth()["x"] > 1.5, 30.0, 0.005)
     x_new = round(sim.truth()["x"], 2) + 0.15  # just ahead of the cart
     turn = [
@@ -137,7 +137,7 @@ def test_a_path_replaced_mid_drive_is_followed_at_once_without_a_speed_jump(
     new_points = [*line(x_new - 0.05, 2.6, 0.6), *turn, *north]
     old.cancel()  # as the gateway does: the old stream stops before the new path is sent
     replaced_t = sim.truth()["t"]
-    new = firmware.upload_path(link, new_points)
+    new = path_stream.upload_path(link, new_points)
     status = _wait_path_end(link)
     assert old.ended == "cancelled" and not new.failure and new.sent == len(new_points)
     assert status.has("ARRIVED") and status.waypoint_count == len(new_points)
@@ -165,7 +165,7 @@ def test_refused_path_requests_change_nothing_while_a_path_streams(cart: tuple[S
     reasons = load_spec().reasons
     truth = _truth(sim)
     points = [*line(ROW_X_M[0], 3.5, 0.6), *line(3.5, 0.5, 1.1)]
-    stream = firmware.upload_path(link, [*points[:60], (3.5, 0.85), *points[60:]])
+    stream = path_stream.upload_path(link, [*points[:60], (3.5, 0.85), *points[60:]])
     wait_for(lambda: sim.truth()["x"] > 1.5, 30.0, 0.005)
     refused = [
         link.request("WAIT_XY_ARRAY", [65536.0]),
@@ -213,7 +213,7 @@ def test_a_telemetry_frame_older_than_an_append_does_not_end_the_stream() -> Non
     # the path began) is stale. It ended the stream ("replaced by another sender"), and the cart
     # stopped at the window's end with the rest of the path unsent.
     link = StatusOnlyLink(count=210, index=18, received=49)
-    stream = firmware.PathStream(link, [(0.01 * k, 0.0) for k in range(210)])  # type: ignore[arg-type]
+    stream = path_stream.PathStream(link, [(0.01 * k, 0.0) for k in range(210)])  # type: ignore[arg-type]
     stream.sent, stream.index, stream.window = 49, 18, 32
     stream._follow("PATH", 17)
     assert not stream.done.is_set() and stream.index == 18

@@ -60,7 +60,7 @@ from cart2d.gateway.state import (
     exit_words,
     pose_text,
 )
-from cart2d.link import CommandRefused, Link, LinkError, MotionCancelled, firmware
+from cart2d.link import CommandRefused, Link, LinkError, MotionCancelled, firmware, path_stream
 from cart2d.link.flashing import HURRIED_CHECK_S, Flasher
 from cart2d.link.protocol import Reply, Telemetry
 from cart2d.params import robot, setting_id
@@ -95,7 +95,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self.map_version = 1  # counts the map's changes (the panel fetches the map again)
         self._last_truth_t: float | None = None  # the simulator's time in its latest truth message
         self.mission = Mission()
-        self._stream: firmware.PathStream | None = None  # the mission's path, streamed to the firmware
+        self._stream: path_stream.PathStream | None = None  # the mission's path, streamed to the firmware
         self._frames_at_route = 0  # telemetry frames received when the last route was sent
         self.looks_turned = 0  # turns on the spot to look before a route left (look.py)
         self._lock = threading.RLock()  # guards settings, planner and mission
@@ -241,12 +241,12 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             if not self.pose_trust.trusted:  # a restart noticed meanwhile
                 raise PoseUntrusted(self.pose_trust.refusal())
             plan = self.planner.plan((pose[0], pose[1]), (x, y))
-            if len(plan.waypoints) > firmware.MAX_PATH_POINTS:
+            if len(plan.waypoints) > path_stream.MAX_PATH_POINTS:
                 raise PathTooLong(
                     f"the path needs {len(plan.waypoints)} waypoints and a firmware path holds at most "
-                    f"{firmware.MAX_PATH_POINTS}: remove obstacles or pick a nearer goal"
+                    f"{path_stream.MAX_PATH_POINTS}: remove obstacles or pick a nearer goal"
                 )
-            plan = self._rounded(plan, firmware.MAX_PATH_POINTS)
+            plan = self._rounded(plan, path_stream.MAX_PATH_POINTS)
             self._send_route(plan, token)
             if self.routine.state == "running":
                 self._end_routine("failed", "a path replaced it before it squared up")
@@ -271,7 +271,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         new one (docs/protocol.md, Paths and the waypoint window)."""
         self._cancel_stream()
         self.forwards_only_while_seeing()
-        self._stream = firmware.upload_path(self.link, plan.waypoints, token)
+        self._stream = path_stream.upload_path(self.link, plan.waypoints, token)
         self._frames_at_route = self.link.telemetry_count
 
     # -- replanning ---------------------------------------------------------------------------
@@ -332,7 +332,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
                 plan = self.planner.plan(pose, goal)
             except StartBlocked:
                 plan = self.planner.plan(entry, goal)
-            plan = self._rounded(plan, firmware.MAX_PATH_POINTS)
+            plan = self._rounded(plan, path_stream.MAX_PATH_POINTS)
         except PlanError as exc:
             self._record_replan(mission, reason, time.perf_counter() - started, None, str(exc))
             with contextlib.suppress(LinkError, CommandRefused):
@@ -382,7 +382,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         return self.version.waypoint_capacity if self.version else 32
 
     @property
-    def path_stream(self) -> firmware.PathStream | None:
+    def path_stream(self) -> path_stream.PathStream | None:
         """The stream of the last path go_to sent (it may still be sending)."""
         with self._lock:
             return self._stream

@@ -265,6 +265,12 @@ def is_elf(path: Path) -> bool:
         return False
 
 
+# What avrdude 7.1 says when it never got in sync with the bootloader: the arduino programmer
+# syncs while it opens the port ("unable to open programmer arduino on port ..."), other
+# programmers while they initialise.
+NEVER_IN_SYNC = ("unable to open programmer", "initialization failed")
+
+
 def run_avrdude(cmd: list[str], note: Callable[[str], object]) -> subprocess.CompletedProcess[str]:
     """Runs avrdude, and once more if it never got in sync with the bootloader (nothing written):
     its first GET_SYNCs race Optiboot's start after the reset (wall-clock drains of 250 ms against
@@ -273,7 +279,7 @@ def run_avrdude(cmd: list[str], note: Callable[[str], object]) -> subprocess.Com
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=AVRDUDE_TIMEOUT_S, check=False)
     if (
         done.returncode != 0
-        and "initialization failed" in done.stderr
+        and any(words in done.stderr for words in NEVER_IN_SYNC)
         and "bytes of flash" not in done.stderr
     ):
         note("avrdude could not get in sync with the bootloader: once more")

@@ -1,19 +1,25 @@
 """The serial link to the firmware: requests with retries, telemetry, reconnection.
 
 One request is outstanding at a time (docs/protocol.md, "Retransmission and duplicates"): a
-request that gets no reply within the timeout is retransmitted with the same sequence number,
+request that gets no reply within its wait is retransmitted with the same sequence number,
 which the firmware answers from memory instead of executing it twice; it remembers a request
 for 2 s, so a request is retransmitted only within RETRANSMIT_WINDOW_S of its first
-transmission. A reader thread decodes everything the firmware sends, and drops a partial
-packet that waited too long (protocol.py, Decoder). If the port disappears (USB
-unplugged, simulator restarted, a network bridge's connection dropped) the link reopens it in
-the background; requests in the meantime fail with LinkDown. The port may be a pyserial URL
-(ports.py): a network connection that stays silent while a request waits is dropped and
-reopened too (STALL_S), and a bridge that refuses connections is retried with back-off.
+transmission. The wait is measured from the line (line.py: its latency, and back-off sized to
+the tries it loses), so a lost reply costs a retry of a few tens of milliseconds, not a mission;
+a request that can be executed twice without harm (commands.py, REPEATABLE) goes on as a new
+one after the window while the line is alive, for up to PATIENCE_S. A reader thread decodes
+everything the firmware sends, and drops a partial packet that waited too long (protocol.py,
+Decoder). If the port disappears (USB unplugged, simulator restarted, a network bridge's
+connection dropped) the link reopens it in the background; requests in the meantime fail with
+LinkDown. The port may be a pyserial URL (ports.py): a network connection that stays silent
+while a request waits is dropped and reopened too (STALL_S), and a bridge that refuses
+connections is retried with back-off.
 
 A STOP is the last word the motors hear (cart2d/link/commands.py says which commands are
 motion). Requests wait for the link in order of priority, then arrival, and STOP comes first: it
-waits at most for the exchange on the wire, never behind queued commands or reads. Each STOP
+waits at most for the exchange on the wire, never behind queued commands or reads (and cuts
+short the wait for a read's or a motion command's reply), and is resent after at most
+line.STOP_RESEND_S. Each STOP
 starts a new stop generation; a motion command belongs to the generation it was asked for in
 (a token, taken when the request arrived) and is refused with MotionCancelled, unsent, once a
 STOP came after it, however long it waited; one asked for while a STOP is on its way belongs to
@@ -27,6 +33,7 @@ import contextlib
 import heapq
 import itertools
 import logging
+import math
 import random
 import threading
 import time
@@ -37,6 +44,7 @@ from enum import IntEnum
 import serial
 
 from cart2d.link import commands, ports
+from cart2d.link.line import ALIVE_S, STOP_RESEND_S, LineStats, reply_size
 from cart2d.link.protocol import (
     Decoder,
     Packet,
@@ -61,13 +69,20 @@ READ_TIMEOUT_S = 0.05  # how long the reader waits for a byte before it checks t
 # firmware sends telemetry (25 Hz) and answers within milliseconds; a Nano's bootloader after a
 # reset keeps the line silent for at most ~1.6 s (the old ATmegaBOOT; Optiboot ~1 s).
 STALL_S = 3.0
-TIMEOUT_S = 0.25  # a reply's wait before the request is retransmitted (a direct line: ~8 ms round trip)
+# The longest wait for a reply before the request is retransmitted (a direct line: ~8 ms round
+# trip); the wait is measured from the line below that (line.py).
+TIMEOUT_S = 0.25
 # Over a network the round trip grows by the network's (tens to hundreds of ms over Wi-Fi): waiting
 # longer spares retransmissions. The retransmission window still holds while one way takes less
 # than the 0.5 s between RETRANSMIT_WINDOW_S and the firmware's 2 s.
 NETWORK_TIMEOUT_S = 0.5
 REOPEN_DELAY_S = 0.2  # between attempts to reopen a device path (an open is cheap and local)
 REOPEN_MAX_DELAY_S = 3.2  # a network bridge is retried after 0.2, 0.4 ... then every 3.2 s
+# A repeatable request (a read, STOP, a setting's write) unanswered in its window goes on as a
+# new request while the line is alive, this long from its first transmission: a link that
+# recovers within a few seconds (a noisy stretch, a bridge's hiccup) costs retries, not a mission.
+PATIENCE_S = 5.0
+STATUS_SIZES = (len(encode_request(0, load_spec().code("STATUS"))), reply_size(16))  # bytes each way
 
 
 class LinkError(RuntimeError):
@@ -140,14 +155,20 @@ class Turnstile:
 
 class Link:
     def __init__(
-        self, port: str, baud: int = 115200, timeout_s: float | None = None, retries: int = 4
+        self, port: str, baud: int = 115200, timeout_s: float | None = None, retries: int | None = None
     ) -> None:
+        """`timeout_s`: a fixed wait for every reply (None: measured from the line, at most
+        TIMEOUT_S, NETWORK_TIMEOUT_S over a network); `retries`: at most this many
+        retransmissions of a request (None: as many as its window holds)."""
         self.port = port
         self.baud = baud
-        if timeout_s is None:
-            timeout_s = NETWORK_TIMEOUT_S if ports.is_url(port) else TIMEOUT_S
         self.timeout_s = timeout_s
         self.retries = retries
+        self.line = LineStats(baud, NETWORK_TIMEOUT_S if ports.is_url(port) else TIMEOUT_S)
+        self._stop_code = load_spec().code("STOP")
+        self._stops_queued = 0  # STOPs waiting for the turnstile
+        self._last_rx = -math.inf  # when the reader last got a byte (time.monotonic())
+        self.fresh_starts = 0  # repeatable requests asked again as new ones after their window
         self._serial: serial.Serial | None = None
         self._seq = random.randrange(256)  # a restarted host must not repeat the last SEQ
         self._turnstile = Turnstile()
@@ -278,54 +299,125 @@ class Link:
         priority: Priority = Priority.COMMAND,
         token: int | None = None,
     ) -> Reply:
-        """Send one request and return its reply (any status). Without a reply within the
-        timeout the request is retransmitted, at most `retries` times and only within
-        RETRANSMIT_WINDOW_S of its first transmission; then LinkTimeout. A motion command
-        belongs to `token` (default: the generation now) and raises MotionCancelled, unsent or
-        not retransmitted, once a STOP came after it; a read gives way to a waiting STOP
-        between its retransmissions (LinkTimeout)."""
+        """Send one request and return its reply (any status). Without a reply within the wait
+        (line.py: measured from the line, or `timeout_s` / the link's timeout_s when given) the
+        request is retransmitted, only within RETRANSMIT_WINDOW_S of its first transmission (and
+        at most `retries` times when set); then LinkTimeout, except that a repeatable request
+        (commands.py) goes on as a new one while the line is alive, for up to PATIENCE_S. A
+        motion command belongs to `token` (default: the generation now) and raises
+        MotionCancelled, unsent or cut short, once a STOP came after it; a repeatable request
+        waiting for its reply gives way to a STOP and is asked again after it."""
         code = command if isinstance(command, int) else load_spec().code(command)
         motion = commands.is_motion(code)
         if motion and token is None:
             token = self.motion_token()
-        timeout = self.timeout_s if timeout_s is None else timeout_s
         changes_settings = not commands.keeps_settings(code)
-        with self._turnstile.hold(priority):
-            if motion and token is not None:
-                self._refuse_if_stopped(code, token)
-            if changes_settings:
-                self.settings_may_change()
-            try:
-                return self._send(code, args, timeout, token if motion else None)
-            finally:
+        first_sent: list[float] = []  # when it was first written (its patience counts from then)
+        while True:
+            with self._queued(priority):
+                if motion and token is not None:
+                    self._refuse_if_stopped(code, token)
                 if changes_settings:
                     self.settings_may_change()
-
-    def _send(self, code: int, args: Sequence[float], timeout: float, token: int | None) -> Reply:
-        self._seq = (self._seq + 1) & 0xFF
-        data = encode_request(self._seq, code, list(args))
-        first_sent = time.monotonic()
-        tries = 0
-        while True:
-            reply = self._exchange(data, self._seq, timeout)
-            tries += 1
+                try:
+                    reply = self._send(code, args, timeout_s, token if motion else None, first_sent)
+                finally:
+                    if changes_settings:
+                        self.settings_may_change()
             if reply is not None:
-                return reply
-            late = time.monotonic() - first_sent > RETRANSMIT_WINDOW_S
-            if tries > self.retries or late:
-                break
-            if token is not None:
-                self._refuse_if_stopped(code, token)  # never retransmitted after a STOP
-            if commands.is_read(code) and self._turnstile.waiting(Priority.STOP):
-                raise LinkTimeout(f"no reply to {load_spec().name_of(code)}; it gave way to a STOP")
-            self.retransmissions += 1
-        waited_s = time.monotonic() - first_sent
-        raise LinkTimeout(f"no reply to {load_spec().name_of(code)} after {tries} tries in {waited_s:.1f} s")
+                return reply  # else it gave way to a STOP: asked again behind it
 
-    def _refuse_if_stopped(self, code: int, token: int) -> None:
+    @contextlib.contextmanager
+    def _queued(self, priority: Priority) -> Iterator[None]:
+        """Holds the turnstile; a STOP waiting for it cuts short the wait of the exchange on
+        the wire (of a repeatable or motion request)."""
+        urgent = priority == Priority.STOP
+        if urgent:
+            with self._reply_lock:
+                self._stops_queued += 1
+                self._reply_lock.notify_all()
+        try:
+            with self._turnstile.hold(priority):
+                if urgent:
+                    with self._reply_lock:
+                        self._stops_queued -= 1
+                    urgent = False
+                yield
+        finally:
+            if urgent:
+                with self._reply_lock:
+                    self._stops_queued -= 1
+
+    def _send(
+        self,
+        code: int,
+        args: Sequence[float],
+        timeout_s: float | None,
+        token: int | None,
+        first_sent: list[float],
+    ) -> Reply | None:
+        """Tries until a reply comes; None if it gave way to a waiting STOP (a repeatable request)."""
+        stop = code == self._stop_code
+        repeatable = commands.is_repeatable(code)
+        interruptible = not stop and (repeatable or token is not None)
+        reply_bytes = reply_size(commands.reply_results(code))
+        fixed = self.timeout_s if timeout_s is None else timeout_s
+        all_tries = 0
+        while True:  # each round a new SEQ: the firmware answers a round's retransmissions from memory
+            self._seq = (self._seq + 1) & 0xFF
+            data = encode_request(self._seq, code, list(args))
+            round_began = time.monotonic()
+            if not first_sent:
+                first_sent.append(round_began)
+            tries = 0
+            while True:
+                if fixed is None:
+                    wait = self.line.wait_s(len(data), reply_bytes, tries, stop)
+                else:
+                    wait = min(fixed, STOP_RESEND_S) if stop else fixed
+                written = time.monotonic()
+                reply = self._exchange(data, self._seq, wait, interruptible)
+                tries += 1
+                all_tries += 1
+                self.line.tried(reply is not None, self.alive(), len(data) + reply_bytes)
+                if reply is not None:
+                    if tries == 1 or not self.line.timed():
+                        self.line.answered_at_once(time.monotonic() - written, len(data), reply_bytes)
+                    return reply
+                if token is not None:
+                    self._refuse_if_stopped(code, token, cut_short=True)  # never retransmitted after a STOP
+                if interruptible and self._stop_queued():
+                    return None
+                late = time.monotonic() - round_began > RETRANSMIT_WINDOW_S
+                if late or (self.retries is not None and tries > self.retries):
+                    break
+                self.retransmissions += 1
+            waited_s = time.monotonic() - first_sent[0]
+            patient = repeatable and self.retries is None and self.alive() and waited_s < PATIENCE_S
+            if not patient:
+                raise LinkTimeout(self._no_reply(code, all_tries, waited_s))
+            self.fresh_starts += 1
+
+    def _no_reply(self, code: int, tries: int, waited_s: float) -> str:
+        line = self.line.view(*STATUS_SIZES)
+        words = f"no reply to {load_spec().name_of(code)} after {tries} tries in {waited_s:.1f} s"
+        if not self.alive():
+            return f"{words}: the line has been silent for {ALIVE_S:g} s"
+        return f"{words}; the line lost {line.loss_rate:.0%} of tries lately"
+
+    def alive(self) -> bool:
+        """Whether the line sent a byte within line.ALIVE_S (telemetry, replies, garbled ones)."""
+        return time.monotonic() - self._last_rx < ALIVE_S
+
+    def _stop_queued(self) -> bool:
+        with self._reply_lock:
+            return self._stops_queued > 0
+
+    def _refuse_if_stopped(self, code: int, token: int, cut_short: bool = False) -> None:
         if self.stopped_since(token):
+            what = "its reply was not waited for" if cut_short else "was not sent"
             raise MotionCancelled(
-                f"{load_spec().name_of(code).removeprefix('COMMAND_')} was not sent: a stop came after it"
+                f"{load_spec().name_of(code).removeprefix('COMMAND_')} {what}: a stop came after it"
             )
 
     def call(
@@ -342,7 +434,7 @@ class Link:
             raise CommandRefused(reply)
         return reply.results
 
-    def _exchange(self, data: bytes, seq: int, timeout_s: float) -> Reply | None:
+    def _exchange(self, data: bytes, seq: int, timeout_s: float, interruptible: bool) -> Reply | None:
         port = self._serial
         if port is None or not self.connected.is_set():
             raise LinkDown(f"{self.port} is not open")
@@ -357,7 +449,7 @@ class Link:
         with self._reply_lock:
             while self._reply is None:
                 left = deadline - time.monotonic()
-                if left <= 0 or not self.connected.is_set():
+                if left <= 0 or not self.connected.is_set() or (interruptible and self._stops_queued):
                     break
                 self._reply_lock.wait(left)
             reply, self._reply, self._pending_seq = self._reply, None, None
@@ -418,6 +510,7 @@ class Link:
             with self._reply_lock:
                 if data:
                     self._unanswered_since = None
+                    self._last_rx = now
                 elif stalls and self._unanswered_since is not None and now - self._unanswered_since > STALL_S:
                     return f"nothing came for {STALL_S:g} s although a request waited: the connection stalled"
             # Fed even when empty: a partial packet expires while nothing arrives as well.

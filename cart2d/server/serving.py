@@ -68,6 +68,7 @@ class BoundedH11Protocol(H11Protocol):
 
     def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]
         super().connection_made(transport)
+        no_delay(transport)
         cls = type(self)
         cls.open_connections.add(self)
         if len(cls.open_connections) > cls.max_connections and not self._evict_one():
@@ -193,6 +194,17 @@ def descriptor_budget() -> tuple[int, int]:
             pass
     spare = 1 << 20 if soft == resource.RLIM_INFINITY else max(32, soft - FD_RESERVE)
     return min(MAX_CONNECTIONS, spare // 4), min(BACKLOG, spare // 2)
+
+
+def no_delay(transport: asyncio.BaseTransport) -> None:
+    """Sends every write at once (TCP_NODELAY). h11 writes an answer's headers and its body
+    apart, and with Nagle's algorithm the body waited for the client's ACK of the headers, which
+    Linux delays up to 40 ms while requests come often: POST /api/command at 62 a second took
+    p50 52 ms instead of 9. asyncio sets the option itself only on sockets made with
+    proto=IPPROTO_TCP, which socket.create_server's are not."""
+    sock = transport.get_extra_info("socket")
+    if sock is not None and sock.family in (socket.AF_INET, socket.AF_INET6):
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
 
 
 def listening_socket(host: str, port: int, backlog: int = BACKLOG) -> socket.socket:

@@ -307,6 +307,8 @@ std::string Simulator::stats_json() const {
                            .add("tx_bytes", static_cast<unsigned long long>(u.tx_bytes))
                            .add("tx_dropped", static_cast<unsigned long long>(u.tx_dropped))
                            .add("tx_corrupted", static_cast<unsigned long long>(u.tx_corrupted))
+                           .add("rx_burst_dropped", static_cast<unsigned long long>(u.rx_burst_dropped))
+                           .add("tx_burst_dropped", static_cast<unsigned long long>(u.tx_burst_dropped))
                            .add("tx_frame_errors", static_cast<unsigned long long>(u.tx_frame_errors))
                            .add("tx_no_host", static_cast<unsigned long long>(u.tx_no_host))
                            .add("host_overflow", static_cast<unsigned long long>(u.host_overflow))

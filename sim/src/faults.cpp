@@ -24,10 +24,41 @@ const Field kFields[] = {
     {"uart_rx_corrupt", &Faults::uart_rx_corrupt, 0.0, 1.0},
     {"uart_tx_drop", &Faults::uart_tx_drop, 0.0, 1.0},
     {"uart_tx_corrupt", &Faults::uart_tx_corrupt, 0.0, 1.0},
+    {"uart_burst_hz", &Faults::uart_burst_hz, 0.0, 100.0},
+    {"uart_burst_ms", &Faults::uart_burst_ms, 0.0, 10000.0},
+    {"uart_burst_drop", &Faults::uart_burst_drop, 0.0, 1.0},
     {"hbridge_pulldowns", &Faults::hbridge_pulldowns, 0.0, 1.0, true},
 };
 
 }  // namespace
+
+void BurstSchedule::reseed(uint64_t seed) {
+  times_.reseed(seed, kStreamUartBurst);
+  bytes_.reseed(seed, kStreamUartBurstBytes);
+  bursts_.clear();
+  next_from_s_ = 0.0;
+}
+
+void BurstSchedule::configure(double hz, double ms, double now_s) {
+  if (hz == hz_ && ms / 1000.0 == length_s_) return;
+  hz_ = hz;
+  length_s_ = ms / 1000.0;
+  bursts_.clear();
+  next_from_s_ = now_s;
+}
+
+bool BurstSchedule::in_burst(double t_s) {
+  if (hz_ <= 0.0 || length_s_ <= 0.0) return false;
+  while (bursts_.empty() || bursts_.back().end_s <= t_s) {
+    const double start = next_from_s_ + times_.exponential(hz_);
+    next_from_s_ = start + length_s_;
+    bursts_.push_back({start, next_from_s_});
+    while (bursts_.size() > 1 && bursts_.front().end_s < t_s - 1.0) bursts_.pop_front();
+  }
+  for (const Burst& b : bursts_)
+    if (t_s >= b.start_s && t_s < b.end_s) return true;
+  return false;
+}
 
 bool apply_faults(const json::Value& msg, Faults* faults, std::string* error) {
   Faults next = *faults;

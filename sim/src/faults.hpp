@@ -2,9 +2,12 @@
 // given seed and input reproduce the same run.
 #pragma once
 
+#include <cstdint>
+#include <deque>
 #include <string>
 
 #include "json.hpp"
+#include "rng.hpp"
 
 namespace cart2d {
 
@@ -22,11 +25,39 @@ struct Faults {
   double uart_rx_corrupt = 0.0;  // one random bit flipped
   double uart_tx_drop = 0.0;
   double uart_tx_corrupt = 0.0;
+  // Bursts on the line, both ways at once (a Bluetooth or Wi-Fi bridge's bad moments): a burst
+  // begins on average 1 / uart_burst_hz s after the last one ended (a Poisson process), lasts
+  // uart_burst_ms, and while it lasts each byte, either way, is lost with uart_burst_drop.
+  double uart_burst_hz = 0.0;
+  double uart_burst_ms = 0.0;
+  double uart_burst_drop = 0.0;
   // Board: 1 = the LMD18200 inputs' pull-down resistors are fitted (the seed's schematic), 0 =
   // missing, so floating inputs (every MCU pin during a reset) read high: both bridges full on.
   double hbridge_pulldowns = 1.0;
 
   bool any_encoder_noise() const { return enc_miss_prob > 0.0 || enc_noise_hz > 0.0; }
+};
+
+// When the line's bursts are (Faults::uart_burst_*), drawn from their own seeded stream. Asked
+// about simulated times in any order within a second of the latest asked: the two directions
+// of the line ask about their own byte times, and a frame from the MCU may start ahead of now.
+class BurstSchedule {
+ public:
+  void reseed(uint64_t seed);
+  // Bursts of this rate and length from `now_s` on; unchanged values keep the schedule.
+  void configure(double hz, double ms, double now_s);
+  bool in_burst(double t_s);
+  // Whether a byte on the line at t_s is lost to a burst (drawn only inside one).
+  bool drops(double t_s, double drop_prob) { return in_burst(t_s) && bytes_.chance(drop_prob); }
+
+ private:
+  struct Burst {
+    double start_s, end_s;
+  };
+  Rng times_, bytes_;
+  double hz_ = 0.0, length_s_ = 0.0;
+  double next_from_s_ = 0.0;  // the end of the last burst drawn: the next begins after it
+  std::deque<Burst> bursts_;
 };
 
 // Applies the members of a "faults" control message. All-or-nothing: an unknown key or a value

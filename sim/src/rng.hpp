@@ -59,6 +59,8 @@ enum RngStream : uint64_t {
   kStreamUartTx,
   kStreamWheels,
   kStreamEeprom,
+  kStreamUartBurst,
+  kStreamUartBurstBytes,
   kStreamSram = 0x100,  // + a count of power losses: a new pattern each time
 };
 

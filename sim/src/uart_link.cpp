@@ -42,6 +42,7 @@ void UartLink::attach(avr_t* avr, uint64_t seed) {
   avr_ = avr;
   rng_rx_.reseed(seed, kStreamUartRx);
   rng_tx_.reseed(seed, kStreamUartTx);
+  bursts_.reseed(seed);
   // No usleep() when the firmware polls an empty receiver, no copy of the output on the console.
   uint32_t flags = 0;
   avr_ioctl(avr_, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
@@ -56,6 +57,11 @@ void UartLink::attach(avr_t* avr, uint64_t seed) {
   reset_hook_.self = this;
   avr_register_io(avr_, &reset_hook_.io);
   avr_irq_register_notify(avr_io_getirq(avr_, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT), on_output, this);
+}
+
+void UartLink::set_faults(const Faults& f) {
+  faults_ = f;
+  bursts_.configure(f.uart_burst_hz, f.uart_burst_ms, avr_ ? seconds(static_cast<double>(avr_->cycle)) : 0.0);
 }
 
 void UartLink::set_adapter(const AdapterSettings& s) {
@@ -100,6 +106,10 @@ void UartLink::on_output(avr_irq_t*, uint32_t value, void* param) {
   self->tx_line_free_cycle_ = start + bit * static_cast<uint64_t>(format.bits());
   ++self->stats_.tx_bytes;
   uint8_t byte = static_cast<uint8_t>(value);
+  if (self->bursts_.drops(self->seconds(static_cast<double>(start)), self->faults_.uart_burst_drop)) {
+    ++self->stats_.tx_burst_dropped;
+    return;  // the line stays idle for its frame
+  }
   if (self->rng_tx_.chance(self->faults_.uart_tx_drop)) {
     ++self->stats_.tx_dropped;
     return;  // the line stays idle for its frame
@@ -121,6 +131,11 @@ void UartLink::send_to_mcu(uint8_t byte) {
   const double frame = adapter_.bit_cycles() * 10.0;
   if (adapter_.to_mcu_idle_at() - now > kQueueCapBytes * frame) {
     ++stats_.host_overflow;
+    return;
+  }
+  if (bursts_.drops(seconds(now), faults_.uart_burst_drop)) {
+    ++stats_.rx_burst_dropped;
+    adapter_.send_nothing(now);
     return;
   }
   if (rng_rx_.chance(faults_.uart_rx_drop)) {

@@ -47,6 +47,8 @@ class UartLink {
     uint64_t tx_bytes = 0;         // written to UDR0 by the firmware
     uint64_t tx_dropped = 0;
     uint64_t tx_corrupted = 0;
+    uint64_t rx_burst_dropped = 0;  // lost to a burst (Faults::uart_burst_*), towards the MCU
+    uint64_t tx_burst_dropped = 0;  // the same, from the MCU
     uint64_t tx_frame_errors = 0;  // bytes the adapter's receiver got with a framing error
     uint64_t tx_no_host = 0;       // bytes that reached the adapter while no host had the port open
     uint64_t host_overflow = 0;    // dropped because the host side did not keep up
@@ -71,7 +73,7 @@ class UartLink {
   // Connects to the MCU's USART0 and turns off simavr's poll-sleep and console echo.
   void attach(avr_t* avr, uint64_t seed);
   void rearm_after_reset();
-  void set_faults(const Faults& f) { faults_ = f; }
+  void set_faults(const Faults& f);
   void set_adapter(const AdapterSettings& s);
   const AdapterSettings& adapter() const { return adapter_.settings(); }
 
@@ -109,6 +111,7 @@ class UartLink {
   void line_changed();
   void forget_used_line();  // frames towards the MCU its receiver is done with
   uint64_t bit_cycles() const;
+  double seconds(double cycle) const { return cycle / static_cast<double>(avr_->frequency); }
   FrameFormat tx_format() const;
   void correct_simavr_timing();
 
@@ -118,6 +121,7 @@ class UartLink {
   PtyPort pty_;
   Faults faults_;
   Rng rng_rx_, rng_tx_;
+  BurstSchedule bursts_;
   Stats stats_;
   UsbSerialAdapter adapter_;
   UsartReceiver usart_rx_;

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <vector>
+
 #include "faults.hpp"
 #include "options.hpp"
 #include "rng.hpp"
@@ -54,6 +56,91 @@ TEST(Faults, PullDownsAreFittedUntilRemovedAndTakeOnlyZeroOrOne) {
   EXPECT_DOUBLE_EQ(f.hbridge_pulldowns, 0.0);
   ASSERT_TRUE(apply_faults(parse(R"({"clear":true})"), &f, &err));
   EXPECT_DOUBLE_EQ(f.hbridge_pulldowns, 1.0);
+}
+
+// The share of simulated time inside bursts, and the length of each, sampled every 0.1 ms.
+struct BurstSample {
+  double share = 0.0;
+  std::vector<double> lengths_s;
+};
+
+BurstSample sample_bursts(BurstSchedule* bursts, double seconds) {
+  BurstSample out;
+  const double step = 1e-4;
+  double run = 0.0;
+  int inside = 0;
+  const int steps = static_cast<int>(seconds / step);
+  for (int i = 0; i < steps; ++i) {
+    if (bursts->in_burst(i * step)) {
+      ++inside;
+      run += step;
+    } else if (run > 0.0) {
+      out.lengths_s.push_back(run);
+      run = 0.0;
+    }
+  }
+  out.share = static_cast<double>(inside) / steps;
+  return out;
+}
+
+TEST(Bursts, OffUntilConfigured) {
+  BurstSchedule bursts;
+  bursts.reseed(3);
+  for (int i = 0; i < 1000; ++i) EXPECT_FALSE(bursts.drops(i * 0.01, 1.0));
+  Faults f;
+  std::string err;
+  ASSERT_TRUE(apply_faults(parse(R"({"uart_burst_hz":2,"uart_burst_ms":50,"uart_burst_drop":0.5})"), &f, &err)) << err;
+  EXPECT_DOUBLE_EQ(f.uart_burst_ms, 50.0);
+  EXPECT_FALSE(apply_faults(parse(R"({"uart_burst_hz":101})"), &f, &err));
+  EXPECT_FALSE(apply_faults(parse(R"({"uart_burst_drop":1.5})"), &f, &err));
+}
+
+TEST(Bursts, ComeAtTheirRateAndLastTheirLength) {
+  BurstSchedule bursts;
+  bursts.reseed(7);
+  bursts.configure(2.0, 50.0, 0.0);
+  const BurstSample s = sample_bursts(&bursts, 200.0);
+  // A burst every 1 / 2 s after the last one ended: 0.05 s in every 0.55 s on average.
+  EXPECT_NEAR(s.share, 0.05 / 0.55, 0.015);
+  EXPECT_NEAR(static_cast<double>(s.lengths_s.size()), 200.0 / 0.55, 40.0);
+  for (double length : s.lengths_s) EXPECT_NEAR(length, 0.05, 2e-4);
+}
+
+TEST(Bursts, AreTheSameForASeedAndInAnyOrderOfQuestions) {
+  BurstSchedule a, b, c;
+  a.reseed(11);
+  b.reseed(11);
+  c.reseed(12);
+  for (BurstSchedule* s : {&a, &b, &c}) s->configure(5.0, 20.0, 0.0);
+  int same_seed_differs = 0, other_seed_differs = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const double t = i * 1e-3;
+    // b is asked 0.5 s ahead first, then about now (a frame from the MCU starts ahead of now).
+    const bool ahead = b.in_burst(t + 0.5);
+    (void)ahead;
+    same_seed_differs += a.in_burst(t) != b.in_burst(t);
+    other_seed_differs += a.in_burst(t) != c.in_burst(t);
+  }
+  EXPECT_EQ(same_seed_differs, 0);
+  EXPECT_GT(other_seed_differs, 100);
+}
+
+TEST(Bursts, DropBytesOnlyInsideABurstWithTheirProbability) {
+  BurstSchedule bursts;
+  bursts.reseed(5);
+  bursts.configure(10.0, 30.0, 0.0);
+  int inside = 0, dropped_inside = 0, dropped_outside = 0;
+  for (int i = 0; i < 100000; ++i) {
+    const double t = i * 1e-4;
+    const bool in = bursts.in_burst(t);
+    const bool dropped = bursts.drops(t, 0.5);
+    inside += in;
+    dropped_inside += in && dropped;
+    dropped_outside += !in && dropped;
+  }
+  EXPECT_EQ(dropped_outside, 0);
+  ASSERT_GT(inside, 1000);
+  EXPECT_NEAR(static_cast<double>(dropped_inside) / inside, 0.5, 0.05);
 }
 
 TEST(Rng, StreamsAreRepeatableAndIndependent) {
