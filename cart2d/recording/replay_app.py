@@ -37,7 +37,7 @@ def create_replay_app(
     player: Player, bind_host: str = "127.0.0.1", allowed_hosts: Sequence[str] = ()
 ) -> FastAPI:
     app = FastAPI(title="cart2d replay", version="0.1.0", description=__doc__)
-    viewers = Viewers(player)  # type: ignore[arg-type]  # the part of a Gateway it uses
+    viewers = Viewers(player)  # a Source: the part of a Gateway the fan-out uses
     app.state.viewers = viewers
     read_only = f"this is a replay of {player.recorded.path.name}: there is no robot, nothing can be changed"
 
