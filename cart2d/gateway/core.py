@@ -59,6 +59,7 @@ from cart2d.gateway.state import (
     exit_words,
     pose_text,
 )
+from cart2d.gateway.status_cache import StatusCache
 from cart2d.link import CommandRefused, Link, LinkError, MotionCancelled, firmware
 from cart2d.link.flashing import HURRIED_CHECK_S, Flasher
 from cart2d.link.protocol import Reply, Telemetry
@@ -105,6 +106,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self.version: firmware.Version | None = None
         # Restarts: every STATUS the gateway reads goes through one ResetWatch, in the order read.
         self._status_lock = threading.Lock()
+        self.status_cache = StatusCache()  # what /api/status answers (status_cache.py)
         self._resets = firmware.ResetWatch()
         self._opens_seen = 0  # the link's port openings at the last STATUS
         self._last_tick: int | None = None
@@ -137,6 +139,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         if self.link.connected.is_set():
             with contextlib.suppress(LinkError, CommandRefused):
                 self.read_status()
+                self._pose()
         self._monitor.start()
 
     def close(self) -> None:
@@ -583,6 +586,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
 
     def _pose(self) -> tuple[float, float, float]:
         x, y, theta = self.link.call("POSE")
+        self.status_cache.pose_read((x, y, theta))
         return x, y, theta
 
     def _trust(self, how: str) -> None:
@@ -596,7 +600,12 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         """STATUS, shown to the restart watch in the order read; a restart is handled here
         (`restarted_for_sure`: the gateway knows the MCU restarted since the last look)."""
         with self._status_lock:
-            status = firmware.read_status(self.link)
+            try:
+                status = firmware.read_status(self.link)
+            except (LinkError, CommandRefused) as exc:
+                self.status_cache.read_failed(str(exc))
+                raise
+            self.status_cache.status_read(status)
             restarted = self._resets.saw(status) or restarted_for_sure
             reopened = self.link.opens != self._opens_seen
             self._opens_seen = self.link.opens
@@ -733,6 +742,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
                 status = self.read_status()
                 self._follow(status, mission, routine, generation)
                 self._check_off_path()
+                self._pose()  # for /api/status, which reads none itself (status_cache.py)
             except (LinkError, CommandRefused):
                 continue  # the link is reconnecting: the firmware keeps driving on its own
 
@@ -774,6 +784,8 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self._trust(f"the reset routine squared the cart up against the wall: pose {pose_text(*pose)}")
 
     def status_view(self) -> dict[str, Any]:
+        """The link, firmware, mission, restarts and pose trust; STATUS and the pose as the gateway
+        last read them (the monitor does a few times a second): no request on the link."""
         link_state = "connected" if self.link.connected.is_set() else "reconnecting"
         view: dict[str, Any] = {
             "link": {"state": link_state, "port": self.link.port, "simulated": self.sim is not None},
@@ -783,11 +795,10 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         if self.sim is not None:
             view["simulator"] = asdict(self.simulator)
         if link_state == "connected":
-            try:
-                view["status"] = asdict(self.read_status())
-                view["pose"] = dict(zip(("x", "y", "theta"), self.link.call("POSE"), strict=True))
-            except (LinkError, CommandRefused) as exc:
-                view["link"]["error"] = str(exc)
+            seen = self.status_cache.view()
+            if error := seen.pop("error", None):
+                view["link"]["error"] = error
+            view.update(seen)
         else:
             view["link"]["error"] = self.link.down_reason()
         with self._lock:
