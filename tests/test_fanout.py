@@ -6,13 +6,24 @@ from __future__ import annotations
 
 import asyncio
 import json
+from collections import Counter
 from collections.abc import Callable
 from typing import Any
 
 import pytest
 
-from cart2d.server import live
-from cart2d.server.live import FRAME_S, LAG_S, MAX_FRAME_S, ON_TIME_FRAMES, LoopFanout, Viewers
+from cart2d.server.live import (
+    BURST_SAMPLES,
+    FRAME_S,
+    LAG_S,
+    MAX_FRAME_S,
+    ON_TIME_FRAMES,
+    SAMPLE_RATE_HZ,
+    Frame,
+    LoopFanout,
+    SampleBudget,
+    Viewers,
+)
 
 Listener = Callable[[dict[str, Any]], None]
 
@@ -113,7 +124,7 @@ def test_a_burst_reaches_every_viewer_as_one_frame_with_every_event_and_the_newe
             # the newest, in their order, up to the rate over the frame's time
             assert truths == [k * 0.02 for k in range(1000 - len(truths), 1000)]
             assert ticks == list(range(500 - len(ticks), 500))
-            assert 0 < len(truths) <= live.samples_over(MAX_FRAME_S)
+            assert len(truths) == len(ticks) == BURST_SAMPLES
             assert frame == sockets[0].frames[1]
         # each message kept encoded once, for every viewer together
         assert len(encoded) == len(sockets[0].frames[1])
@@ -169,3 +180,40 @@ def test_frames_come_less_often_while_the_loop_is_late_and_again_when_it_is_on_t
         assert fanout.late_frames == 7
     finally:
         fanout.loop.close()
+
+
+def sent_over(
+    rates_hz: dict[str, float], frame_s: float, seconds: float
+) -> tuple[Counter[str], Counter[str]]:
+    """Messages of each kind at these rates, framed every frame_s on a fake clock for `seconds`:
+    how many of each came, and how many the frames carried."""
+    budget = SampleBudget()
+    came: Counter[str] = Counter()
+    carried: Counter[str] = Counter()
+    due = dict.fromkeys(rates_hz, 0.0)
+    t = 0.0
+    while t < seconds:
+        t += frame_s
+        messages: list[dict[str, Any]] = []
+        for kind, hz in rates_hz.items():
+            while due[kind] <= t:
+                messages.append({"type": kind, "at": due[kind]})
+                came[kind] += 1
+                due[kind] += 1.0 / hz
+        frame = Frame.encoded(messages, budget.allowed(frame_s))
+        budget.spend(frame)
+        carried.update(kind for kind, _ in frame.items)
+    return came, carried
+
+
+def test_samples_at_the_firmwares_and_the_simulators_rates_all_reach_the_viewers() -> None:
+    for frame_s in (FRAME_S, MAX_FRAME_S):  # on time, and at the slowest
+        came, carried = sent_over({"telemetry": 25.0, "truth": 50.0}, frame_s, 60.0)
+        assert carried == came and came["truth"] >= 50 * 60
+
+
+def test_a_simulator_at_full_speed_is_thinned_to_the_sample_rate() -> None:
+    came, carried = sent_over({"telemetry": 750.0, "truth": 1500.0}, FRAME_S, 60.0)  # 30 x real time
+    for kind in ("telemetry", "truth"):
+        assert came[kind] >= 7.5 * SAMPLE_RATE_HZ * 60
+        assert SAMPLE_RATE_HZ * 60 - BURST_SAMPLES <= carried[kind] <= SAMPLE_RATE_HZ * 60 + BURST_SAMPLES

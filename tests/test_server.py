@@ -55,6 +55,12 @@ class Rig:
         state: str = self.client.get("/api/mission").json()["state"]
         return state
 
+    def pose_now(self) -> dict[str, float]:
+        """The firmware's pose now: POSE through the generic command form (/api/status gives
+        the pose as the gateway last read it)."""
+        results = self.client.post("/api/command", json={"name": "POSE", "args": []}).json()["results"]
+        return dict(zip(("x", "y", "theta"), results, strict=True))
+
 
 def raw(client: TestClient, method: str, url: str, body: str) -> Any:
     return client.request(method, url, content=body.encode(), headers=JSON)
@@ -298,7 +304,8 @@ def test_gateway_survives_the_simulator_being_killed_and_restarted(tmp_path: Pat
     try:
         rig.client.put("/api/map/obstacle", json={"x": 1.0, "y": 1.0})
         run_for(rig.sim, 5.0)  # an uptime the new MCU's will not have caught up with when it answers
-        assert rig.client.get("/api/status").json()["status"]["uptime_s"] >= 5.0  # the gateway saw it
+        # the gateway saw it (its monitor reads STATUS a few times a second)
+        wait_for(lambda: rig.client.get("/api/status").json()["status"]["uptime_s"] >= 5.0, 10)
         rig.sim.kill()
         wait_for(lambda: rig.client.get("/api/status").json()["link"]["state"] == "reconnecting", 10)
         down = rig.client.post("/api/goto", json={"x": 0.4, "y": 0.0})

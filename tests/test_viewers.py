@@ -20,14 +20,7 @@ from websockets.asyncio.client import connect
 from websockets.exceptions import ConnectionClosed
 
 from cart2d.server import live as live_module
-from cart2d.server.live import (
-    MAX_FRAME_S,
-    MERGE_AFTER,
-    STATE_KINDS,
-    TRY_AGAIN_LATER,
-    Viewers,
-    samples_over,
-)
+from cart2d.server.live import BURST_SAMPLES, MERGE_AFTER, STATE_KINDS, TRY_AGAIN_LATER, Viewers
 from tests.conftest import wait_for
 from tests.live import LiveGateway
 from tests.test_server import Rig
@@ -97,7 +90,7 @@ def test_a_viewer_that_never_reads_holds_a_bounded_backlog_and_the_others_go_on(
         # Ground truth at 50 simulated Hz with the simulator at full speed: hundreds of messages
         # a second; once the kernel's buffers are full, a stalled viewer's frames are merged.
         wait_for(lambda: sum(v.merged > 0 for v in viewers.viewers) >= 5, 60)
-        per_frame = 2 * samples_over(MAX_FRAME_S) + len(STATE_KINDS)  # no events come meanwhile
+        per_frame = 2 * BURST_SAMPLES + len(STATE_KINDS)  # no events come meanwhile
         for viewer in viewers.viewers:
             assert len(viewer.frames) <= MERGE_AFTER + 1
             assert sum(len(f.items) for f in viewer.frames) <= (MERGE_AFTER + 1) * per_frame

@@ -9,10 +9,11 @@ ground truth at 50 simulated Hz: hundreds a second at full simulator speed):
 - the gateway's threads only append each message to a queue (one hop into the event loop per
   frame, none per message);
 - each frame keeps every **event** (mission, replan, reset, map, ...), of each **sample** kind
-  (telemetry, truth) the newest at up to SAMPLE_RATE_HZ over the time since the last frame
-  (every one at the firmware's 25 Hz and the simulator's 50 Hz in real time; a simulator at
-  full speed is thinned), and the newest of each **state** kind (camera, perceived); each
-  message kept is encoded once, and the frame's text is built once for every viewer;
+  (telemetry, truth) the newest within a budget of SAMPLE_RATE_HZ on average, in bursts of up
+  to BURST_SAMPLES (every one at the firmware's 25 Hz and the simulator's 50 Hz in real time,
+  and the bursts of a replay; a simulator at full speed is thinned), and the newest of each
+  **state** kind (camera, perceived); each message kept is encoded once, and the frame's text is
+  built once for every viewer;
 - the interval is FRAME_S (25 frames a second) while the event loop is on time, and doubles up
   to MAX_FRAME_S while it is late by more than LAG_S (the machine or the loop is busy: more
   viewers than it can serve), so viewers get fewer frames rather than the stop waiting for them
@@ -32,10 +33,9 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
-import math
 import threading
 from collections import Counter, deque
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -47,7 +47,8 @@ FRAME_S = 0.04  # the frame interval on time: 25 frames a second, telemetry's ow
 MAX_FRAME_S = 0.64  # under load: 1.6 frames a second at the least
 LAG_S = 0.015  # a frame this late means the loop or the machine is busy
 ON_TIME_FRAMES = 25  # frames on time in a row before the interval halves again
-SAMPLE_RATE_HZ = 100.0  # of each sample kind, at most: truth comes at 50 Hz, telemetry at 25 Hz
+SAMPLE_RATE_HZ = 100.0  # of each sample kind on average, at most: truth is 50 Hz, telemetry 25 Hz
+BURST_SAMPLES = 64  # of each sample kind in one frame, at most
 SAMPLE_KINDS = frozenset({"telemetry", "truth"})
 STATE_KINDS = frozenset({"camera", "perceived"})  # each supersedes the one before
 MAX_EVENTS_BEHIND = 256  # events held for one viewer that does not read
@@ -65,22 +66,22 @@ class Source(Protocol):
 Item = tuple[str, Any]  # (the message's type, the message or its JSON text)
 
 
-def samples_over(seconds: float) -> int:
-    """How many messages of one sample kind a frame covering `seconds` carries at most."""
-    return max(1, math.ceil(SAMPLE_RATE_HZ * min(seconds, MAX_FRAME_S)))
+BURST = {kind: BURST_SAMPLES for kind in SAMPLE_KINDS}
 
 
-def kept(items: Sequence[Item], samples: int, max_events: int = MAX_EVENTS_BEHIND) -> tuple[list[Item], int]:
+def kept(
+    items: Sequence[Item], samples: Mapping[str, int] = BURST, max_events: int = MAX_EVENTS_BEHIND
+) -> tuple[list[Item], int]:
     """The items a frame carries, in their order (this module's docstring): every event (at most
-    `max_events`, the newest), the newest `samples` of each sample kind, the newest of each state
-    kind; and how many events were dropped."""
+    `max_events`, the newest), the newest `samples[kind]` of each sample kind, the newest of each
+    state kind; and how many events were dropped."""
     seen: Counter[str] = Counter()
     events = 0
     chosen: list[Item] = []
     for kind, value in reversed(items):  # newest first: the newest of each kind are kept
         seen[kind] += 1
         if kind in SAMPLE_KINDS:
-            keep = seen[kind] <= samples
+            keep = seen[kind] <= samples.get(kind, 0)
         elif kind in STATE_KINDS:
             keep = seen[kind] == 1
         else:
@@ -105,10 +106,28 @@ class Frame:
         return Frame(texts, "[" + ",".join(text for _, text in texts) + "]")
 
     @staticmethod
-    def encoded(messages: Sequence[dict[str, Any]], samples: int) -> Frame:
+    def encoded(messages: Sequence[dict[str, Any]], samples: Mapping[str, int] = BURST) -> Frame:
         """The frame of these messages: what it keeps of them (kept()), each encoded once."""
         chosen, _ = kept([(str(m.get("type")), m) for m in messages], samples)
         return Frame.of((kind, json.dumps(m)) for kind, m in chosen)
+
+
+class SampleBudget:
+    """How many messages of each sample kind the next frame may carry: SAMPLE_RATE_HZ on
+    average, in bursts of up to BURST_SAMPLES (a token bucket per kind)."""
+
+    def __init__(self) -> None:
+        self.left = {kind: float(BURST_SAMPLES) for kind in SAMPLE_KINDS}
+
+    def allowed(self, since_s: float) -> dict[str, int]:
+        for kind, left in self.left.items():
+            self.left[kind] = min(float(BURST_SAMPLES), left + SAMPLE_RATE_HZ * since_s)
+        return {kind: int(left) for kind, left in self.left.items()}
+
+    def spend(self, frame: Frame) -> None:
+        for kind, _ in frame.items:
+            if kind in self.left:
+                self.left[kind] -= 1.0
 
 
 class Viewer:
@@ -135,7 +154,7 @@ class Viewer:
     def _merged(self) -> Frame:
         self.merged += len(self.frames)
         items = [item for frame in self.frames for item in frame.items]
-        chosen, dropped = kept(items, samples_over(MAX_FRAME_S))
+        chosen, dropped = kept(items)
         self.dropped += dropped
         return Frame.of(chosen)
 
@@ -155,6 +174,7 @@ class LoopFanout:
         self._scheduled = False
         self._last_frame = 0.0
         self._on_time = 0
+        self._budget = SampleBudget()
 
     def publish(self, message: dict[str, Any]) -> None:
         """Any thread: queues the message; wakes the loop only if no frame is due yet."""
@@ -181,7 +201,8 @@ class LoopFanout:
             messages.append(self._queue.popleft())
         if not messages or not self.viewers:
             return
-        frame = Frame.encoded(messages, samples_over(since))
+        frame = Frame.encoded(messages, self._budget.allowed(since))
+        self._budget.spend(frame)
         self.frames += 1
         for viewer in self.viewers:
             viewer.put(frame)
@@ -227,7 +248,7 @@ class Viewers:
             # The mission's view takes the gateway's lock, which planning may hold: not on the loop.
             hello = await asyncio.to_thread(self.gateway.mission_view)
             # first, before what came meanwhile
-            viewer.frames.insert(0, Frame.encoded([{"type": "hello", **hello}], 1))
+            viewer.frames.insert(0, Frame.encoded([{"type": "hello", **hello}]))
             viewer.ready.set()
             sending = asyncio.create_task(self._send(ws, viewer))
             receiving = asyncio.create_task(self._receive(ws))
