@@ -43,6 +43,7 @@ from typing import Any
 import matplotlib.pyplot as plt
 
 from bench.common import Section, percentile, section_main, table
+from tests.conftest import free_port_pair
 from tests.live import GatewayProcess
 
 NAME = "control"
@@ -118,7 +119,10 @@ def conflicting_request(rng: random.Random) -> tuple[str, str, dict[str, Any] | 
     return "GET", "/api/status", None
 
 
-def conflicting_clients(port: int, clients: int, done: ProcessEvent, results: Any) -> None:
+def conflicting_clients(
+    port: int, clients: int, ready: ProcessEvent, done: ProcessEvent, results: Any
+) -> None:
+    count = clients
     answers: Counter[int] = Counter()
     lock = threading.Lock()
 
@@ -140,6 +144,8 @@ def conflicting_clients(port: int, clients: int, done: ProcessEvent, results: An
                 status = 0
             with lock:
                 answers[status] += 1
+                if sum(answers.values()) >= count:  # every client under way
+                    ready.set()
 
     threads = [threading.Thread(target=client, args=(seed,), daemon=True) for seed in range(clients)]
     for thread in threads:
@@ -149,7 +155,7 @@ def conflicting_clients(port: int, clients: int, done: ProcessEvent, results: An
     results.put(dict(answers))
 
 
-def status_readers(port: int, count: int, done: ProcessEvent, results: Any) -> None:
+def status_readers(port: int, count: int, ready: ProcessEvent, done: ProcessEvent, results: Any) -> None:
     """`count` clients, each reading GET /api/status on its connection as fast as it is answered."""
     answers: Counter[int] = Counter()
     lock = threading.Lock()
@@ -168,6 +174,8 @@ def status_readers(port: int, count: int, done: ProcessEvent, results: Any) -> N
                 status = 0
             with lock:
                 answers[status] += 1
+                if sum(answers.values()) >= count:  # every client under way
+                    ready.set()
 
     threads = [threading.Thread(target=reader, daemon=True) for _ in range(count)]
     for thread in threads:
@@ -208,18 +216,17 @@ def viewers(port: int, count: int, ready: ProcessEvent, done: ProcessEvent, resu
 
 
 def start_load(ctx: Any, kind: str, port: int, done: Any, results: Any) -> Any:
-    """A load's process, started and under way."""
-    if kind == "viewers":
-        ready = ctx.Event()
-        process = ctx.Process(target=viewers, args=(port, VIEWERS, ready, done, results))
-        process.start()
-        if not ready.wait(120):
-            raise RuntimeError("the viewers did not connect")
-        return process
-    target, count = (conflicting_clients, CLIENTS) if kind == "clients" else (status_readers, READERS)
-    process = ctx.Process(target=target, args=(port, count, done, results))
+    """A load's process, started and under way (its viewers connected, its clients answered)."""
+    target, count = {
+        "viewers": (viewers, VIEWERS),
+        "clients": (conflicting_clients, CLIENTS),
+        "readers": (status_readers, READERS),
+    }[kind]
+    ready = ctx.Event()
+    process = ctx.Process(target=target, args=(port, count, ready, done, results))
     process.start()
-    time.sleep(2.0)  # the clients under way
+    if not ready.wait(180):
+        raise RuntimeError(f"the {kind} did not get under way")
     return process
 
 
@@ -252,7 +259,9 @@ def run(out: Path, quick: bool) -> Section:
     loads = LOADS
     measured: dict[str, dict[str, Any]] = {}
     with tempfile.TemporaryDirectory() as tmp, busy_cores(loops):
-        gateway = GatewayProcess(Path(tmp) / "home")
+        # the simulated camera as `cart2d sim` starts it, on ports of its own
+        camera = ["--camera-port", str(free_port_pair(avoid=0))]
+        gateway = GatewayProcess(Path(tmp) / "home", extra=camera)
         try:
             for load in loads:
                 measured[load] = under_load(gateway, load, stops)
