@@ -145,7 +145,8 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
     def close(self) -> None:
         self._cancel_stream()
         self._stop.set()
-        self._monitor.join(timeout=2.0)
+        if self._monitor.ident is not None:  # started: a Ctrl-C may come before start()
+            self._monitor.join(timeout=2.0)
 
     def _check_after_update(self, wait_s: float, hurried: Callable[[], bool]) -> None:
         self.wait_for_firmware(wait_s, 0.1, hurried)
