@@ -102,6 +102,8 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self._listeners: tuple[Listener, ...] = ()
         self._stop = threading.Event()
         self._wake = threading.Event()  # look at STATUS now (telemetry's TICK went backwards)
+        # (mission, routine) of each stop answered, to record as ended under the lock (stop())
+        self._stops_to_record: list[tuple[Mission, Routine]] = []
         self._monitor = threading.Thread(target=self._watch, name="gateway monitor", daemon=True)
         self.version: firmware.Version | None = None
         # Restarts: every STATUS the gateway reads goes through one ResetWatch, in the order read.
@@ -405,22 +407,49 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         """Emergency stop: motors off now; a mission in progress fails. Every motion request
         asked for before it is refused, however long it waited. While the robot's program is
         being replaced (a firmware update, a restart of the simulator) the stop waits for the
-        program that answers (an update not yet answered is rolled back at once) and stops it."""
+        program that answers (an update not yet answered is rolled back at once) and stops it.
+
+        It returns once the firmware has the STOP, without waiting for the gateway's lock (a goal
+        being planned or sent, an obstacle's check of the route, each reading the link while
+        they hold it, held stops 0.1-0.5 s with 20 clients): the mission and the routine it ends
+        are recorded at once if the lock is free, else by a thread as soon as it is."""
         try:
             with self.link.stopping():
                 self._wait_for_the_program()
+                mission, routine = self.mission, self.routine  # what the STOP ends (no lock needed)
                 reply = self.link.stop()
         finally:
-            self._cancel_stream()  # after the STOP: its appends are refused from then on anyway
+            stream = self._stream  # after the STOP: its appends are refused from then on anyway
+            if stream is not None:
+                stream.cancel()
         if not reply.ok:
             raise CommandRefused(reply)
-        with self._lock:
-            if self.mission.state == "driving":
-                self._end_mission("failed", "stopped by the user")
-                self.mission.resumable = True  # the firmware keeps the path: START resumes it
-            if self.routine.state == "running":
-                self._end_routine("failed", "stopped by the user before it squared up")
+        self._stops_to_record.append((mission, routine))  # list.append: atomic, no lock
+        if self._lock.acquire(blocking=False):
+            try:
+                self._record_stops()
+            finally:
+                self._lock.release()
+        else:
+            threading.Thread(target=self._record_stops_once_free, name="after a stop", daemon=True).start()
         return reply
+
+    def _record_stops_once_free(self) -> None:
+        with self._lock:
+            self._record_stops()
+
+    def _record_stops(self) -> None:
+        """Ends the missions and routines the stops ended (lock held), unless they were replaced
+        since: what started after a stop is not its to end (what was asked for before it is
+        refused unsent). Whatever reads the mission to act on it (a START's resume) calls this
+        first."""
+        while self._stops_to_record:
+            mission, routine = self._stops_to_record.pop(0)
+            if self.mission is mission and mission.state == "driving":
+                self._end_mission("failed", "stopped by the user")
+                mission.resumable = True  # the firmware keeps the path: START resumes it
+            if self.routine is routine and routine.state == "running":
+                self._end_routine("failed", "stopped by the user before it squared up")
 
     def _wait_for_the_program(self) -> None:
         if self.flasher.running():
@@ -555,6 +584,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         firmware's (its points, nothing sent since but START); the rest of a long path streams
         again from where the firmware stands."""
         with self._lock:
+            self._record_stops()  # a stop answered while the lock was busy: recorded before this
             mission, stream = self.mission, self._stream
             if not (mission.state == "failed" and mission.resumable and mission.plan):
                 return
