@@ -1,7 +1,8 @@
 """Reads do not starve the stop (issue 22: 100 concurrent GET /api/status held the stop 0.8-1.1 s,
 each read making two exchanges on the link from the server's shared thread pool). /api/status
 answers from what the gateway last read (gateway/status_cache.py), and the stop runs in threads
-of its own (server/motion.py, Stopper). Judged by counts and by order, not by time."""
+of its own (server/motion.py, Stopper); reads take turns on the event loop (server/reads.py).
+Judged by counts and by order, not by time."""
 
 from __future__ import annotations
 
@@ -14,12 +15,12 @@ from typing import Any
 import pytest
 
 from cart2d.link import Link
+from cart2d.server.reads import READS_AT_ONCE
 from cart2d.spec import load_spec
 from tests.conftest import wait_for
 from tests.live import Http, LiveGateway
 
 READERS = 100
-POOL = 40  # anyio's default thread limiter: the threads of every sync route together
 
 
 @pytest.fixture
@@ -75,11 +76,10 @@ def test_concurrent_status_reads_make_no_exchange_on_the_link(
     assert not sent, sent  # before: a STATUS and a POSE for each read
 
 
-def test_a_stop_is_answered_while_reads_fill_the_servers_threads(
-    live: LiveGateway, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """Reads held inside the route (as by a lock or a slow link) take every thread of the pool and
-    more wait for one; the stop, sent after all of them, is answered before any of them."""
+def test_a_stop_is_answered_while_reads_wait(live: LiveGateway, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A hundred reads held (the gateway's lock taken, as by planning: the status is then read in
+    the server's thread pool): those let in wait inside, the others for their turn (reads.py);
+    the stop, sent after all of them, is answered before any of them."""
     release = threading.Event()
     inside: list[int] = []
     status_view = live.gateway.status_view
@@ -90,14 +90,16 @@ def test_a_stop_is_answered_while_reads_fill_the_servers_threads(
         return status_view()
 
     monkeypatch.setattr(live.gateway, "status_view", held)
-    threads, answers = read_all(live, READERS)
-    try:
-        wait_for(lambda: len(inside) == POOL, 30)  # the pool is full; the others wait for a thread
-        status, body = Http(live.port, timeout_s=20).call("POST", "/api/stop")
-        assert status == 200 and body == {"result": "stopped"}
-        assert not answers  # not one read was answered before the stop
-    finally:
-        release.set()
-        for thread in threads:
-            thread.join(60)
+    with live.gateway._lock:
+        threads, answers = read_all(live, READERS)
+        try:
+            wait_for(lambda: len(inside) >= READS_AT_ONCE, 30)
+            status, body = Http(live.port, timeout_s=20).call("POST", "/api/stop")
+            assert status == 200 and body == {"result": "stopped"}
+            assert not answers  # not one read was answered before the stop
+            assert len(inside) == READS_AT_ONCE  # the others wait for their turn, not in a thread
+        finally:
+            release.set()
+    for thread in threads:
+        thread.join(60)
     assert len(answers) == READERS and {status for status, _ in answers} == {200}

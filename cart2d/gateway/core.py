@@ -814,6 +814,15 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             self._end_routine("done", f"squared up against the wall: pose {pose_text(*pose)}")
         self._trust(f"the reset routine squared the cart up against the wall: pose {pose_text(*pose)}")
 
+    def status_view_unless_busy(self) -> dict[str, Any] | None:
+        """status_view() if the gateway's lock is free now, without waiting for it; else None."""
+        if not self._lock.acquire(blocking=False):
+            return None
+        try:
+            return self.status_view()
+        finally:
+            self._lock.release()
+
     def status_view(self) -> dict[str, Any]:
         """The link, firmware, mission, restarts and pose trust; STATUS and the pose as the gateway
         last read them (the monitor does a few times a second): no request on the link."""

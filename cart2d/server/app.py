@@ -19,6 +19,7 @@ from fastapi import Depends, FastAPI, HTTPException, Request, Response, WebSocke
 from fastapi.exception_handlers import http_exception_handler
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import HTMLResponse, JSONResponse
+from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
@@ -46,6 +47,7 @@ from cart2d.server.models import (
 )
 from cart2d.server.motion import MotionTokens, Stopper, motion_token
 from cart2d.server.panel import MINIMAL_PAGE, PANEL_DIR, PanelFiles
+from cart2d.server.reads import ReadsInTurn
 from cart2d.server.sim_world import add_sim_world_routes
 from cart2d.spec import load_spec
 
@@ -142,9 +144,17 @@ def create_app(
         return JSONResponse({"detail": f"the robot is not reachable: {exc}"}, status_code=503)
 
     # -- reading -----------------------------------------------------------------------------
-    @app.get("/api/status", summary="link, firmware, mission, pose")
-    def status() -> dict[str, Any]:
-        return gateway.status_view()
+    @app.get(
+        "/api/status",
+        summary="link, firmware, mission, pose",
+        description="STATUS and the pose as the gateway last read them (`status_age_s`): reading this "
+        "makes no request to the robot.",
+    )
+    async def status() -> dict[str, Any]:
+        # On the event loop when the gateway's lock is free (no thread of the pool, which a
+        # hundred readers filled, contending for the GIL with the link's reader); else in one.
+        view = gateway.status_view_unless_busy()
+        return view if view is not None else await run_in_threadpool(gateway.status_view)
 
     @app.get("/api/protocol", summary="the commands the generic-command form offers")
     def protocol() -> list[dict[str, Any]]:
@@ -418,5 +428,6 @@ def create_app(
             return MINIMAL_PAGE
 
     guards.install(app, bind_host, allowed_hosts)
+    app.add_middleware(ReadsInTurn)  # outside the guards: a waiting read costs nothing (reads.py)
     app.add_middleware(MotionTokens, link=gateway.link)  # added last: the outermost layer
     return app
