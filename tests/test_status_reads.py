@@ -103,3 +103,14 @@ def test_a_stop_is_answered_while_reads_wait(live: LiveGateway, monkeypatch: pyt
     for thread in threads:
         thread.join(60)
     assert len(answers) == READERS and {status for status, _ in answers} == {200}
+
+
+def test_after_a_save_the_status_shows_the_eeprom_busy(live: LiveGateway) -> None:
+    """The firmware writes a SAVE's record in the background (~280 simulated ms); /api/status,
+    which answers from the last STATUS read, shows it busy from the SAVE's answer on (a panel
+    polling for the end of the write must not see the STATUS from before it)."""
+    live.gateway.close()  # no monitor: the only STATUS read is the one the SAVE makes
+    client = live.http()
+    assert client.call("GET", "/api/status")[1]["status"]["eeprom_busy"] is False
+    assert client.call("POST", "/api/firmware/save")[0] == 200
+    assert client.call("GET", "/api/status")[1]["status"]["eeprom_busy"] is True

@@ -494,6 +494,17 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         changed (firmware.SettingsCache)."""
         return self.settings_cache.read()
 
+    def save_settings(self) -> None:
+        """SAVE: the firmware writes its settings to EEPROM in the background (~280 ms)."""
+        self.link.call("SAVE")
+        self._status_after_save()
+
+    def _status_after_save(self) -> None:
+        # /api/status answers from the last STATUS read (status_cache.py): read one now, so that
+        # from this answer on it shows the EEPROM busy, not the STATUS from before the SAVE.
+        with contextlib.suppress(LinkError, CommandRefused):
+            self.read_status()
+
     def write_setting(self, ident: int, value: float) -> float:
         return firmware.write_setting(self.link, ident, value)
 
@@ -568,6 +579,8 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             return reply
         if name == "START":
             self._resume_mission(token)
+        elif name == "SAVE":
+            self._status_after_save()
         elif name in ("SET_POSE", "RESET"):
             self._trust(f"the pose was set to {pose_text(*self._pose())} with {name}")
         elif name == "RESET_ROUTINE":

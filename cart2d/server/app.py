@@ -311,7 +311,7 @@ def create_app(
         responses=errors(401, 409, 503),
     )
     def save() -> dict[str, str]:
-        gateway.link.call("SAVE")
+        gateway.save_settings()
         return {"result": "saving"}
 
     @app.post(
