@@ -14,14 +14,16 @@ import pytest
 
 from cart2d.server.live import (
     BURST_SAMPLES,
-    FRAME_S,
     LAG_S,
     MAX_FRAME_S,
+    MIN_FRAME_S,
     ON_TIME_FRAMES,
     SAMPLE_RATE_HZ,
+    SENDS_PER_S,
     Frame,
     LoopFanout,
     SampleBudget,
+    Viewer,
     Viewers,
 )
 
@@ -114,7 +116,7 @@ def test_a_burst_reaches_every_viewer_as_one_frame_with_every_event_and_the_newe
         monkeypatch.setattr(json, "dumps", dumps)  # the json module live.py calls
         burst(source, truths=1000, frames=500, events=5)  # one step of the loop: one frame
         await until(lambda: all(len(ws.frames) == 2 for ws in sockets))
-        await asyncio.sleep(3 * FRAME_S)  # nothing more comes
+        await asyncio.sleep(0.2)  # nothing more comes
         for ws in sockets:
             assert len(ws.frames) == 2  # the hello, then the burst's one frame
             frame = ws.frames[1]
@@ -159,15 +161,31 @@ def test_a_viewer_behind_gets_what_it_missed_in_one_frame_every_event_kept() -> 
     asyncio.run(scenario())
 
 
-def test_frames_come_less_often_while_the_loop_is_late_and_again_when_it_is_on_time() -> None:
+def fanout_of(viewers: int) -> LoopFanout:
     fanout = LoopFanout(asyncio.new_event_loop())
+    fanout.viewers = frozenset(Viewer() for _ in range(viewers))
+    return fanout
+
+
+def test_the_viewers_together_get_at_most_their_sends_a_second() -> None:
+    for count, interval in ((1, MIN_FRAME_S), (50, 0.02), (100, 0.04), (200, 0.08)):
+        fanout = fanout_of(count)
+        try:
+            assert fanout.interval == pytest.approx(interval)
+            assert count / fanout.interval <= SENDS_PER_S
+        finally:
+            fanout.loop.close()
+
+
+def test_frames_come_less_often_while_the_loop_is_late_and_again_when_it_is_on_time() -> None:
+    fanout = fanout_of(100)  # 25 frames a second each while on time
+    base = fanout.interval
     try:
-        assert fanout.interval == FRAME_S
         intervals = []
         for _ in range(6):  # a busy machine: every frame late
             fanout._adapt(LAG_S * 2)
             intervals.append(fanout.interval)
-        assert intervals == [min(FRAME_S * 2**k, MAX_FRAME_S) for k in range(1, 7)]
+        assert intervals == [min(base * 2**k, MAX_FRAME_S) for k in range(1, 7)]
         fanout._adapt(LAG_S * 2)
         for _ in range(ON_TIME_FRAMES - 1):
             fanout._adapt(0.0)
@@ -176,7 +194,7 @@ def test_frames_come_less_often_while_the_loop_is_late_and_again_when_it_is_on_t
         assert fanout.interval == MAX_FRAME_S / 2
         for _ in range(10 * ON_TIME_FRAMES):
             fanout._adapt(0.0)
-        assert fanout.interval == FRAME_S
+        assert fanout.interval == base
         assert fanout.late_frames == 7
     finally:
         fanout.loop.close()
@@ -207,13 +225,13 @@ def sent_over(
 
 
 def test_samples_at_the_firmwares_and_the_simulators_rates_all_reach_the_viewers() -> None:
-    for frame_s in (FRAME_S, MAX_FRAME_S):  # on time, and at the slowest
+    for frame_s in (MIN_FRAME_S, 0.04, MAX_FRAME_S):  # one viewer, 100 on time, the slowest
         came, carried = sent_over({"telemetry": 25.0, "truth": 50.0}, frame_s, 60.0)
         assert carried == came and came["truth"] >= 50 * 60
 
 
 def test_a_simulator_at_full_speed_is_thinned_to_the_sample_rate() -> None:
-    came, carried = sent_over({"telemetry": 750.0, "truth": 1500.0}, FRAME_S, 60.0)  # 30 x real time
+    came, carried = sent_over({"telemetry": 750.0, "truth": 1500.0}, 0.04, 60.0)  # 30 x real time
     for kind in ("telemetry", "truth"):
         assert came[kind] >= 7.5 * SAMPLE_RATE_HZ * 60
         assert SAMPLE_RATE_HZ * 60 - BURST_SAMPLES <= carried[kind] <= SAMPLE_RATE_HZ * 60 + BURST_SAMPLES

@@ -14,10 +14,11 @@ ground truth at 50 simulated Hz: hundreds a second at full simulator speed):
   and the bursts of a replay; a simulator at full speed is thinned), and the newest of each
   **state** kind (camera, perceived); each message kept is encoded once, and the frame's text is
   built once for every viewer;
-- the interval is FRAME_S (25 frames a second) while the event loop is on time, and doubles up
-  to MAX_FRAME_S while it is late by more than LAG_S (the machine or the loop is busy: more
-  viewers than it can serve), so viewers get fewer frames rather than the stop waiting for them
-  (the stop's own path is server/app.py's);
+- the interval keeps all the viewers together at SENDS_PER_S frames a second at most (one
+  viewer: a frame as messages come, 5 ms apart at the least; 100 viewers: 25 frames a second
+  each; 200: 12.5), and doubles, up to MAX_FRAME_S, while the event loop is late by more than
+  LAG_S (the machine or the loop is busy), so viewers get fewer frames rather than the stop
+  waiting for them (the stop's own path is server/motion.py's);
 - a viewer whose socket is still full when the next frame comes (it reads slower than frames
   come) gets the frames it missed merged into one, by the same rule: its events all, the newest
   samples. At most MAX_EVENTS_BEHIND events wait for one viewer (one that reads nothing); older
@@ -43,7 +44,10 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 
 MAX_VIEWERS = 256
 TRY_AGAIN_LATER = 1013  # RFC 6455 §7.4.1 / IANA: the server is overloaded, try again later
-FRAME_S = 0.04  # the frame interval on time: 25 frames a second, telemetry's own rate
+# Frames sent per second, all viewers together: at ~30 us a send (yappi), 75 ms a second of the
+# event loop and the GIL. 100 viewers get 25 frames a second, telemetry's own rate.
+SENDS_PER_S = 2500.0
+MIN_FRAME_S = 0.005  # a burst of messages (truth and telemetry of one tick) in one frame
 MAX_FRAME_S = 0.64  # under load: 1.6 frames a second at the least
 LAG_S = 0.015  # a frame this late means the loop or the machine is busy
 ON_TIME_FRAMES = 25  # frames on time in a row before the interval halves again
@@ -166,7 +170,7 @@ class LoopFanout:
     def __init__(self, loop: asyncio.AbstractEventLoop) -> None:
         self.loop = loop
         self.viewers: frozenset[Viewer] = frozenset()
-        self.interval = FRAME_S
+        self.slowdown = 1  # doubles while frames are late (_adapt)
         self.frames = 0
         self.late_frames = 0  # frames more than LAG_S late (the loop or the machine was busy)
         self._queue: deque[dict[str, Any]] = deque()
@@ -207,17 +211,24 @@ class LoopFanout:
         for viewer in self.viewers:
             viewer.put(frame)
 
+    @property
+    def interval(self) -> float:
+        """The time between two frames: SENDS_PER_S shared by the viewers, times the slowdown."""
+        base = max(MIN_FRAME_S, len(self.viewers) / SENDS_PER_S)
+        return min(base * self.slowdown, MAX_FRAME_S)
+
     def _adapt(self, late_s: float) -> None:
         """Doubles the interval when a frame is late; halves it after ON_TIME_FRAMES on time."""
         if late_s > LAG_S:
             self.late_frames += 1
             self._on_time = 0
-            self.interval = min(2 * self.interval, MAX_FRAME_S)
+            if self.interval < MAX_FRAME_S:
+                self.slowdown *= 2
         else:
             self._on_time += 1
-            if self._on_time >= ON_TIME_FRAMES and self.interval > FRAME_S:
+            if self._on_time >= ON_TIME_FRAMES and self.slowdown > 1:
                 self._on_time = 0
-                self.interval = max(self.interval / 2, FRAME_S)
+                self.slowdown //= 2
 
 
 class Viewers:
