@@ -36,7 +36,8 @@ def count_requests(link: Link, monkeypatch: pytest.MonkeyPatch) -> Counter[str]:
     request = link.request
 
     def counted(command: str | int, *args: Any, **kwargs: Any) -> Any:
-        sent[load_spec().name_of(command) if isinstance(command, int) else command] += 1
+        name = load_spec().name_of(command) if isinstance(command, int) else command
+        sent[name.removeprefix("COMMAND_")] += 1
         return request(command, *args, **kwargs)
 
     monkeypatch.setattr(link, "request", counted)
@@ -114,3 +115,18 @@ def test_after_a_save_the_status_shows_the_eeprom_busy(live: LiveGateway) -> Non
     assert client.call("GET", "/api/status")[1]["status"]["eeprom_busy"] is False
     assert client.call("POST", "/api/firmware/save")[0] == 200
     assert client.call("GET", "/api/status")[1]["status"]["eeprom_busy"] is True
+
+
+def test_the_pose_comes_with_telemetry_and_is_read_only_while_telemetry_is_off(
+    live: LiveGateway, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Keeping /api/status fresh costs the link no POSE while telemetry comes (25 Hz, the pose in
+    every frame); the monitor reads POSE only while it does not."""
+    sent = count_requests(live.link, monkeypatch)
+    wait_for(lambda: sent["STATUS"] >= 10, 30)  # ten rounds of the monitor
+    assert sent["POSE"] == 0
+    assert live.http().call("GET", "/api/status")[1]["pose"] == pytest.approx(
+        dict(zip(("x", "y", "theta"), live.link.call("POSE"), strict=True))
+    )
+    live.link.call("TELEMETRY", 0)
+    wait_for(lambda: sent["POSE"] >= 3, 30)

@@ -202,6 +202,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         last, self._last_tick = self._last_tick, t.tick
         if last is not None and (t.tick - last) % 65536 > 32768:
             self._wake.set()  # TICK went backwards (not a wrap): the MCU may have restarted
+        self.status_cache.pose_of_telemetry((t.x, t.y, t.theta))
         data = asdict(t)
         data["mode_name"] = firmware.mode_name(t.mode)
         data["flag_names"] = firmware.flag_names(t.flags)
@@ -786,7 +787,8 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
                 status = self.read_status()
                 self._follow(status, mission, routine, generation)
                 self._check_off_path()
-                self._pose()  # for /api/status, which reads none itself (status_cache.py)
+                if self.status_cache.telemetry_age_s() > 2 * BUSY_POLL_S:  # telemetry is off
+                    self._pose()  # for /api/status, which reads none itself (status_cache.py)
             except (LinkError, CommandRefused):
                 continue  # the link is reconnecting: the firmware keeps driving on its own
 
