@@ -37,3 +37,35 @@ def test_reads_beyond_their_turns_wait_while_a_change_goes_straight_in() -> None
         assert inside.count("GET /api/status") == 10
 
     asyncio.run(scenario())
+
+
+def test_a_stream_gives_its_turn_back_once_its_answer_starts() -> None:
+    """The camera's re-stream lasts as long as its watcher: it must not hold a read's turn."""
+
+    async def scenario() -> None:
+        streaming = asyncio.Event()
+        answered: list[str] = []
+
+        async def app(scope: dict[str, Any], receive: Any, send: Any) -> None:
+            await send({"type": "http.response.start", "status": 200, "headers": []})
+            if scope["path"] == "/api/camera/stream":
+                await streaming.wait()  # the watcher watches
+            answered.append(scope["path"])
+
+        async def send(message: Any) -> None:
+            pass
+
+        turns = ReadsInTurn(app, reads_at_once=2)  # type: ignore[arg-type]
+
+        def get(path: str) -> asyncio.Task[None]:
+            scope = {"type": "http", "method": "GET", "path": path}
+            return asyncio.create_task(turns(scope, None, send))  # type: ignore[arg-type]
+
+        streams = [get("/api/camera/stream") for _ in range(3)]  # more than there are turns
+        async with asyncio.timeout(10):  # before: the streams held every turn, for ever
+            await get("/api/status")
+        assert answered == ["/api/status"]
+        streaming.set()
+        await asyncio.gather(*streams)
+
+    asyncio.run(scenario())

@@ -12,13 +12,14 @@ from __future__ import annotations
 
 import asyncio
 
-from starlette.types import ASGIApp, Receive, Scope, Send
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 READS_AT_ONCE = 8  # a panel reads a few things at a time; more would only queue on the loop
 
 
 class ReadsInTurn:
-    """Pure ASGI middleware: GET and HEAD requests wait for one of READS_AT_ONCE turns."""
+    """Pure ASGI middleware: GET and HEAD requests wait for one of READS_AT_ONCE turns, held
+    until their answer starts."""
 
     def __init__(self, app: ASGIApp, reads_at_once: int = READS_AT_ONCE) -> None:
         self.app = app
@@ -33,5 +34,20 @@ class ReadsInTurn:
         turns = self._turns.get(loop)
         if turns is None:
             turns = self._turns[loop] = asyncio.Semaphore(self.reads_at_once)
-        async with turns:
-            await self.app(scope, receive, send)
+        await turns.acquire()
+        held = True
+
+        async def send_then_give_the_turn_back(message: Message) -> None:
+            # At the answer's start: the rest is the body, and a stream (the camera's
+            # re-stream) may last as long as its watcher, which must hold no turn meanwhile.
+            nonlocal held
+            if held and message["type"] == "http.response.start":
+                held = False
+                turns.release()
+            await send(message)
+
+        try:
+            await self.app(scope, receive, send_then_give_the_turn_back)
+        finally:
+            if held:
+                turns.release()
