@@ -4,9 +4,12 @@ A fake application: what is counted is who is let in, not time."""
 from __future__ import annotations
 
 import asyncio
+import itertools
 from typing import Any
 
-from cart2d.server.reads import ReadsInTurn
+import pytest
+
+from cart2d.server.reads import Pace, ReadsInTurn
 
 
 def test_reads_beyond_their_turns_wait_while_a_change_goes_straight_in() -> None:
@@ -69,3 +72,16 @@ def test_a_stream_gives_its_turn_back_once_its_answer_starts() -> None:
         await asyncio.gather(*streams)
 
     asyncio.run(scenario())
+
+
+def test_reads_are_paced_to_their_rate_after_a_burst() -> None:
+    """On a fake clock: 1000 reads at once against 200 a second with bursts of 50."""
+    pace = Pace(200.0, 50)
+    delays = [pace.delay_s(10.0) for _ in range(1000)]
+    assert delays[:50] == pytest.approx([0.0] * 50, abs=1e-9)  # a burst goes at once
+    assert delays[50] == pytest.approx(1 / 200)
+    assert delays[-1] == pytest.approx((1000 - 50) / 200)  # then 200 a second
+    assert all(b >= a for a, b in itertools.pairwise(delays))
+    # a panel reading once a second never waits
+    pace = Pace(200.0, 50)
+    assert all(pace.delay_s(float(t)) < 1e-9 for t in range(100))
