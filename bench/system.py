@@ -15,12 +15,13 @@
     connection), from sending the request to having the JSON answer; a command counts as
     answered when the status is 200, the reply CONTROL_OK and the results as many as the
     command has;
-  - **telemetry latency**: a viewer's time.monotonic() when its `recv()` returned the message
-    and it was parsed, minus the message's `rx_monotonic_s` (CLOCK_MONOTONIC is one clock for
-    every process on the machine). It covers the gateway's fan-out (the hop from the link's
-    thread into the event loop, one JSON encoding and WebSocket send per viewer), the loopback
-    TCP and the viewer's receive; not the simulated UART (a 71-byte frame takes 6.2 ms at
-    115 200 baud, as on the cart) nor the pseudo-terminal;
+  - **telemetry latency**: a viewer's time.monotonic() when its `recv()` returned the frame
+    holding the message and it was parsed, minus the message's `rx_monotonic_s`
+    (CLOCK_MONOTONIC is one clock for every process on the machine). It covers the gateway's
+    fan-out (the message waits for the next frame, at most 40 ms apart, more while the gateway
+    is busy: cart2d/server/live.py; one JSON encoding per message and one WebSocket send per
+    viewer and frame), the loopback TCP and the viewer's receive; not the simulated UART (a
+    71-byte frame takes 6.2 ms at 115 200 baud, as on the cart) nor the pseudo-terminal;
   - per viewer, the **telemetry rate**: the frames the gateway stamped during the phase that
     reached the viewer, per second, against the firmware's configured rate; from the frames'
     tick numbers, how many were skipped before the fan-out and how many single viewers missed;
@@ -194,12 +195,12 @@ async def _viewers(url: str, count: int, conn: Connection) -> None:
                 all_connected.set()
             async for text in ws:
                 now = time.monotonic()
-                message = json.loads(text)
-                if message.get("type") == "telemetry":
-                    stamp = float(message["rx_monotonic_s"])
-                    records[index].append((stamp, now - stamp, int(message["tick"])))
-                else:
-                    other[index] += 1
+                for message in json.loads(text):  # a frame: an array of messages
+                    if message.get("type") == "telemetry":
+                        stamp = float(message["rx_monotonic_s"])
+                        records[index].append((stamp, now - stamp, int(message["tick"])))
+                    else:
+                        other[index] += 1
 
     tasks = [asyncio.create_task(viewer(i)) for i in range(count)]
     waiting = asyncio.create_task(all_connected.wait())

@@ -106,9 +106,10 @@ class Listening:
         self.settings = self.saved if is_loopback(self.host) else store.ensure_token(self.saved)
 
     def banner(self) -> list[str]:
-        host = "127.0.0.1" if self.host in ("0.0.0.0", "::") else self.host
-        shown = f"[{host}]" if ":" in host else host
-        lines = [f"cart2d panel: http://{shown}:{self.port}/   (Ctrl-C stops)"]
+        first, *others = addresses.panel_urls(self.host, self.port)
+        lines = [f"cart2d panel: {first}   (Ctrl-C stops)"]
+        if others:
+            lines.append(f"  from other machines: {', '.join(others)}")
         if self.settings.token and not is_loopback(self.host):
             lines.append(
                 f"access token: {self.settings.token} (listening on {self.host}, the gateway takes changes "

@@ -75,6 +75,21 @@ def free_port() -> int:
         return port
 
 
+def free_port_pair(avoid: int) -> int:
+    """A port P with P + 1 free too (the camera's stream), neither of them `avoid`."""
+    while True:
+        with socket.socket() as first, socket.socket() as second:
+            first.bind(("127.0.0.1", 0))
+            port: int = first.getsockname()[1]
+            if avoid in (port, port + 1):
+                continue
+            try:
+                second.bind(("127.0.0.1", port + 1))
+            except OSError:
+                continue
+            return port
+
+
 def wait_serving(port: int, wall_timeout_s: float = 60.0) -> None:
     """Waits until a gateway on 127.0.0.1:`port` answers /api/status with its firmware."""
 

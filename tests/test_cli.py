@@ -10,6 +10,7 @@ import signal
 import socket
 import subprocess
 import sys
+import time
 import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
@@ -17,8 +18,10 @@ from pathlib import Path
 import pytest
 
 from cart2d import __version__
+from cart2d.server.addresses import panel_urls
+from cart2d.server.guards import machine_addresses
 from cart2d.spec import load_spec
-from tests.conftest import free_port, wait_serving
+from tests.conftest import free_port, wait_for, wait_serving
 
 NOT_HERE = "198.51.100.77"  # TEST-NET-2 (RFC 5737): an address no machine running the tests has
 
@@ -168,7 +171,12 @@ def test_host_and_port_given_apply_to_that_run_only(tmp_path: Path) -> None:
     saved = json.loads((tmp_path / "settings.json").read_text())
     assert saved["network"] == {"host": "127.0.0.1", "port": 8080}
     assert saved["token"]
-    assert out.count("http://") == 1 and f"http://127.0.0.1:{port}/" in out
+    # this machine's address first, then every other IPv4 address of its interfaces (issue 22:
+    # only http://127.0.0.1 was printed, which no other machine can open)
+    others = [a for a in machine_addresses() if "." in a and not a.startswith("127.")]
+    assert f"cart2d panel: http://127.0.0.1:{port}/" in out
+    assert all(f"http://{a}:{port}/" in out for a in others), out
+    assert out.count("http://") == 1 + len(others)
     (token_line,) = [line for line in out.splitlines() if saved["token"] in line]
     assert "off this machine" not in token_line and "from this machine too" in token_line
 
@@ -214,3 +222,109 @@ def test_serve_with_a_file_that_is_no_serial_port_says_why(tmp_path: Path) -> No
     assert done.returncode == 1
     line = one_sentence(done.stderr)
     assert f"cannot open {not_a_tty}" in line and "/dev/ttyUSB7" in line
+
+
+def test_the_panel_is_announced_at_every_address_other_machines_can_open() -> None:
+    here = ["127.0.0.1", "::1", "192.168.1.20", "10.0.0.5", "fe80::1", "2001:db8::7", "169.254.3.4"]
+    assert panel_urls("0.0.0.0", 8080, here) == [
+        "http://127.0.0.1:8080/",
+        "http://10.0.0.5:8080/",
+        "http://192.168.1.20:8080/",
+    ]
+    assert panel_urls("::", 8080, here)[-1] == "http://[2001:db8::7]:8080/"  # no link-local ones
+    assert panel_urls("192.168.1.20", 8081) == ["http://192.168.1.20:8081/"]
+    assert panel_urls("::1", 8080) == ["http://[::1]:8080/"]
+
+
+def test_any_loopback_address_needs_no_token_as_the_readme_says(tmp_path: Path) -> None:
+    """127.0.0.2 is loopback: only this machine reaches it, so no token, like 127.0.0.1 (issue
+    22: the README said every address but 127.0.0.1 needed one)."""
+    port = free_port()
+    gateway = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "cart2d.cli",
+            "sim",
+            "--host",
+            "127.0.0.2",
+            "--port",
+            str(port),
+            "--no-camera",
+        ],
+        env={**os.environ, "CART2D_HOME": str(tmp_path)},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
+    try:
+        wait_for(lambda: _answers(f"http://127.0.0.2:{port}/api/status"), 60, 0.2)
+        change = urllib.request.Request(
+            f"http://127.0.0.2:{port}/api/map/obstacle",
+            data=b'{"x": 1.0, "y": 1.0}',
+            headers={"Content-Type": "application/json"},
+            method="PUT",
+        )
+        with urllib.request.urlopen(change, timeout=10) as answer:  # no token
+            assert answer.status == 200
+        gateway.send_signal(signal.SIGINT)
+        out, _ = gateway.communicate(timeout=30)
+    finally:
+        gateway.kill()
+    assert f"cart2d panel: http://127.0.0.2:{port}/" in out and "access token" not in out
+    assert not json.loads((tmp_path / "settings.json").read_text()).get("token")
+    readme = (Path(__file__).parent.parent / "README.md").read_text()
+    security = readme[readme.index("- **Security**") :].split("\n- **", 1)[0]
+    assert "127.0.0.0/8" in security and "need no token" in security, security
+
+
+def _answers(url: str) -> bool:
+    try:
+        with urllib.request.urlopen(url, timeout=2) as answer:
+            return bool(json.load(answer).get("firmware"))
+    except OSError:
+        return False
+
+
+def start_and_interrupt(home: Path, when: str, then_s: float) -> tuple[int | None, str]:
+    """`cart2d sim` (the installed command) in a session of its own, Ctrl-C as a terminal sends it
+    (SIGINT to the process group: the simulator too) `then_s` after it printed a line with `when`
+    in it ("" at once); its exit status (None: still running 30 s later) and its output."""
+    command = Path(sys.executable).with_name("cart2d")
+    process = subprocess.Popen(
+        [str(command), "sim", "--port", str(free_port()), "--no-camera"],
+        env={**os.environ, "CART2D_HOME": str(home)},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        start_new_session=True,
+    )
+    assert process.stdout is not None
+    before = ""
+    for line in process.stdout if when else ():
+        before += line
+        if when in line:
+            break
+    time.sleep(then_s)
+    os.killpg(process.pid, signal.SIGINT)
+    try:
+        out, _ = process.communicate(timeout=30)
+        return process.returncode, before + out
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+        return None, before + process.communicate()[0]
+
+
+@pytest.mark.parametrize(
+    ("when", "then_s"),
+    [("", 0.3), ("host opened the serial port", 0.3), ("cart2d panel:", 0.0)],
+    # while Python imports the command's modules; while the gateway waits for the firmware's
+    # first answer (the Nano's bootloader keeps it 0.5 s at least); while it serves
+    ids=["importing", "connecting", "serving"],
+)
+def test_ctrl_c_at_any_moment_of_the_start_ends_quietly(tmp_path: Path, when: str, then_s: float) -> None:
+    """Issue 22: a Ctrl-C while the command's modules were still being imported (seconds on a busy
+    machine) printed a traceback of the import machinery; one while the gateway waited for the
+    firmware's first answer, a RuntimeError from its monitor thread that had not started."""
+    status, out = start_and_interrupt(tmp_path, when, then_s)
+    assert status == 0 and "Traceback" not in out and "KeyboardInterrupt" not in out, out

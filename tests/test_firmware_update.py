@@ -88,7 +88,7 @@ def test_uploading_a_hex_flashes_it_through_avrdude_in_place_and_keeps_the_eepro
     rig.client.post("/api/command", json={"name": "SET_POSE", "args": [1.0, 1.0, 0.0]})
     rig.client.put("/api/firmware/settings", json={"id": 4, "value": 0.02})  # tol_final_m
     rig.client.post("/api/firmware/save")
-    wait_for(lambda: rig.client.get("/api/status").json()["status"]["eeprom_busy"] is False)
+    wait_for(lambda: rig.gateway.read_status().eeprom_busy is False)  # read now, after the SAVE
     assert rig.sim.process is not None
     pid = rig.sim.process.pid
     response = rig.client.post("/api/firmware/update", content=HEX.read_bytes(), headers=OCTETS)

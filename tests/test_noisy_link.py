@@ -72,9 +72,9 @@ def test_a_stop_whose_first_transmission_is_lost_stops_the_cart_within_the_budge
         port.write = losing_the_first_stop  # type: ignore[method-assign]
         original_stop = rig.gateway.stop
 
-        def stop() -> Any:
+        def stop(reason: str = "stopped by the user") -> Any:
             armed.set()
-            return original_stop()
+            return original_stop(reason)
 
         rig.gateway.stop = stop  # type: ignore[method-assign]
         for _ in range(5):

@@ -140,15 +140,17 @@ def test_replay_serves_the_recorded_ws_messages_in_order(
         wait_for(lambda: server.started, 20)
         assert player.state == "waiting"  # until the first viewer
         with connect(f"ws://127.0.0.1:{port}/ws") as ws:
-            # first the state at the position (the start: nothing played yet), then the stream
-            first = [json.loads(ws.recv(timeout=10.0)) for _ in range(len(player.snapshot()) + 1)]
+            # first the state at the position (the start: nothing played yet) in one frame, then
+            # the hello's frame, then the stream: each WebSocket message an array of messages
+            first = json.loads(ws.recv(timeout=10.0))
             assert first[0]["type"] == "replay" and first[0]["trail"] == []
-            assert first[-1]["type"] == "hello"
+            hello, *rest = json.loads(ws.recv(timeout=10.0))
+            assert hello["type"] == "hello"
+            got.extend(m for m in rest if m["type"] != "replay")
             with contextlib.suppress(TimeoutError):  # a dropped message would never come
                 while len(got) < len(expected):
-                    message = json.loads(ws.recv(timeout=10.0))
-                    if message["type"] != "replay":  # the replay's own: playing, ended
-                        got.append(message)
+                    frame = json.loads(ws.recv(timeout=10.0))
+                    got.extend(m for m in frame if m["type"] != "replay")  # the replay's own: playing, ended
             dropped = sum(viewer.dropped for viewer in app.state.viewers.viewers)
         assert dropped == 0 and got == expected
         assert Counter(m["type"] for m in got)["truth"] == len(

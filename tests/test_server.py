@@ -55,6 +55,12 @@ class Rig:
         state: str = self.client.get("/api/mission").json()["state"]
         return state
 
+    def pose_now(self) -> dict[str, float]:
+        """The firmware's pose now: POSE through the generic command form (/api/status gives
+        the pose as the gateway last read it)."""
+        results = self.client.post("/api/command", json={"name": "POSE", "args": []}).json()["results"]
+        return dict(zip(("x", "y", "theta"), results, strict=True))
+
 
 def raw(client: TestClient, method: str, url: str, body: str) -> Any:
     return client.request(method, url, content=body.encode(), headers=JSON)
@@ -228,14 +234,14 @@ def test_settings_file_export_and_import(rig: Rig) -> None:
 
 def test_websocket_streams_telemetry_and_truth(rig: Rig) -> None:
     with rig.client.websocket_connect(f"{WS_BASE}/ws") as ws:
-        assert json.loads(ws.receive_text())["type"] == "hello"
+        assert json.loads(ws.receive_text())[0]["type"] == "hello"  # a frame: an array of messages
         kinds: set[str] = set()
         # truth comes at 50 Hz of simulated time from the start, telemetry at 25 Hz once the link
         # has opened the port and the MCU has come out of the reset that opening causes: at full
         # simulator speed hundreds of truth messages may come first. Wait in wall time.
         deadline = time.monotonic() + 30
         while not {"telemetry", "truth"} <= kinds and time.monotonic() < deadline:
-            kinds.add(json.loads(ws.receive_text())["type"])
+            kinds |= {message["type"] for message in json.loads(ws.receive_text())}
     assert {"telemetry", "truth"} <= kinds
 
 
@@ -243,15 +249,19 @@ def test_token_is_required_off_loopback(tmp_path: Path) -> None:
     rig = Rig(tmp_path, bind_host="0.0.0.0", token="s3cret-token-for-tests")
     try:
         assert rig.client.get("/api/status").status_code == 200  # reading is allowed
-        refused = rig.client.post("/api/stop")
+        refused = rig.client.post("/api/goto", json={"x": 0.4, "y": 0.0})
         assert refused.status_code == 401 and "token" in refused.json()["detail"]
-        assert rig.client.post("/api/stop", headers={"X-Cart2d-Token": "wrong"}).status_code == 401
+        assert rig.mission_state() == "idle"
+        wrong = {"X-Cart2d-Token": "wrong"}
+        assert rig.client.post("/api/goto", json={"x": 0.4, "y": 0.0}, headers=wrong).status_code == 401
         assert (
-            rig.client.post("/api/stop", headers={"X-Cart2d-Token": "s3cret-token-for-tests"}).status_code
+            rig.client.post(
+                "/api/pose/accept", headers={"X-Cart2d-Token": "s3cret-token-for-tests"}
+            ).status_code
             == 200
         )
         bearer = {"Authorization": "Bearer s3cret-token-for-tests"}
-        assert rig.client.post("/api/stop", headers=bearer).status_code == 200
+        assert rig.client.post("/api/pose/accept", headers=bearer).status_code == 200
         with (
             pytest.raises(WebSocketDisconnect) as refused_ws,
             rig.client.websocket_connect(f"{WS_BASE}/ws") as ws,
@@ -259,7 +269,34 @@ def test_token_is_required_off_loopback(tmp_path: Path) -> None:
             ws.receive_text()
         assert refused_ws.value.code == 1008
         with rig.client.websocket_connect(f"{WS_BASE}/ws?token=s3cret-token-for-tests") as ws:
-            assert json.loads(ws.receive_text())["type"] == "hello"
+            assert json.loads(ws.receive_text())[0]["type"] == "hello"
+    finally:
+        rig.close()
+
+
+def test_the_stop_needs_no_token_and_stops_the_cart_but_not_for_another_site(tmp_path: Path) -> None:
+    """Off loopback a change needs the token, but the stop does not: anyone who can reach the panel
+    may stop the cart (SECURITY.md). Host, origin and content type are checked as for any change:
+    another site's page cannot stop it (issue 22: a panel without the token got 401)."""
+    secret = {"X-Cart2d-Token": "s3cret-token-for-tests"}
+    rig = Rig(tmp_path, bind_host="0.0.0.0", token=secret["X-Cart2d-Token"])
+    try:
+        assert rig.client.post("/api/goto", json={"x": 1.6, "y": 0.0}, headers=secret).status_code == 200
+        assert rig.mission_state() == "driving"
+        evil = {"Origin": "http://evil.example", "Sec-Fetch-Site": "cross-site"}
+        assert rig.client.post("/api/stop", headers=evil).status_code == 403
+        assert rig.client.post("/api/stop", headers={"Content-Type": "text/plain"}).status_code == 415
+        assert rig.client.post("/api/stop", headers={"Host": "evil.example"}).status_code == 421
+        assert rig.mission_state() == "driving"
+        stopped = rig.client.post("/api/stop")  # no token
+        assert stopped.status_code == 200 and stopped.json() == {"result": "stopped"}
+        mission = rig.client.get("/api/mission").json()
+        assert mission["state"] == "failed" and mission["reason"] == "stopped by the user"
+        reply = rig.client.post("/api/command", json={"name": "STATUS", "args": []}, headers=secret).json()
+        assert reply["results"][0] == 0  # the firmware's mode: IDLE
+        # and nothing else is allowed without it: not a START that would resume the mission
+        start = rig.client.post("/api/command", json={"name": "START", "args": []})
+        assert start.status_code == 401
     finally:
         rig.close()
 
@@ -274,7 +311,7 @@ def test_cross_origin_websocket_is_refused(rig: Rig) -> None:
             pass
         assert refused.value.status_code == 403 and "origin" in refused.value.json()["detail"]
     with rig.client.websocket_connect(f"{WS_BASE}/ws", headers={"origin": BASE_URL}) as ws:
-        assert json.loads(ws.receive_text())["type"] == "hello"
+        assert json.loads(ws.receive_text())[0]["type"] == "hello"
 
 
 def test_a_gateway_off_loopback_without_token_does_not_start(tmp_path: Path) -> None:
@@ -293,7 +330,8 @@ def test_gateway_survives_the_simulator_being_killed_and_restarted(tmp_path: Pat
     try:
         rig.client.put("/api/map/obstacle", json={"x": 1.0, "y": 1.0})
         run_for(rig.sim, 5.0)  # an uptime the new MCU's will not have caught up with when it answers
-        assert rig.client.get("/api/status").json()["status"]["uptime_s"] >= 5.0  # the gateway saw it
+        # the gateway saw it (its monitor reads STATUS a few times a second)
+        wait_for(lambda: rig.client.get("/api/status").json()["status"]["uptime_s"] >= 5.0, 10)
         rig.sim.kill()
         wait_for(lambda: rig.client.get("/api/status").json()["link"]["state"] == "reconnecting", 10)
         down = rig.client.post("/api/goto", json={"x": 0.4, "y": 0.0})

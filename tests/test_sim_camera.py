@@ -11,7 +11,6 @@ import math
 import os
 import re
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -251,24 +250,9 @@ def test_the_checkerboard_is_found_where_the_model_puts_its_corners(tmp_path: Pa
     assert float(errors.max()) < 0.55
 
 
-def free_port_pair(avoid: int) -> int:
-    """A port P with P + 1 free too (the camera's stream), neither of them `avoid`."""
-    while True:
-        with socket.socket() as first, socket.socket() as second:
-            first.bind(("127.0.0.1", 0))
-            port: int = first.getsockname()[1]
-            if avoid in (port, port + 1):
-                continue
-            try:
-                second.bind(("127.0.0.1", port + 1))
-            except OSError:
-                continue
-            return port
-
-
 def test_cart2d_sim_serves_the_camera_and_keeps_its_url(tmp_path: Path) -> None:
     """`cart2d sim --camera-port P` serves the simulated ESP32-CAM beside the panel."""
-    from tests.conftest import free_port, wait_serving
+    from tests.conftest import free_port, free_port_pair, wait_serving
 
     port = free_port()
     camera_port = free_port_pair(avoid=port)

@@ -73,12 +73,12 @@ def test_bad_faults_on_the_command_line_are_a_sentence_each(
 
 def encoder_distance_m(rig: Rig) -> float:
     """How far odometry says the cart went (m) while the truth says it drove 0.5 m straight."""
-    start = rig.client.get("/api/status").json()["pose"]
+    start = rig.pose_now()
     truth0 = rig.sim.truth()
     assert rig.client.post("/api/goto", json={"x": 0.5, "y": 0.0}).status_code == 200
     wait_for(lambda: rig.client.get("/api/mission").json()["state"] != "driving", 60)
     truth1 = rig.sim.truth()
-    end = rig.client.get("/api/status").json()["pose"]
+    end = rig.pose_now()
     driven = math.hypot(truth1["x"] - truth0["x"], truth1["y"] - truth0["y"])
     return math.hypot(end["x"] - start["x"], end["y"] - start["y"]) / driven
 

@@ -11,7 +11,7 @@ import pytest
 
 from cart2d.cli import main
 from cart2d.link.protocol import Decoder, Packet, decode_reply, encode_reply, shortest_float32
-from tests.conftest import run_for
+from tests.conftest import run_for, wait_for
 from tests.test_server import Rig
 
 
@@ -51,18 +51,20 @@ def test_the_soft_reset_says_what_the_firmware_did_with_its_pose(rig: Rig) -> No
     the words say so with that pose. A power cut loses it: the pose restarts at (0, 0, 0)."""
     assert rig.client.post("/api/goto", json={"x": 0.6, "y": 0.4}).status_code == 200
     run_for(rig.sim, 4.0)
-    before = rig.client.get("/api/status").json()["pose"]
+    before = rig.pose_now()
     assert before["x"] > 0.5
     report = rig.client.post("/api/reset").json()["reset"]
-    after = rig.client.get("/api/status").json()["pose"]
+    after = rig.pose_now()
     assert report["pose_restored"] and after == before
+    assert rig.client.get("/api/status").json()["pose"] == after  # what the gateway read at the restart
     where = f"({after['x']:.3f} m, {after['y']:.3f} m,"
     assert f"restored its pose from RAM, {where}" in report["message"]
     assert "(0, 0, 0)" not in report["message"]
 
+    noticed = rig.gateway.resets_noticed
     rig.sim.reset("power", off_s=0.5)
     run_for(rig.sim, 0.5)
-    rig.client.get("/api/status")  # the gateway notices the restart
+    wait_for(lambda: rig.gateway.resets_noticed > noticed, 10)  # the monitor notices the restart
     last = rig.client.get("/api/status").json()["reset"]["last"]
     assert not last["pose_restored"] and "Its pose restarted at (0, 0, 0)." in last["message"]
     assert rig.client.get("/api/status").json()["pose"] == {"x": 0.0, "y": 0.0, "theta": 0.0}

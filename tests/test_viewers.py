@@ -6,6 +6,7 @@ from __future__ import annotations
 import asyncio
 import base64
 import json
+import logging
 import os
 import socket
 import threading
@@ -19,7 +20,7 @@ from websockets.asyncio.client import connect
 from websockets.exceptions import ConnectionClosed
 
 from cart2d.server import live as live_module
-from cart2d.server.live import TRY_AGAIN_LATER, VIEWER_BACKLOG, Viewers
+from cart2d.server.live import BURST_SAMPLES, MERGE_AFTER, STATE_KINDS, TRY_AGAIN_LATER, Viewers
 from tests.conftest import wait_for
 from tests.live import LiveGateway
 from tests.test_server import Rig
@@ -87,9 +88,12 @@ def test_a_viewer_that_never_reads_holds_a_bounded_backlog_and_the_others_go_on(
     try:
         wait_for(lambda: len(viewers.viewers) == 6, 20)
         # Ground truth at 50 simulated Hz with the simulator at full speed: hundreds of messages
-        # a second, far more than the kernel's buffers and the backlog of a stalled viewer hold.
-        wait_for(lambda: sum(v.dropped > 0 for v in viewers.viewers) >= 5, 60)
-        assert all(len(v.queue) <= VIEWER_BACKLOG for v in viewers.viewers)
+        # a second; once the kernel's buffers are full, a stalled viewer's frames are merged.
+        wait_for(lambda: sum(v.merged > 0 for v in viewers.viewers) >= 5, 60)
+        per_frame = 2 * BURST_SAMPLES + len(STATE_KINDS)  # no events come meanwhile
+        for viewer in viewers.viewers:
+            assert len(viewer.frames) <= MERGE_AFTER + 1
+            assert sum(len(f.items) for f in viewer.frames) <= (MERGE_AFTER + 1) * per_frame
         count = len(received)
         wait_for(lambda: len(received) > count + 100, 30)  # the reading viewer keeps receiving
         assert live.http().call("POST", "/api/stop")[0] == 200
@@ -112,9 +116,9 @@ def test_viewers_beyond_the_cap_are_told_to_try_again_later(
     async def crowd() -> tuple[int, int | None, str]:
         sockets = [await connect(url, proxy=None, open_timeout=30) for _ in range(cap)]
         try:
-            served = 0  # a viewer slower than the messages may have lost its hello: any message counts
+            served = 0
             for ws in sockets:
-                served += "type" in json.loads(await ws.recv())
+                served += json.loads(await ws.recv())[0]["type"] == "hello"
             async with connect(url, proxy=None) as extra:
                 with pytest.raises(ConnectionClosed):
                     while True:
@@ -132,7 +136,33 @@ def test_viewers_beyond_the_cap_are_told_to_try_again_later(
 
     async def one() -> str:
         async with connect(url, proxy=None) as ws:
-            kind: str = json.loads(await ws.recv())["type"]
+            kind: str = json.loads(await ws.recv())[0]["type"]
             return kind
 
     assert asyncio.run(one()) == "hello"
+
+
+def test_a_viewer_that_goes_away_leaves_no_traceback(
+    live: LiveGateway, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A browser tab closed (a close frame) or a connection dropped (no close frame): the gateway
+    logs nothing of it (issue 22: a 65-line WebSocketDisconnect traceback per closed tab)."""
+    viewers: Viewers = live.app.state.viewers
+    url = f"ws://127.0.0.1:{live.port}/ws"
+
+    async def closed_tab() -> None:
+        async with connect(url, proxy=None) as ws:
+            await ws.recv()
+
+    async def dropped() -> None:
+        ws = await connect(url, proxy=None)
+        await ws.recv()
+        ws.transport.abort()  # the TCP connection goes without a close frame
+
+    with caplog.at_level(logging.INFO):
+        for leave in (closed_tab, dropped):
+            asyncio.run(leave())
+        wait_for(lambda: not viewers.viewers, 20)
+        wait_for(lambda: not live.server.server_state.tasks, 20)  # every ASGI task has ended
+    noisy = [r for r in caplog.records if r.exc_info or r.levelno >= logging.WARNING]
+    assert not noisy, [r.getMessage() for r in noisy]

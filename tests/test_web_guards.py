@@ -387,23 +387,23 @@ def test_half_sent_requests_do_not_starve_the_stop(tmp_path: Path) -> None:
 def test_a_non_ascii_token_is_refused_not_a_crash(tmp_path: Path) -> None:
     rig = Rig(tmp_path, bind_host="0.0.0.0", token="s3cret-token-for-tests")
 
-    def stop_with(header: str, value: str) -> Any:
-        request = rig.client.build_request("POST", "/api/stop")
+    def accept_with(header: str, value: str) -> Any:  # a change that needs the token (not the stop)
+        request = rig.client.build_request("POST", "/api/pose/accept")
         request.headers[header] = value.encode().decode("latin-1")  # the UTF-8 bytes, as sent
         return rig.client.send(request)
 
     try:
         for token in ("é", "s3cret-token-for-testsé", "\u2603" * 20):
-            answer = stop_with("X-Cart2d-Token", token)
+            answer = accept_with("X-Cart2d-Token", token)
             assert answer.status_code == 401 and "token" in answer.json()["detail"]
-            assert stop_with("Authorization", f"Bearer {token}").status_code == 401
+            assert accept_with("Authorization", f"Bearer {token}").status_code == 401
             with (
                 pytest.raises(WebSocketDisconnect) as refused,
                 rig.client.websocket_connect(f"{WS_BASE}/ws?token={token}") as ws,
             ):
                 ws.receive_text()
             assert refused.value.code == 1008
-        assert stop_with("X-Cart2d-Token", "s3cret-token-for-tests").status_code == 200
+        assert accept_with("X-Cart2d-Token", "s3cret-token-for-tests").status_code == 200
     finally:
         rig.close()
 

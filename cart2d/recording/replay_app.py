@@ -6,6 +6,7 @@ changes anything: there is no robot behind it."""
 
 from __future__ import annotations
 
+import json
 from collections.abc import Sequence
 from typing import Annotated, Any, Literal
 
@@ -135,7 +136,7 @@ def create_replay_app(
     app = FastAPI(title="cart2d replay", version="0.1.0", description=__doc__, docs_url=None, redoc_url=None)
     api_docs.install(app)
     app.add_exception_handler(RequestValidationError, invalid_request)  # type: ignore[arg-type]
-    viewers = Viewers(player)  # type: ignore[arg-type]  # the part of a Gateway it uses
+    viewers = Viewers(player)  # a Source: the part of a Gateway the fan-out uses
     app.state.viewers = viewers
     read_only = f"this is a replay of {player.recorded.path.name}: there is no robot, nothing can be changed"
     add_replay_routes(app, player)
@@ -170,9 +171,8 @@ def create_replay_app(
             await ws.close(code=1008, reason="cross-origin WebSocket refused")
             return
         await ws.accept()
-        try:
-            for message in player.snapshot():  # a panel that opens late sees the world as it is now
-                await ws.send_json(message)
+        try:  # a panel that opens late sees the world as it is now: one frame before the hello
+            await ws.send_text(json.dumps(player.snapshot()))
         except (WebSocketDisconnect, RuntimeError, OSError):
             return  # gone already
         await viewers.serve(ws)

@@ -1,11 +1,14 @@
 """Whether the gateway can listen where it is asked to, said in one sentence: an address is
 checked before it is saved (PUT /api/settings/network, an imported settings file), and the
-listening socket is opened before anything else starts (cart2d sim, cart2d serve)."""
+listening socket is opened before anything else starts (cart2d sim, cart2d serve). And where
+it can then be reached (panel_urls)."""
 
 from __future__ import annotations
 
 import errno
+import ipaddress
 import socket
+from collections.abc import Iterable
 
 from cart2d.server import serving
 from cart2d.server.guards import WILDCARD_BINDS, machine_addresses
@@ -67,3 +70,26 @@ def open_listener(host: str, port: int, backlog: int = serving.BACKLOG) -> socke
         else:
             message = f"cannot listen on {where}: {exc.strerror or exc}"
         raise CannotListen(message) from exc
+
+
+def _url(address: str, port: int) -> str:
+    return f"http://[{address}]:{port}/" if ":" in address else f"http://{address}:{port}/"
+
+
+def panel_urls(host: str, port: int, addresses: Iterable[str] | None = None) -> list[str]:
+    """The panel's addresses for a gateway listening on host:port, this machine's first: bound
+    to every interface (0.0.0.0, ::), 127.0.0.1 and this machine's other addresses (`addresses`,
+    default every interface's), IPv6 ones for :: only and none that is link-local (they need
+    the interface's name)."""
+    if host not in WILDCARD_BINDS:
+        return [_url(host, port)]
+    ipv6 = host == "::"
+    found = machine_addresses() if addresses is None else set(addresses)
+    others = []
+    for text in found:
+        address = ipaddress.ip_address(text)
+        if address.is_loopback or address.is_link_local or (address.version == 6 and not ipv6):
+            continue
+        others.append(address)
+    others.sort(key=lambda a: (a.version, a))
+    return [_url("127.0.0.1", port), *(_url(str(a), port) for a in others)]

@@ -17,6 +17,7 @@ from fastapi import Depends, FastAPI, HTTPException, Request, Response, WebSocke
 from fastapi.exception_handlers import http_exception_handler
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import HTMLResponse, JSONResponse
+from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
@@ -42,8 +43,9 @@ from cart2d.server.models import (
     invalid_request,
     read_body,
 )
-from cart2d.server.motion import MotionTokens, motion_token
+from cart2d.server.motion import MotionTokens, Stopper, motion_token
 from cart2d.server.panel import MINIMAL_PAGE, PANEL_DIR, PanelFiles
+from cart2d.server.reads import ReadsInTurn
 from cart2d.server.sim_world import add_sim_world_routes
 from cart2d.spec import load_spec
 
@@ -92,6 +94,7 @@ def create_app(
 
     Guarded = Depends(require_token)
     Motion = Depends(motion_token)  # the stop generation at the request's arrival (server/motion.py)
+    stopper = Stopper(gateway.stop)
     viewers = Viewers(gateway)
     app.state.viewers = viewers  # for tests and benchmarks: the viewers and their queues
 
@@ -132,9 +135,17 @@ def create_app(
         return JSONResponse({"detail": f"the robot is not reachable: {exc}"}, status_code=503)
 
     # -- reading -----------------------------------------------------------------------------
-    @app.get("/api/status", summary="link, firmware, mission, pose")
-    def status() -> dict[str, Any]:
-        return gateway.status_view()
+    @app.get(
+        "/api/status",
+        summary="link, firmware, mission, pose",
+        description="STATUS and the pose as the gateway last read them (`status_age_s`): reading this "
+        "makes no request to the robot.",
+    )
+    async def status() -> dict[str, Any]:
+        # On the event loop when the gateway's lock is free (no thread of the pool, which a
+        # hundred readers filled, contending for the GIL with the link's reader); else in one.
+        view = gateway.status_view_unless_busy()
+        return view if view is not None else await run_in_threadpool(gateway.status_view)
 
     @app.get("/api/protocol", summary="the commands the generic-command form offers")
     def protocol() -> list[dict[str, Any]]:
@@ -238,12 +249,14 @@ def create_app(
 
     @app.post(
         "/api/stop",
-        dependencies=[Guarded],
         summary="emergency stop: motors off now",
-        responses=errors(401, 409, 503),
+        description='Needs no token (SECURITY.md, "The stop needs no token"): anyone who can reach the '
+        "panel may stop the cart, never start it. Runs in threads of its own, ahead of every other "
+        "request on the link.",
+        responses=errors(409, 503),
     )
-    def stop() -> dict[str, str]:
-        gateway.stop()
+    async def stop() -> dict[str, str]:
+        await stopper()
         return {"result": "stopped"}
 
     @app.post(
@@ -272,7 +285,7 @@ def create_app(
         responses=errors(401, 409, 503),
     )
     def save() -> dict[str, str]:
-        gateway.link.call("SAVE")
+        gateway.save_settings()
         return {"result": "saving"}
 
     @app.post(
@@ -390,5 +403,6 @@ def create_app(
             return MINIMAL_PAGE
 
     guards.install(app, bind_host, allowed_hosts)
+    app.add_middleware(ReadsInTurn)  # outside the guards: a waiting read costs nothing (reads.py)
     app.add_middleware(MotionTokens, link=gateway.link)  # added last: the outermost layer
     return app

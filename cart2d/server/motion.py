@@ -1,4 +1,5 @@
-"""Motion requests belong to the stop generation of the moment they arrive.
+"""Motion requests belong to the stop generation of the moment they arrive; the stop runs in
+threads of its own.
 
 A stop cancels every motion request that came before it (cart2d/link/transport.py, stop
 generations). "Came before" must mean arrival at the gateway, not the moment a worker thread
@@ -10,6 +11,10 @@ and the motion routes take it from there.
 """
 
 from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 
 from starlette.requests import Request
 from starlette.types import ASGIApp, Receive, Scope, Send
@@ -37,3 +42,20 @@ def motion_token(request: Request) -> int | None:
     middleware is not in place (the link then takes the token when the command is sent)."""
     token = request.scope.get(SCOPE_KEY)
     return token if isinstance(token, int) else None
+
+
+STOP_THREADS = 4  # stops at once, each in a thread of its own (one may wait for a firmware update)
+
+
+class Stopper:
+    """Runs the gateway's stop in threads of its own. Every other route that blocks runs in the
+    server's shared thread pool (anyio's, 40 threads): a hundred status reads or goals waiting
+    for the link or the gateway's lock fill it, and a stop queued behind them would wait for
+    every one (issue 22: 100 concurrent reads held the stop 0.8-1.1 s)."""
+
+    def __init__(self, stop: Callable[[], object]) -> None:
+        self._stop = stop
+        self._threads = ThreadPoolExecutor(STOP_THREADS, thread_name_prefix="stop")
+
+    async def __call__(self) -> None:
+        await asyncio.get_running_loop().run_in_executor(self._threads, self._stop)

@@ -225,6 +225,9 @@ def server(app: Any, connections: int = MAX_CONNECTIONS) -> uvicorn.Server:
         timeout_keep_alive=KEEP_ALIVE_S,
         h11_max_incomplete_event_size=MAX_HEADER_BYTES,
         ws_max_size=WS_MAX_BYTES,
+        # Uncompressed: each viewer's permessage-deflate is a zlib stream of its own, compressing
+        # the same frame again for every viewer, half of what a send cost (issue 22, profiled).
+        ws_per_message_deflate=False,
         log_config=None,  # uvicorn's loggers go to the root handlers, and their RepeatFilter
         log_level="warning",
     )

@@ -190,6 +190,7 @@ export interface Truth {
   box_contacts?: number;
 }
 
+/** One message of /ws; each WebSocket message is an array of them, a frame (server/live.py). */
 export type LiveMessage =
   | Telemetry
   | Truth

@@ -424,10 +424,20 @@ function connect(): void {
     renderLink();
   });
   ws.addEventListener("message", (e) => {
+    // Each WebSocket message is a frame: an array of live messages, oldest first (server/live.py).
+    let frame: LiveMessage[];
     try {
-      onMessage(JSON.parse(String(e.data)) as LiveMessage);
+      frame = JSON.parse(String(e.data)) as LiveMessage[];
     } catch (err) {
-      console.warn("unreadable live message", err);
+      console.warn("unreadable live frame", err);
+      return;
+    }
+    for (const msg of frame) {
+      try {
+        onMessage(msg);
+      } catch (err) {
+        console.warn("unreadable live message", err);
+      }
     }
   });
   ws.addEventListener("close", (e) => void closed(e, opened));

@@ -611,6 +611,22 @@ test("off loopback: read-only without the token, a change asks for it, a wrong o
     await page.click("#token-later");
     await expect(page.locator("#token-form")).toBeHidden();
 
+    // the emergency stop works without the token (SECURITY.md, "The stop needs no token"): a
+    // mission sent by someone who has it, stopped from this panel
+    const goal = await fetch(`${base}/api/goto`, {
+      method: "POST",
+      headers: { "Content-Type": "application/json", "X-Cart2d-Token": secret },
+      body: JSON.stringify({ x: 1.6, y: 0.0 }),
+    });
+    expect(goal.status).toBe(200);
+    const mission = async (): Promise<{ state: string; reason: string }> =>
+      (await (await fetch(`${base}/api/mission`)).json()) as { state: string; reason: string };
+    expect((await mission()).state).toBe("driving");
+    await page.click("#estop");
+    await expect(page.locator("#messages")).toContainText("Stopped: motors off.");
+    expect(await mission()).toMatchObject({ state: "failed", reason: "stopped by the user" });
+    await expect(page.locator("#token-form")).toBeHidden(); // the stop asked for no token
+
     // a change asks for the token
     await page.locator("label", { hasText: "Obstacles" }).click();
     const node: Point = [1.0, 1.0];

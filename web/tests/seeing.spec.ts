@@ -112,9 +112,11 @@ test("the cart sees the blue box, maps it, drives round it to the goal; Clear pe
   let fov: Point[] = [];
   page.on("websocket", (ws) =>
     ws.on("framereceived", ({ payload }) => {
-      const msg = JSON.parse(String(payload)) as { type?: string } & Record<string, unknown>;
-      if (msg.type === "truth") truths.push(msg as unknown as Truth);
-      if (msg.type === "camera" && Array.isArray(msg["fov"])) fov = msg["fov"] as Point[];
+      // a frame: an array of messages (cart2d/server/live.py)
+      for (const msg of JSON.parse(String(payload)) as ({ type?: string } & Record<string, unknown>)[]) {
+        if (msg.type === "truth") truths.push(msg as unknown as Truth);
+        if (msg.type === "camera" && Array.isArray(msg["fov"])) fov = msg["fov"] as Point[];
+      }
     }),
   );
   await page.goto(`${base}/`);

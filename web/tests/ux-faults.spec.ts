@@ -25,11 +25,13 @@ function watchHeadings(page: Page): () => Heading {
   page.on("websocket", (ws) =>
     ws.on("framereceived", ({ payload }) => {
       if (typeof payload !== "string") return;
-      const m = JSON.parse(payload) as { type: string; x: number; y: number; theta: number };
-      if (m.type === "telemetry") last.odometry = m.theta;
-      else if (m.type === "truth") {
-        last.truth = m.theta;
-        last.truthXY = [m.x, m.y];
+      // a frame: an array of messages, oldest first (cart2d/server/live.py)
+      for (const m of JSON.parse(payload) as { type: string; x: number; y: number; theta: number }[]) {
+        if (m.type === "telemetry") last.odometry = m.theta;
+        else if (m.type === "truth") {
+          last.truth = m.theta;
+          last.truthXY = [m.x, m.y];
+        }
       }
     }),
   );

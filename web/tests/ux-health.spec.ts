@@ -46,7 +46,8 @@ test("a cart pushing a wall shows its flags as badges (bumper, switches), each e
   await expect(bar.locator('[data-flag="SWITCH_LEFT"]')).toHaveText("left switch pressed");
   await expect(bar.locator('[data-flag="SWITCH_RIGHT"]')).toHaveText("right switch pressed");
   await expect(page.locator('#health [data-flag="SWITCH_LEFT"]')).toBeVisible(); // every flag, in the map card
-  expect(await flags(page)).toEqual(expect.arrayContaining(["SWITCH_LEFT", "SWITCH_RIGHT"]));
+  // /api/status: the STATUS the gateway last read (a few times a second)
+  await expect.poll(() => flags(page)).toEqual(expect.arrayContaining(["SWITCH_LEFT", "SWITCH_RIGHT"]));
   // a tap (a click) says what the flag means, in the protocol's words
   await bar.locator('[data-flag="SWITCH_LEFT"]').click();
   await expect(page.locator("#messages")).toContainText("left switch pressed (SWITCH_LEFT): left front switch pressed.");

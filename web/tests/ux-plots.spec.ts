@@ -20,8 +20,10 @@ async function watchTicks(page: Page): Promise<() => Promise<number>> {
   await page.evaluate(() => {
     const ws = new WebSocket(`ws://${location.host}/ws`);
     ws.addEventListener("message", (e) => {
-      const m = JSON.parse(String(e.data)) as { type: string; tick?: number };
-      if (m.type === "telemetry") (window as unknown as { lastTick: number }).lastTick = m.tick ?? -1;
+      // a frame: an array of messages, oldest first (cart2d/server/live.py)
+      for (const m of JSON.parse(String(e.data)) as { type: string; tick?: number }[]) {
+        if (m.type === "telemetry") (window as unknown as { lastTick: number }).lastTick = m.tick ?? -1;
+      }
     });
   });
   await expect.poll(() => page.evaluate(() => (window as unknown as { lastTick?: number }).lastTick ?? -1)).toBeGreaterThan(-1);
