@@ -169,7 +169,7 @@ def test_a_panel_that_opens_after_the_end_gets_the_world_as_it_was(recorded: Rec
         with client.websocket_connect(f"{WS_BASE}/ws") as ws:
             got: list[dict[str, Any]] = []
             while not got or got[-1]["type"] != "hello":
-                got.append(ws.receive_json())
+                got.extend(ws.receive_json())  # a frame: an array of messages
         kinds = {m["type"]: m for m in got}
         said = kinds["replay"]
         assert said["state"] == "ended" and said["position_s"] == pytest.approx(recorded.duration_s, abs=1e-3)
