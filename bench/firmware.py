@@ -766,7 +766,9 @@ def plot_histogram(runs: list[Run], path: Path) -> None:
         linestyle="--",
         label=f"mean budget ({100 * CPU_MEAN_BUDGET:.0f} %)",
     )
-    ax.axvline(CPU_MAX_BUDGET * PERIOD, color="tab:red", linestyle="--", label=f"max budget ({CPU_MAX_BUDGET:.0%})")
+    ax.axvline(
+        CPU_MAX_BUDGET * PERIOD, color="tab:red", linestyle="--", label=f"max budget ({CPU_MAX_BUDGET:.0%})"
+    )
     ax.set_yscale("log")
     ax.set_xlabel(f"cycles per control tick (of {PERIOD})")
     ax.set_ylabel("ticks")
@@ -841,7 +843,11 @@ def run(out: Path, quick: bool) -> Section:
             f"{pct(mean_high)} (worst run)",
             mean_high <= CPU_MEAN_BUDGET,
         ),
-        (f"CPU per tick, max ≤ {CPU_MAX_BUDGET:.0%}", f"{pct(max_high)} (worst run)", max_high <= CPU_MAX_BUDGET),
+        (
+            f"CPU per tick, max ≤ {CPU_MAX_BUDGET:.0%}",
+            f"{pct(max_high)} (worst run)",
+            max_high <= CPU_MAX_BUDGET,
+        ),
         ("no tick overruns", str(overruns), overruns == 0),
     ]
     checks = {name: met for name, _, met in targets}
@@ -907,7 +913,8 @@ def run(out: Path, quick: bool) -> Section:
         f"\nOverruns (a tick not asleep by the next compare match): {overruns} of "
         f"{sum(int(s.rows['all driving ticks']['ticks']) for s in summaries)} ticks. "
         f"Budgets: mean ≤ {100 * CPU_MEAN_BUDGET:.0f} % "
-        f"({int(CPU_MEAN_BUDGET * PERIOD)} cycles), max ≤ {CPU_MAX_BUDGET:.0%} ({int(CPU_MAX_BUDGET * PERIOD)}): worst run "
+        f"({int(CPU_MEAN_BUDGET * PERIOD)} cycles), "
+        f"max ≤ {CPU_MAX_BUDGET:.0%} ({int(CPU_MAX_BUDGET * PERIOD)}): worst run "
         f"{pct(mean_high)} mean, {pct(max_high)} max.\n"
     )
     if over:
