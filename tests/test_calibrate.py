@@ -1,4 +1,4 @@
-"""Odometry calibration (UMBmark, cart2d/calibrate.py): the arithmetic against a hand-computed
+"""Odometry calibration (UMBmark, cart2d/tools/umbmark/): the arithmetic against a hand-computed
 case and against a simple odometry model, the hand-measurement prompts with fake input, the
 robot path with a fake link, and the whole command in the simulator judged by ground truth."""
 
@@ -12,22 +12,20 @@ from pathlib import Path
 
 import pytest
 
-from cart2d.calibrate import (
-    Aborted,
+from cart2d.link import Link, Priority
+from cart2d.spec import load_spec
+from cart2d.tools.cli import main
+from cart2d.tools.umbmark.arithmetic import (
     Geometry,
-    SerialRunner,
-    calibrate,
     centroid,
     e_max_syst,
     parse_position_mm,
-    setting_ids,
     sim_layout,
     square_corners,
     umbmark_corrections,
 )
-from cart2d.cli import main
-from cart2d.link import Link, Priority
-from cart2d.spec import load_spec
+from cart2d.tools.umbmark.procedure import calibrate, setting_ids
+from cart2d.tools.umbmark.runners import Aborted, SerialRunner
 from tests.conftest import start_sim
 
 NOMINAL = Geometry(0.021, 0.021, 0.305)

@@ -15,13 +15,16 @@ from typing import Any
 
 import pytest
 
-from cart2d.calibrate import RunError, SimRunner, calibrate, sim_layout
 from cart2d.gateway import Gateway
 from cart2d.link import Link, firmware
 from cart2d.link.protocol import CONTROL_ERROR, TELEMETRY_FIELDS, Reply, Telemetry
-from cart2d.mission import MissionSpec, run_mission
 from cart2d.spec import load_spec
 from cart2d.store import Store
+from cart2d.tools.missions.run import run_mission
+from cart2d.tools.missions.spec import MissionSpec
+from cart2d.tools.umbmark.arithmetic import sim_layout
+from cart2d.tools.umbmark.procedure import calibrate
+from cart2d.tools.umbmark.runners import RunError, SimRunner
 from tests.conftest import run_for, start_sim, wait_for
 from tests.test_server import OCTETS, Rig
 
