@@ -39,7 +39,7 @@ from cart2d.tools.umbmark.arithmetic import (
     square_corners,
     true_geometry,
 )
-from cart2d.tools.umbmark.procedure import calibrate_in_sim
+from cart2d.tools.umbmark.procedure import Schedule, SimSetup, calibrate_in_sim
 from cart2d.tools.umbmark.runners import drive_square
 
 NAME = "umbmark"
@@ -168,11 +168,10 @@ def run(out: Path, quick: bool) -> Section:
     results: list[tuple[Setting, Calibration, float]] = []
     for setting in settings:
         start = time.monotonic()
-        result = calibrate_in_sim(
-            setting.faults, SIDE_M, runs, passes=2, save=False, say=quiet, refine_runs=refine_runs
-        )
+        schedule = Schedule(SIDE_M, runs, passes=2, refine_runs=refine_runs)
+        result = calibrate_in_sim(schedule, SimSetup(setting.faults, save=False), quiet)
         results.append((setting, result, time.monotonic() - start))
-    floor = calibrate_in_sim({}, SIDE_M, runs, passes=0, save=False, say=quiet)
+    floor = calibrate_in_sim(Schedule(SIDE_M, runs, passes=0), SimSetup(save=False), quiet)
     floor_m = floor.first()
     corners = corner_check()
 

@@ -17,7 +17,14 @@ from cart2d.simulation import faults as fault_table
 from cart2d.simulator import SimulatorError
 from cart2d.tools import cli_args
 from cart2d.tools.umbmark.arithmetic import Calibration
-from cart2d.tools.umbmark.procedure import calibrate, calibrate_in_sim, check_not_restarted, save_settings
+from cart2d.tools.umbmark.procedure import (
+    Schedule,
+    SimSetup,
+    calibrate,
+    calibrate_in_sim,
+    check_not_restarted,
+    save_settings,
+)
 from cart2d.tools.umbmark.runners import Aborted, RunError, SerialRunner
 
 SYSTEMATIC_FAULTS = ("enc_radius_scale_l", "enc_radius_scale_r", "enc_track_error_m")
@@ -108,7 +115,8 @@ def _run_serial(args: argparse.Namespace, passes: int, say: Callable[[str], None
             "and the heading. Run this again afterwards to see the new values' errors."
         )
         watch = ResetWatch(firmware.read_status(link))
-        result = calibrate(runner, link, args.side, args.runs, passes, verify=False, say=say, watch=watch)
+        schedule = Schedule(args.side, args.runs, passes, verify=False)
+        result = calibrate(runner, link, schedule, say, watch)
         if not args.no_save:
             check_not_restarted(watch, link)
             save_settings(link)
@@ -142,18 +150,9 @@ def main_calibrate(args: argparse.Namespace, say: Callable[[str], None] = print)
     passes = args.passes if args.passes is not None else (2 if args.sim else 1)
     try:
         if args.sim:
-            result = calibrate_in_sim(
-                faults,
-                args.side,
-                args.runs,
-                passes,
-                verify=not args.no_check,
-                save=not args.no_save,
-                eeprom=args.eeprom,
-                speed=args.speed,
-                seed=args.seed,
-                say=say,
-            )
+            schedule = Schedule(args.side, args.runs, passes, verify=not args.no_check)
+            setup = SimSetup(faults, args.eeprom, args.speed, args.seed, save=not args.no_save)
+            result = calibrate_in_sim(schedule, setup, say)
         else:
             result = _run_serial(args, passes, say)
     except (LinkError, CommandRefused, SimulatorError, RunError, Aborted, ValueError, OSError) as exc:

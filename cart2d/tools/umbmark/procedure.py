@@ -9,7 +9,8 @@ from __future__ import annotations
 import math
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from cart2d.link import Link, LinkError, firmware
@@ -77,16 +78,42 @@ def measure(
     return m
 
 
+@dataclass(frozen=True)
+class Schedule:
+    """What a calibration drives: a square of `side_m`, `passes` passes of `runs` runs each way
+    (`refine_runs` in the passes after the first, if given), each correcting the last; then, with
+    `verify`, a check of `runs` runs each way with the final values. `axes`: which centroid
+    coordinates give alpha and beta (umbmark_corrections)."""
+
+    side_m: float = 2.0
+    runs: int = 5
+    passes: int = 2
+    verify: bool = True
+    axes: Axes = "xy"
+    refine_runs: int | None = None
+
+    def runs_in_pass(self, k: int) -> int:
+        """The runs each way of pass k (0: the first)."""
+        return self.runs if k == 0 or self.refine_runs is None else self.refine_runs
+
+
+@dataclass(frozen=True)
+class SimSetup:
+    """The simulator of calibrate_in_sim: its faults, its EEPROM file (None: a temporary one), its
+    speed and seed; `save`: SAVE the new values (unless the check found them worse)."""
+
+    faults: Mapping[str, float] = field(default_factory=dict)
+    eeprom: Path | None = None
+    speed: str = "max"
+    seed: int = 1
+    save: bool = True
+
+
 def calibrate(
     runner: Runner,
     link: Link,
-    side_m: float,
-    runs: int,
-    passes: int,
-    verify: bool,
+    schedule: Schedule,
     say: Callable[[str], None] = print,
-    axes: Axes = "xy",
-    refine_runs: int | None = None,
     watch: ResetWatch | None = None,
 ) -> Calibration:
     """UMBmark passes, each followed by PARAM_SET of the corrected geometry; then, if asked, a
@@ -96,7 +123,7 @@ def calibrate(
     RunError: it ruins the run it happens in and loses the geometry set in RAM."""
     watch = watch or ResetWatch(firmware.read_status(link))
     try:
-        return _calibrate(runner, link, side_m, runs, passes, verify, say, axes, refine_runs, watch)
+        return _calibrate(runner, link, schedule, say, watch)
     except ControllerRestarted as exc:
         raise RunError(ruined(exc)) from exc
 
@@ -117,23 +144,14 @@ def check_not_restarted(watch: ResetWatch, link: Link) -> None:
 
 
 def _calibrate(
-    runner: Runner,
-    link: Link,
-    side_m: float,
-    runs: int,
-    passes: int,
-    verify: bool,
-    say: Callable[[str], None],
-    axes: Axes,
-    refine_runs: int | None,
-    watch: ResetWatch,
+    runner: Runner, link: Link, schedule: Schedule, say: Callable[[str], None], watch: ResetWatch
 ) -> Calibration:
     before = geometry = read_geometry(link)
     done: list[tuple[Measurement, Corrections]] = []
+    passes = schedule.passes
     for k in range(passes):
-        n = runs if k == 0 or refine_runs is None else refine_runs
-        m = measure(runner, geometry, n, say, f"pass {k + 1}/{passes}", watch)
-        c = umbmark_corrections(m.cw, m.ccw, side_m, geometry, axes)
+        m = measure(runner, geometry, schedule.runs_in_pass(k), say, f"pass {k + 1}/{passes}", watch)
+        c = umbmark_corrections(m.cw, m.ccw, schedule.side_m, geometry, schedule.axes)
         say(
             f"pass {k + 1}: E_max,syst {m.e_max_syst_m() * 1e3:.1f} mm; "
             f"alpha {math.degrees(c.alpha_rad):+.3f} deg, beta {math.degrees(c.beta_rad):+.3f} deg "
@@ -142,35 +160,25 @@ def _calibrate(
         geometry = write_geometry(link, c.geometry)
         say(f"  odometry now: {geometry.text()}")
         done.append((m, c))
-    result = Calibration(side_m, before, geometry, done)
-    if verify:
-        result.verification = measure(runner, geometry, runs, say, "check" if passes else "UMBmark", watch)
+    result = Calibration(schedule.side_m, before, geometry, done)
+    if schedule.verify:
+        title = "check" if passes else "UMBmark"
+        result.verification = measure(runner, geometry, schedule.runs, say, title, watch)
     watch.read(link)
     return result
 
 
-def calibrate_in_sim(
-    faults: dict[str, float],
-    side_m: float = 2.0,
-    runs: int = 5,
-    passes: int = 2,
-    verify: bool = True,
-    save: bool = True,
-    eeprom: Path | None = None,
-    speed: str = "max",
-    seed: int = 1,
-    say: Callable[[str], None] = print,
-    refine_runs: int | None = None,
-) -> Calibration:
-    """UMBmark calibration in a simulator of its own, with these faults, judged by ground truth.
-    The new values are saved (SAVE) unless the check found them worse than the old ones, which
-    are then restored."""
+def calibrate_in_sim(schedule: Schedule, setup: SimSetup, say: Callable[[str], None] = print) -> Calibration:
+    """UMBmark calibration in a simulator of its own, with the setup's faults, judged by ground
+    truth. The new values are saved (SAVE) unless the check found them worse than the old ones,
+    which are then restored."""
+    side_m, faults = schedule.side_m, dict(setup.faults)
     grid, start_ccw, start_cw = sim_layout(side_m)
     with tempfile.TemporaryDirectory() as tmp:
         options = SimOptions(
-            speed=speed,
-            seed=seed,
-            eeprom=eeprom or Path(tmp) / "eeprom.bin",
+            speed=setup.speed,
+            seed=setup.seed,
+            eeprom=setup.eeprom or Path(tmp) / "eeprom.bin",
             grid=grid,
             start=(*start_ccw, 0.0),
             quiet=True,
@@ -181,15 +189,13 @@ def calibrate_in_sim(
                 sim.control("faults", **faults)
             runner = SimRunner(sim, link, side_m, start_ccw, start_cw)
             watch = ResetWatch(firmware.read_status(link))
-            result = calibrate(
-                runner, link, side_m, runs, passes, verify, say, refine_runs=refine_runs, watch=watch
-            )
+            result = calibrate(runner, link, schedule, say, watch)
             result.truth, result.faults = true_geometry(faults), dict(faults)
             after = result.e_max_after_m()
             if after is not None and after > result.e_max_before_m():
                 say("the check found the new values worse than the old: not saved, the old ones restored")
                 write_geometry(link, result.before)
-            elif save and passes:
+            elif setup.save and schedule.passes:
                 check_not_restarted(watch, link)
                 save_settings(link)
                 result.saved = True
