@@ -36,9 +36,10 @@ import numpy as np
 from bench.common import Section, missed, percentile, section_main, spread, table
 from cart2d.gateway.live_map import planner_for
 from cart2d.maps import OCCUPIED, OccupancyMap, save_ros_map
-from cart2d.mission import MissionSpec, mission_map, run_mission
 from cart2d.params import settings_table
 from cart2d.store import FloorPlan, MapSettings
+from cart2d.tools.missions.run import mission_map, run_mission
+from cart2d.tools.missions.spec import MissionSpec
 
 NAME = "live_map"
 _DEFAULTS = {s["name"]: float(s["default"]) for s in settings_table()}

@@ -66,7 +66,7 @@ def run_one(mission: dict[str, Any], seed: int) -> dict[str, Any]:
             [
                 sys.executable,
                 "-m",
-                "cart2d.cli",
+                "cart2d.tools.cli",
                 "mission",
                 str(mission_path),
                 "--report",
@@ -274,7 +274,7 @@ def _markdown(rows: list[dict[str, Any]], repeats: int, ok: bool) -> str:
         "*clearance*: the least distance between the cart's footprint and an obstacle over the "
         "run (ground truth; the planner keeps 30 mm, robot.toml's clearance_m). The "
         "seed's behaviour: unit-weight 8-connected Dijkstra over nodes (no footprint), a waypoint at "
-        "every node, 0.1 m tolerances, unit polar gains (cart2d/baseline.py).\n\n"
+        "every node, 0.1 m tolerances, unit polar gains (cart2d/planning/baseline.py).\n\n"
         f"Targets for cart2d (every goal reached, no collision, final error <= 10 mm, time <= "
         f"{TIME_TARGET} x the bound): **{'met' if ok else 'MISSED'}**. Over all missions: cart2d "
         f"{spread([r['time_ratio'] for r in ours]).text('.3g')} x the bound, "

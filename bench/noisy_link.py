@@ -89,7 +89,7 @@ def run_mission(mission: dict[str, Any], seed: int) -> dict[str, Any]:
     with tempfile.TemporaryDirectory() as tmp:
         mission_path, report_path = Path(tmp) / "mission.json", Path(tmp) / "report.json"
         mission_path.write_text(json.dumps(mission))
-        command = [sys.executable, "-m", "cart2d.cli", "mission", str(mission_path)]
+        command = [sys.executable, "-m", "cart2d.tools.cli", "mission", str(mission_path)]
         command += ["--report", str(report_path), "--seed", str(seed), "--no-mcap"]
         done = subprocess.run(command, capture_output=True, text=True, timeout=900, check=False)
         if not report_path.exists():

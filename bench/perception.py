@@ -48,13 +48,13 @@ from bench.common import Section, missed, percentile, section_main, spread, tabl
 from bench.perception_missions import measure as unknown_arenas
 from bench.perception_sim import lens_cells, lens_errors, sim_calibration_runs
 from cart2d.gateway.seeing import GRID_RESOLUTION_M, OBSTACLE_DEPTH_M
-from cart2d.perception.calibrate_command import calibrate, synthetic_views
 from cart2d.perception.calibration import Board, CameraCalibration, GroundBoard
 from cart2d.perception.camera_model import FloatArray, Intrinsics, Mount
 from cart2d.perception.detection import ObstacleDetector
 from cart2d.perception.occupancy import LogOddsGrid
-from cart2d.perception.sim_calibration import simulated_lens
 from cart2d.perception.synthetic import Box, SyntheticCamera, true_pixels
+from cart2d.tools.camera_calibration.simulated import simulated_lens
+from cart2d.tools.camera_calibration.views import calibrate, synthetic_views
 
 NAME = "perception"
 # 0.3 .. 1.2 ahead of the lens (the picture ends at ~1.3 m)

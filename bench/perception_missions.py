@@ -3,7 +3,7 @@
 The scenes of the missions benchmark (bench/scenes.py) with their obstacles as physical boxes the
 map does not show: each obstacle node's cell becomes a box of step x step centred on the node,
 BOX_HEIGHT_M high, cardboard-coloured (the floor is light grey); the map has no obstacles. The
-cart drives with the simulated ESP32-CAM and the gateway's perception (cart2d/mission_camera.py),
+cart drives with the simulated ESP32-CAM and the gateway's perception (cart2d/tools/missions/camera.py),
 seeing with a calibration made once in the simulator (calibrate_in_simulator, the real
 procedure's floor board) and saved as a user's would be. Missions that see run the simulator in
 real time and in lockstep with perception (cart2d/simulation/lockstep.py): perception runs on the
@@ -68,13 +68,14 @@ from bench.missions import run_one
 from bench.perception_sim import FLOOR_BOARDS, HELD
 from bench.scenes import Scene, scenes
 from cart2d.gateway.live_map import arena
-from cart2d.mission import MissionSpec, mission_map, run_mission
-from cart2d.perception.calibrate_command import SIM_VIEWS
 from cart2d.perception.calibration import save_calibration
 from cart2d.perception.camera_model import FloatArray, Mount
 from cart2d.perception.detection import DetectorConfig
-from cart2d.perception.sim_calibration import calibrate_in_simulator, sim_options, simulated_lens
 from cart2d.perception.synthetic import true_pixels
+from cart2d.tools.camera_calibration.simulated import calibrate_in_simulator, sim_options, simulated_lens
+from cart2d.tools.camera_calibration.views import SIM_VIEWS
+from cart2d.tools.missions.run import mission_map, run_mission
+from cart2d.tools.missions.spec import MissionSpec
 
 TIME_TARGET = 1.3  # unknown map / known map
 SEEDS = (1, 2, 3)  # simulator seeds each unknown-arena scene runs with (its noise and the camera's)

@@ -1,6 +1,6 @@
 """The perception section's measurements on the SIMULATED camera (bench/perception.py prints them):
 `cart2d camera calibrate --sim`'s procedure against the real simulator binary, whose lens is
-known (config/robot.toml [camera] + [sim.camera]: cart2d.perception.sim_calibration.simulated_lens).
+known (config/robot.toml [camera] + [sim.camera]: cart2d.tools.camera_calibration.simulated.simulated_lens).
 """
 
 from __future__ import annotations
@@ -9,16 +9,16 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from cart2d.perception.calibrate_command import SIM_VIEWS
 from cart2d.perception.calibration import Board, CameraCalibration, GroundBoard
 from cart2d.perception.camera_model import Intrinsics, Mount
-from cart2d.perception.sim_calibration import (
+from cart2d.tools.camera_calibration.simulated import (
     HELD_SQUARE_M,
     calibrate_in_simulator,
     ground_errors,
     sim_options,
     simulated_lens,
 )
+from cart2d.tools.camera_calibration.views import SIM_VIEWS
 
 HELD = Board(9, 6, HELD_SQUARE_M)
 # The real procedure's floor board (docs/perception.md), and a larger one laid further out: the

@@ -23,7 +23,8 @@ from typing import Any
 from mcap.reader import make_reader
 
 from bench.common import Section, section_main, spread, table
-from cart2d.mission import MissionSpec, run_mission
+from cart2d.tools.missions.run import run_mission
+from cart2d.tools.missions.spec import MissionSpec
 
 MISSION = {
     "obstacles": [[0.8, y / 10] for y in range(0, 14, 2)],

@@ -1,7 +1,7 @@
 """## Streamed paths: a path of hundreds of waypoints through the firmware's 32-point window
 
 The cart drives a serpentine in the 4 m arena: rows 3 m long with a waypoint every 5 cm, joined
-by half-circle turns of 0.25 m radius in 12-degree chords (as cart2d/smoothing.py rounds corners).
+by half-circle turns of 0.25 m radius in 12-degree chords (as cart2d/planning/smoothing.py rounds corners).
 The gateway's uploader (cart2d/link/path_stream.py, PathStream) sends the first frame, then keeps the
 firmware's window full as telemetry reports the waypoints passed. The simulator runs in real
 time, as a cart would, so the uploader's latency is the real one. Ground truth gives the speed
@@ -32,12 +32,13 @@ import matplotlib.pyplot as plt
 from bench.common import Section, section_main, table
 from cart2d.link import Link, firmware, path_stream
 from cart2d.link.protocol import Telemetry
-from cart2d.mission import MissionSpec, run_mission
 from cart2d.params import planning_radius_m, robot, settings_table
 from cart2d.planning import Grid, Planner, Point
+from cart2d.planning.smoothing import CHORD_TURN_RAD, round_corners
 from cart2d.simulator import SimOptions, Simulator
-from cart2d.smoothing import CHORD_TURN_RAD, round_corners
 from cart2d.spec import load_spec
+from cart2d.tools.missions.run import run_mission
+from cart2d.tools.missions.spec import MissionSpec
 
 NAME = "streaming"
 ARENA_NODES, ARENA_STEP_M = 41, 0.1  # the 4 m arena

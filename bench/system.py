@@ -3,7 +3,7 @@
 - **Real-time factor**: the simulator in fast mode (`--speed max`) drives the bench square
   (bench/firmware.py's drive_square, STATUS polled every 50 ms); simulated seconds per wall
   second, median of repeated runs.
-- **The gateway** is `cart2d sim` itself (cart2d.cli, simulator at real time, port 127.0.0.1:free,
+- **The gateway** is `cart2d sim` itself (cart2d.tools.cli, simulator at real time, port 127.0.0.1:free,
   its data in a temporary $CART2D_HOME), in a process of its own, with one addition: its
   telemetry messages carry `rx_monotonic_s`, the gateway's CLOCK_MONOTONIC when the link's
   reader thread had decoded the frame (a subclass of Gateway stamps them as they are
@@ -54,9 +54,9 @@ from bench.common import Section, percentile, section_main, spread, table
 from bench.firmware import TICK_HZ, drive_square
 from cart2d.gateway import Gateway
 from cart2d.link import Link
-from cart2d.mission_camera import free_port_pair
 from cart2d.simulator import SideChannel, SimOptions, Simulator
 from cart2d.spec import load_spec
+from cart2d.tools.missions.camera import free_port_pair
 
 NAME = "system"
 RTF_TARGET = 10.0
@@ -88,7 +88,7 @@ def gateway_process(port: int, home: str, conn: Connection) -> None:
     log = os.open(Path(home) / "gateway.log", os.O_WRONLY | os.O_CREAT | os.O_APPEND)
     os.dup2(log, 1)  # its banner and the simulator's log (which inherits them) go to a file
     os.dup2(log, 2)
-    from cart2d import cli
+    from cart2d.tools import cli, live
 
     class StampedGateway(Gateway):
         def __init__(self, *args: Any, **kwargs: Any) -> None:
@@ -102,7 +102,7 @@ def gateway_process(port: int, home: str, conn: Connection) -> None:
                 message["rx_monotonic_s"] = time.monotonic()
             super()._publish(message)
 
-    cli.Gateway = StampedGateway  # type: ignore[attr-defined]  # the class cmd_sim builds
+    live.Gateway = StampedGateway  # type: ignore[attr-defined]  # the class cmd_sim builds
     camera = str(free_port_pair())  # the simulated camera as a user has it, on ports nobody else holds
     cli.main(["sim", "--port", str(port), "--host", "127.0.0.1", "--camera-port", camera])
 

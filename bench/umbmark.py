@@ -28,19 +28,19 @@ from typing import Any
 import matplotlib.pyplot as plt
 
 from bench.common import Section, section_main, spread, table
-from cart2d.calibrate import (
+from cart2d.link import Link
+from cart2d.planning import point_polyline_distance
+from cart2d.simulator import SimOptions, Simulator
+from cart2d.tools.umbmark.arithmetic import (
     Calibration,
     Geometry,
     Measurement,
-    calibrate_in_sim,
-    drive_square,
     sim_layout,
     square_corners,
     true_geometry,
 )
-from cart2d.link import Link
-from cart2d.planning import point_polyline_distance
-from cart2d.simulator import SimOptions, Simulator
+from cart2d.tools.umbmark.procedure import Schedule, SimSetup, calibrate_in_sim
+from cart2d.tools.umbmark.runners import drive_square
 
 NAME = "umbmark"
 SIDE_M = 2.0
@@ -168,11 +168,10 @@ def run(out: Path, quick: bool) -> Section:
     results: list[tuple[Setting, Calibration, float]] = []
     for setting in settings:
         start = time.monotonic()
-        result = calibrate_in_sim(
-            setting.faults, SIDE_M, runs, passes=2, save=False, say=quiet, refine_runs=refine_runs
-        )
+        schedule = Schedule(SIDE_M, runs, passes=2, refine_runs=refine_runs)
+        result = calibrate_in_sim(schedule, SimSetup(setting.faults, save=False), quiet)
         results.append((setting, result, time.monotonic() - start))
-    floor = calibrate_in_sim({}, SIDE_M, runs, passes=0, save=False, say=quiet)
+    floor = calibrate_in_sim(Schedule(SIDE_M, runs, passes=0), SimSetup(save=False), quiet)
     floor_m = floor.first()
     corners = corner_check()
 
@@ -242,7 +241,7 @@ def run(out: Path, quick: bool) -> Section:
             f"clockwise and {runs} counter-clockwise, stopping at every corner and turning on the spot; a "
             "run's return error is the true end position (ground truth) minus the odometry's, E_max,syst "
             "the larger of the CW and CCW centroid distances. `cart2d calibrate --sim` "
-            "(cart2d/calibrate.py) measured with the default geometry, applied Borenstein's corrections "
+            "(cart2d/tools/umbmark/) measured with the default geometry, applied Borenstein's corrections "
             "(E_d to the radii with their mean kept, E_b to the track), refined them in a second pass "
             f"({refine_runs} run(s) each way) and measured again.",
             "",

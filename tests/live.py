@@ -39,7 +39,7 @@ class LiveGateway:
         self.gateway = Gateway(self.link, self.store, self.store.load(), self.sim)
         self.gateway.wait_for_firmware(10.0, 0.1)
         self.gateway.start()
-        sock = serving.listening_socket("127.0.0.1", 0)  # as cart2d.cli serves it
+        sock = serving.listening_socket("127.0.0.1", 0)  # as cart2d.tools.cli serves it
         self.port: int = sock.getsockname()[1]
         self.app = create_app(self.gateway)
         self.server = serving.server(self.app)
@@ -113,7 +113,7 @@ class GatewayProcess:
         camera = [] if "--camera-port" in extra or "--no-camera" in extra else ["--no-camera"]
         with self.log_path.open("wb") as log:
             self.process = subprocess.Popen(
-                [sys.executable, "-m", "cart2d.cli", "sim", "--port", str(self.port), *camera, *extra],
+                [sys.executable, "-m", "cart2d.tools.cli", "sim", "--port", str(self.port), *camera, *extra],
                 env={**os.environ, "CART2D_HOME": str(home)},
                 stdout=log,
                 stderr=subprocess.STDOUT,

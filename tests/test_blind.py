@@ -15,8 +15,8 @@ import pytest
 from cart2d.gateway import Gateway
 from cart2d.gateway.blind import BlindWatch
 from cart2d.gateway.camera import CameraFeed
-from cart2d.mission_camera import free_port_pair
 from cart2d.simulation.camera import SimCameraServer
+from cart2d.tools.missions.camera import free_port_pair
 from tests.conftest import run_for, wait_for
 from tests.test_live_map import WIDE, GatewayRig
 

@@ -1,4 +1,4 @@
-"""Odometry calibration (UMBmark, cart2d/calibrate.py): the arithmetic against a hand-computed
+"""Odometry calibration (UMBmark, cart2d/tools/umbmark/): the arithmetic against a hand-computed
 case and against a simple odometry model, the hand-measurement prompts with fake input, the
 robot path with a fake link, and the whole command in the simulator judged by ground truth."""
 
@@ -12,22 +12,21 @@ from pathlib import Path
 
 import pytest
 
-from cart2d.calibrate import (
-    Aborted,
+from cart2d.link import Link, Priority
+from cart2d.link.firmware import ResetWatch
+from cart2d.spec import load_spec
+from cart2d.tools.cli import main
+from cart2d.tools.umbmark.arithmetic import (
     Geometry,
-    SerialRunner,
-    calibrate,
     centroid,
     e_max_syst,
     parse_position_mm,
-    setting_ids,
     sim_layout,
     square_corners,
     umbmark_corrections,
 )
-from cart2d.cli import main
-from cart2d.link import Link, Priority
-from cart2d.spec import load_spec
+from cart2d.tools.umbmark.procedure import Schedule, calibrate, setting_ids
+from cart2d.tools.umbmark.runners import Aborted, SerialRunner
 from tests.conftest import start_sim
 
 NOMINAL = Geometry(0.021, 0.021, 0.305)
@@ -263,7 +262,7 @@ def test_a_cart_calibrated_from_typed_measurements() -> None:
     answers = Answers(["", "oops", typed(cw), "", typed(ccw), "", typed(cw), "", typed(ccw)])
     said: list[str] = []
     runner = SerialRunner(cart, 1.6, ask=answers, say=said.append)
-    result = calibrate(runner, cart, 1.6, runs=2, passes=1, verify=False, say=said.append)
+    result = calibrate(runner, cart, Schedule(1.6, runs=2, passes=1, verify=False), said.append)
 
     assert not answers.answers
     assert "turn right" in answers.prompts[0] and "turn left" in answers.prompts[3]
@@ -280,6 +279,44 @@ def test_a_cart_calibrated_from_typed_measurements() -> None:
     assert right < 0.021 < left and track > 0.305
     # Every corner was a turn on the spot (VELOCITY) followed by a one-point path.
     assert cart.commands.count("WAIT_XY_ARRAY") == 4 * 4 and "STOP" in cart.commands
+
+
+class ModelRunner:
+    """Runs by the simple model (end_error) of a cart whose true geometry is `true`, for the
+    geometry the fake cart's odometry has at the moment; counts the runs each way."""
+
+    def __init__(self, cart: FakeCart, side_m: float, true: Geometry) -> None:
+        self.cart, self.side_m, self.true = cart, side_m, true
+        self.runs: list[str] = []
+
+    def drive(self, clockwise: bool, label: str, watch: ResetWatch | None = None) -> Point:
+        left, right, track = (self.cart.settings[i] for i in setting_ids())
+        self.runs.append(label)
+        return end_error(self.side_m, clockwise, self.true, Geometry(left, right, track))
+
+
+def test_a_schedule_sets_the_runs_of_each_pass_and_the_check() -> None:
+    """Schedule: `runs` each way in the first pass, `refine_runs` in the later ones, `runs` again
+    in the check; the side and the axes reach the arithmetic (a wrong side leaves E_d off)."""
+    true = true_geometry(0.995, 1.01)
+    cart = FakeCart()
+    runner = ModelRunner(cart, 1.6, true)
+    schedule = Schedule(side_m=1.6, runs=3, passes=2, verify=True, axes="y", refine_runs=1)
+    result = calibrate(runner, cart, schedule, say=lambda _: None)
+
+    per_pass = [sum(label.startswith(f"pass {k}/2") for label in runner.runs) for k in (1, 2)]
+    assert per_pass == [6, 2]
+    assert sum(label.startswith("check") for label in runner.runs) == 6
+    assert [len(m.cw) for m, _ in result.passes] == [3, 1]
+    assert result.verification is not None and len(result.verification.ccw) == 3
+    assert result.side_m == 1.6
+    first = result.passes[0][1]
+    assert first == umbmark_corrections(result.passes[0][0].cw, result.passes[0][0].ccw, 1.6, NOMINAL, "y")
+    assert first.e_d == pytest.approx(0.995, abs=5e-4)  # y equations alone: first order
+    after = result.e_max_after_m()
+    assert after is not None and after < 0.1 * result.e_max_before_m()
+    assert Schedule(runs=5, refine_runs=2).runs_in_pass(0) == 5
+    assert Schedule(runs=5).runs_in_pass(1) == 5
 
 
 def test_q_at_a_prompt_aborts() -> None:

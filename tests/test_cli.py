@@ -28,7 +28,7 @@ NOT_HERE = "198.51.100.77"  # TEST-NET-2 (RFC 5737): an address no machine runni
 
 def cart2d(home: Path, *args: str, timeout_s: float = 60.0) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "cart2d.cli", *args],
+        [sys.executable, "-m", "cart2d.tools.cli", *args],
         env={**os.environ, "CART2D_HOME": str(home)},
         capture_output=True,
         text=True,
@@ -154,7 +154,7 @@ def test_host_and_port_given_apply_to_that_run_only(tmp_path: Path) -> None:
     port = free_port()
     run = ["sim", "--host", "0.0.0.0", "--port", str(port), "--fault", "enc_slip_l=0.05", "--no-camera"]
     gateway = subprocess.Popen(
-        [sys.executable, "-m", "cart2d.cli", *run],
+        [sys.executable, "-m", "cart2d.tools.cli", *run],
         env={**os.environ, "CART2D_HOME": str(tmp_path)},
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
@@ -194,7 +194,7 @@ def comports(include_links=False):
         found.append(port)
     return found
 list_ports.comports = comports
-from cart2d.cli import main
+from cart2d.tools.cli import main
 sys.exit(main(["serve", "--serial", {serial_port!r}, "--port", "{free_port()}"]))
 """
     return subprocess.run(
@@ -244,7 +244,7 @@ def test_any_loopback_address_needs_no_token_as_the_readme_says(tmp_path: Path) 
         [
             sys.executable,
             "-m",
-            "cart2d.cli",
+            "cart2d.tools.cli",
             "sim",
             "--host",
             "127.0.0.2",

@@ -14,8 +14,9 @@ from typing import Any
 
 from cart2d.gateway.forward_only import REVERSE_ALLOWED, ReverseGuard
 from cart2d.link import firmware
-from cart2d.mission import MissionSpec, run_mission
-from cart2d.mission_camera import mission_camera
+from cart2d.tools.missions.camera import mission_camera
+from cart2d.tools.missions.run import run_mission
+from cart2d.tools.missions.spec import MissionSpec
 from tests.conftest import wait_for
 from tests.test_recording import Read
 from tests.test_server import Rig

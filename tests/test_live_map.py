@@ -19,12 +19,13 @@ from cart2d.gateway import Gateway
 from cart2d.link import Link
 from cart2d.maps import OCCUPIED, OccupancyMap, save_ros_map
 from cart2d.maps.ros import image_bytes, ros_yaml
-from cart2d.mission import MissionSpec, run_mission
 from cart2d.params import robot
 from cart2d.planning import point_square_distance
 from cart2d.server import create_app
 from cart2d.simulator import Box, Simulator, SimulatorError
 from cart2d.store import GatewaySettings, MapSettings, Store
+from cart2d.tools.missions.run import run_mission
+from cart2d.tools.missions.spec import MissionSpec
 from tests.conftest import start_sim, wait_for
 from tests.test_server import BASE_URL, JSON
 

@@ -17,8 +17,9 @@ from bench.perception_missions import unknown_mission
 from bench.scenes import scenes
 from cart2d.gateway import look
 from cart2d.gateway.seeing import Seeing
-from cart2d.mission import MissionSpec, run_mission
 from cart2d.planning import Grid
+from cart2d.tools.missions.run import run_mission
+from cart2d.tools.missions.spec import MissionSpec
 
 
 def test_the_first_bearing_skips_waypoints_too_near_to_give_one() -> None:

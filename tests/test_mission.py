@@ -12,8 +12,8 @@ from typing import Any
 import pytest
 
 from bench.streaming import serpentine_mission, trace_speeds
-from cart2d.mission import MissionSpec, run_mission
-from cart2d.mission_file import write_report
+from cart2d.tools.missions.run import run_mission
+from cart2d.tools.missions.spec import MissionSpec, write_report
 
 WALL = [[0.8, 0.0], [0.8, 0.2], [0.8, 0.4], [0.8, 0.6], [0.8, 0.8]]
 
@@ -60,7 +60,7 @@ def test_a_larger_arena_with_a_finer_grid() -> None:
 def run_cli_raw(mission_path: Path, report_path: Path | None) -> subprocess.CompletedProcess[str]:
     report = ["--report", str(report_path)] if report_path is not None else []
     return subprocess.run(
-        [sys.executable, "-m", "cart2d.cli", "mission", str(mission_path), *report],
+        [sys.executable, "-m", "cart2d.tools.cli", "mission", str(mission_path), *report],
         capture_output=True,
         text=True,
         timeout=120,

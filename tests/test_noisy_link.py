@@ -13,8 +13,9 @@ from typing import Any
 import pytest
 
 from bench.noisy_link import BURSTS, GOALS, STOP_P99_BUDGET_S, WALL, byte_errors, stop_latency, stop_rig
-from cart2d.mission import MissionSpec, run_mission
 from cart2d.spec import load_spec
+from cart2d.tools.missions.run import run_mission
+from cart2d.tools.missions.spec import MissionSpec
 
 STOP = load_spec().code("STOP")
 

@@ -28,8 +28,8 @@ from PIL import Image
 
 from cart2d.maps import OCCUPIED, UNKNOWN, MapError, OccupancyMap, map_from_image, map_from_ros
 from cart2d.maps.ros import image_bytes, ros_yaml
-from cart2d.mission import check_mission
 from cart2d.spec import repo_file
+from cart2d.tools.missions.run import check_mission
 
 set_hypothesis_home_dir(repo_file("build", "hypothesis"))
 

@@ -16,8 +16,6 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from cart2d import cli
-from cart2d.perception.calibrate_command import calibrate, camera_views, synthetic_views
 from cart2d.perception.calibration import (
     Board,
     CameraCalibration,
@@ -29,6 +27,8 @@ from cart2d.perception.calibration import (
 )
 from cart2d.perception.camera_model import Intrinsics, Mount
 from cart2d.perception.synthetic import SyntheticCamera, floor_board, true_pixels
+from cart2d.tools import cli
+from cart2d.tools.camera_calibration.views import calibrate, camera_views, synthetic_views
 
 MOUNT = Mount.from_robot()
 BOARD = Board(9, 6, 0.03)

@@ -11,8 +11,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cart2d import cli
-from cart2d.perception.calibrate_command import SIM_VIEWS, board_placements
 from cart2d.perception.calibration import (
     Board,
     CameraCalibration,
@@ -22,7 +20,9 @@ from cart2d.perception.calibration import (
 )
 from cart2d.perception.camera_model import Mount
 from cart2d.perception.detection import ObstacleDetector
-from cart2d.perception.sim_calibration import (
+from cart2d.simulator import Box, SimOptions, Simulator, arena_world
+from cart2d.tools import cli
+from cart2d.tools.camera_calibration.simulated import (
     HELD_SQUARE_M,
     SimCamera,
     calibrate_in_simulator,
@@ -30,7 +30,7 @@ from cart2d.perception.sim_calibration import (
     sim_options,
     simulated_lens,
 )
-from cart2d.simulator import Box, SimOptions, Simulator, arena_world
+from cart2d.tools.camera_calibration.views import SIM_VIEWS, board_placements
 from tests.conftest import _require_builds
 
 MOUNT = Mount.from_robot()

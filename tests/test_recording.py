@@ -21,11 +21,12 @@ from fastapi.testclient import TestClient
 from mcap.reader import make_reader
 from websockets.sync.client import connect
 
-from cart2d.mission import MissionSpec, run_mission
 from cart2d.recording import channels as c
 from cart2d.recording.replay import Player, read_recording
 from cart2d.recording.replay_app import create_replay_app
 from cart2d.server import serving
+from cart2d.tools.missions.run import run_mission
+from cart2d.tools.missions.spec import MissionSpec
 from tests.conftest import free_port, wait_for, wait_serving
 from tests.test_server import BASE_URL, JSON
 
@@ -188,7 +189,10 @@ def test_replay_refuses_a_file_that_is_no_recording(tmp_path: Path) -> None:
     bad = tmp_path / "bad.mcap"
     bad.write_bytes(b"not an mcap file")
     done = subprocess.run(
-        [sys.executable, "-m", "cart2d.cli", "replay", str(bad)], capture_output=True, text=True, timeout=60
+        [sys.executable, "-m", "cart2d.tools.cli", "replay", str(bad)],
+        capture_output=True,
+        text=True,
+        timeout=60,
     )
     assert done.returncode == 2 and "is not a readable MCAP recording" in done.stderr
 
@@ -221,7 +225,7 @@ def test_sim_with_foxglove_serves_the_sdk_websocket_and_records(tmp_path: Path) 
         "--no-camera",
     ]
     gateway = subprocess.Popen(
-        [sys.executable, "-m", "cart2d.cli", *run],
+        [sys.executable, "-m", "cart2d.tools.cli", *run],
         env={**os.environ, "CART2D_HOME": str(tmp_path / "home")},
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
@@ -256,7 +260,16 @@ def test_a_mission_records_beside_its_report_unless_told(
     (tmp_path / "reports").mkdir()
     report = tmp_path / "reports" / "m.report.json"
     done = subprocess.run(
-        [sys.executable, "-m", "cart2d.cli", "mission", str(mission), "--report", str(report), *options],
+        [
+            sys.executable,
+            "-m",
+            "cart2d.tools.cli",
+            "mission",
+            str(mission),
+            "--report",
+            str(report),
+            *options,
+        ],
         capture_output=True,
         text=True,
         timeout=120,
@@ -277,7 +290,16 @@ def test_a_foxglove_port_in_use_is_one_sentence_before_anything_starts(tmp_path:
         taken.listen()
         port = taken.getsockname()[1]
         done = subprocess.run(
-            [sys.executable, "-m", "cart2d.cli", "sim", "--port", str(free_port()), "--foxglove", str(port)],
+            [
+                sys.executable,
+                "-m",
+                "cart2d.tools.cli",
+                "sim",
+                "--port",
+                str(free_port()),
+                "--foxglove",
+                str(port),
+            ],
             env={**os.environ, "CART2D_HOME": str(tmp_path)},
             capture_output=True,
             text=True,

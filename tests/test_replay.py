@@ -18,11 +18,12 @@ from fastapi.testclient import TestClient
 from PIL import Image
 
 from cart2d.maps import OCCUPIED, OccupancyMap, save_ros_map
-from cart2d.mission import MissionSpec, run_mission
 from cart2d.recording import channels as c
 from cart2d.recording.recorded import Frame, Recorded
 from cart2d.recording.replay import Player, read_recording
 from cart2d.recording.replay_app import create_replay_app
+from cart2d.tools.missions.run import run_mission
+from cart2d.tools.missions.spec import MissionSpec
 from tests.conftest import wait_for
 from tests.test_recording import Read
 from tests.test_server import BASE_URL, JSON, WS_BASE

@@ -15,13 +15,16 @@ from typing import Any
 
 import pytest
 
-from cart2d.calibrate import RunError, SimRunner, calibrate, sim_layout
 from cart2d.gateway import Gateway
 from cart2d.link import Link, firmware
 from cart2d.link.protocol import CONTROL_ERROR, TELEMETRY_FIELDS, Reply, Telemetry
-from cart2d.mission import MissionSpec, run_mission
 from cart2d.spec import load_spec
 from cart2d.store import Store
+from cart2d.tools.missions.run import run_mission
+from cart2d.tools.missions.spec import MissionSpec
+from cart2d.tools.umbmark.arithmetic import sim_layout
+from cart2d.tools.umbmark.procedure import Schedule, calibrate
+from cart2d.tools.umbmark.runners import RunError, SimRunner
 from tests.conftest import run_for, start_sim, wait_for
 from tests.test_server import OCTETS, Rig
 
@@ -383,7 +386,7 @@ def test_a_reset_during_a_calibration_run_stops_it(tmp_path: Path) -> None:
             presser.start()
             runner = SimRunner(sim, link, side_m, start_ccw, start_cw)
             with pytest.raises(RunError) as stopped:
-                calibrate(runner, link, side_m, runs=1, passes=1, verify=False, say=said.append)
+                calibrate(runner, link, Schedule(side_m, runs=1, passes=1, verify=False), said.append)
             presser.join()
     finally:
         sim.stop()

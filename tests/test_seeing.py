@@ -1,7 +1,7 @@
 """The gateway sees (cart2d/gateway/seeing.py): the pose at a frame's capture from telemetry as it
 arrived, hand-computed; a cleared perceived layer forgets what was seen and sees again at once;
 and missions in the simulator whose boxes the map does not show, driven with the simulated camera
-and perception (cart2d/mission_camera.py) against the same missions driven blind."""
+and perception (cart2d/tools/missions/camera.py) against the same missions driven blind."""
 
 from __future__ import annotations
 
@@ -16,13 +16,14 @@ import pytest
 from fastapi.testclient import TestClient
 
 from cart2d.gateway.seeing import PoseHistory, Seeing
-from cart2d.mission import MissionSpec, run_mission
-from cart2d.mission_camera import mission_camera
 from cart2d.planning import segment_square_distance
 from cart2d.recording.channels import TOPIC_CAMERA
 from cart2d.recording.session import DEFAULT_CAMERA_FPS
 from cart2d.server import create_app
 from cart2d.simulator import Box
+from cart2d.tools.missions.camera import mission_camera
+from cart2d.tools.missions.run import run_mission
+from cart2d.tools.missions.spec import MissionSpec
 from tests.conftest import wait_for
 from tests.test_live_map import WIDE, GatewayRig
 from tests.test_look import QuietGateway

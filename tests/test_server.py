@@ -388,7 +388,7 @@ def test_sigterm_stops_cart2d_sim_and_its_simulator_before_it_exits(tmp_path: Pa
         [
             sys.executable,
             "-m",
-            "cart2d.cli",
+            "cart2d.tools.cli",
             "sim",
             "--port",
             str(port),

@@ -158,7 +158,7 @@ def test_the_world_file_boxes_stand_in_the_simulator(tmp_path: Path) -> None:
     port = free_port()
     run = ["sim", "--port", str(port), "--world", str(world), "--no-camera"]
     gateway = subprocess.Popen(
-        [sys.executable, "-m", "cart2d.cli", *run],
+        [sys.executable, "-m", "cart2d.tools.cli", *run],
         env={**os.environ, "CART2D_HOME": str(tmp_path)},
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,

@@ -258,7 +258,7 @@ def test_cart2d_sim_serves_the_camera_and_keeps_its_url(tmp_path: Path) -> None:
     camera_port = free_port_pair(avoid=port)
     run = ["sim", "--port", str(port), "--camera-port", str(camera_port), "--speed", "max"]
     gateway = subprocess.Popen(
-        [sys.executable, "-m", "cart2d.cli", *run],
+        [sys.executable, "-m", "cart2d.tools.cli", *run],
         env={**os.environ, "CART2D_HOME": str(tmp_path)},
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -277,8 +277,8 @@ def test_cart2d_sim_serves_the_camera_and_keeps_its_url(tmp_path: Path) -> None:
 
 
 def test_a_missions_perception_key() -> None:
-    from cart2d.mission import MissionSpec
-    from cart2d.mission_file import parse, perception_on
+    from cart2d.simulation.world_file import parse
+    from cart2d.tools.missions.spec import MissionSpec, perception_on
 
     spec, problems = parse(b'{"goals": [[0.4, 0]], "perception": false}', MissionSpec, "m.json")
     assert spec is not None and not problems
@@ -361,7 +361,8 @@ def test_a_missions_world_boxes_block_the_cart_and_count() -> None:
     """A box of the mission's world, not on the map, driven blind (perception off): the planner
     drives straight at it, the cart stops against it (physical), the contact is in the report,
     the goal beyond is not reached."""
-    from cart2d.mission import MissionSpec, run_mission
+    from cart2d.tools.missions.run import run_mission
+    from cart2d.tools.missions.spec import MissionSpec
 
     spec = MissionSpec.model_validate(
         {
@@ -378,7 +379,7 @@ def test_a_missions_world_boxes_block_the_cart_and_count() -> None:
 
 
 def test_a_mission_starting_on_a_box_is_refused() -> None:
-    from cart2d.mission_file import WorldSpec, world_problems
+    from cart2d.simulation.world_file import WorldSpec, world_problems
 
     world = WorldSpec.model_validate(
         {"boxes": [{"x": 1.0, "y": 0.0, "sx": 0.2, "sy": 0.2}, {"x": 0.2, "y": 0, "sx": 0.1, "sy": 0.1}]}

@@ -1,5 +1,5 @@
 """The simulator's faults from the command line and the API (cart2d sim --fault, GET/PUT
-/api/sim/faults), checked against the simulator itself: cart2d/faults.py's table is the
+/api/sim/faults), checked against the simulator itself: cart2d/simulation/faults.py's table is the
 simulator's (every key, both ends of every range), and a fault set through the gateway changes
 what the simulated encoders count."""
 
@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from cart2d import faults as fault_table
 from cart2d.gateway import Gateway
 from cart2d.link import Link
+from cart2d.simulation import faults as fault_table
 from cart2d.simulator import Simulator, SimulatorError
 from cart2d.store import Store
 from tests.conftest import start_sim, wait_for

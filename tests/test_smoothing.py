@@ -1,4 +1,4 @@
-"""Rounded corners (cart2d/smoothing.py): arcs where there is room, every chord free."""
+"""Rounded corners (cart2d/planning/smoothing.py): arcs where there is room, every chord free."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import itertools
 import math
 
 from cart2d.planning import Grid, GridGraph, Point
-from cart2d.smoothing import CHORD_TURN_RAD, RADIUS_M, round_corners
+from cart2d.planning.smoothing import CHORD_TURN_RAD, RADIUS_M, round_corners
 
 
 def turns(points: list[Point]) -> list[float]:

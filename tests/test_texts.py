@@ -9,8 +9,8 @@ import struct
 
 import pytest
 
-from cart2d.cli import main
 from cart2d.link.protocol import Decoder, Packet, decode_reply, encode_reply, shortest_float32
+from cart2d.tools.cli import main
 from tests.conftest import run_for, wait_for
 from tests.test_server import Rig
 

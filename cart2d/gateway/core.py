@@ -66,9 +66,9 @@ from cart2d.link.flashing import HURRIED_CHECK_S, Flasher
 from cart2d.link.protocol import Reply, Telemetry
 from cart2d.params import robot, setting_id
 from cart2d.planning import Plan, PlanError, Point, StartBlocked, polyline_length
+from cart2d.planning.smoothing import round_corners
 from cart2d.shown import for_people
 from cart2d.simulator import Simulator, SimulatorError
-from cart2d.smoothing import round_corners
 from cart2d.spec import load_spec
 from cart2d.store import GatewaySettings, Store
 

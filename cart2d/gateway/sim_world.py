@@ -20,8 +20,8 @@ from pathlib import Path
 from typing import Any
 
 from cart2d.files import read_regular
-from cart2d.mission_file import MAX_FILE_BYTES, WorldSpec, parse
 from cart2d.params import footprint_radius_m
+from cart2d.simulation.world_file import MAX_FILE_BYTES, WorldSpec, parse
 from cart2d.simulator import Box, Simulator, World
 
 BOX_ID_PREFIX = "box-"

@@ -12,11 +12,11 @@ from fastapi import FastAPI, HTTPException, Request, Response
 from fastapi.params import Depends
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
-from cart2d import faults as fault_table
 from cart2d.gateway import Gateway, backup
 from cart2d.link import LinkError
 from cart2d.server.addresses import address_problem
 from cart2d.server.models import MAX_MAP_BODY_BYTES, errors, inline_refs, read_body
+from cart2d.simulation import faults as fault_table
 from cart2d.simulator import SimulatorError
 from cart2d.store import (
     GatewaySettings,

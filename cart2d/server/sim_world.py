@@ -12,9 +12,9 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from cart2d.gateway import Gateway
 from cart2d.gateway.sim_world import NotSimulated
-from cart2d.mission_file import BoxSpec
 from cart2d.server.models import errors
 from cart2d.shown import quoted
+from cart2d.simulation.world_file import BoxSpec
 from cart2d.simulator import SimulatorError
 
 NO_SIMULATOR = "there is no simulator: this gateway drives a real cart; boxes exist only in simulation"

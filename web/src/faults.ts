@@ -1,4 +1,4 @@
-// Simulator faults (GET/PUT /api/sim/faults, cart2d/faults.py): in simulation only, one field per
+// Simulator faults (GET/PUT /api/sim/faults, cart2d/simulation/faults.py): in simulation only, one field per
 // fault with its range and what it does (a tap or click on its name shows it, as in Tuning), so
 // odometry drift can be caused on purpose and seen (the map's true pose against odometry) and
 // calibration tried. On a real cart the GET answers 404 and the form stays hidden.

@@ -1,4 +1,4 @@
-"""What a mission keeps of the gateway's stream while it drives (cart2d/mission.py): the ground
+"""What a mission keeps of the gateway's stream while it drives (cart2d/tools/missions/run.py): the ground
 truth, the firmware's modes by tick and the routes sent, for the report's times and paths."""
 
 from __future__ import annotations

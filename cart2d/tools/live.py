@@ -1,42 +1,32 @@
-"""The `cart2d` command line: `sim` (simulator + gateway), `serve` (a real robot on a serial
-port), `mission` (a headless mission run with a report), `calibrate` (odometry, UMBmark),
-`camera calibrate` (the camera's lens and ground homography)."""
+"""`cart2d sim` (the simulator, the gateway and the panel) and `cart2d serve` (the gateway and
+the panel for a real cart on a serial port): the gateway runs live until Ctrl-C."""
 
 from __future__ import annotations
 
 import argparse
 import contextlib
 import logging
-import signal
 import socket
 import sys
-import threading
-from collections.abc import Sequence
-from pathlib import Path
-from types import FrameType
 
-from cart2d import cli_args
-from cart2d import faults as fault_table
-from cart2d.calibrate import add_arguments as add_calibrate_arguments
-from cart2d.calibrate import main_calibrate
 from cart2d.gateway import Gateway
 from cart2d.gateway.camera import CameraFeed
 from cart2d.gateway.live_map import world_for
 from cart2d.gateway.sim_world import with_boxes, world_file_boxes
 from cart2d.link import Link, LinkError, ports
-from cart2d.perception.calibrate_command import add_arguments as add_camera_calibrate_arguments
-from cart2d.perception.calibrate_command import main_camera_calibrate
-from cart2d.recording import cli as recording_cli
 from cart2d.server import addresses, create_app, is_loopback, serving
+from cart2d.simulation import faults as fault_table
 from cart2d.simulation.camera import HOST as SIM_CAMERA_HOST
 from cart2d.simulation.camera import SimCameraServer
 from cart2d.simulator import SimOptions, Simulator, SimulatorError, World, default_bootloader
 from cart2d.store import Store
+from cart2d.tools import cli_args
+from cart2d.tools import recording_args as recording_cli
 
 log = logging.getLogger("cart2d")
 
 
-def _network_args(parser: argparse.ArgumentParser) -> None:
+def network_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--host",
         type=cli_args.host,
@@ -56,7 +46,7 @@ def _network_args(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _camera_args(parser: argparse.ArgumentParser) -> None:
+def camera_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--camera",
         type=cli_args.camera_url,
@@ -318,143 +308,3 @@ def cmd_serve(args: argparse.Namespace) -> int:
             gateway.close()
             link.close()
     return 0
-
-
-def cmd_mission(args: argparse.Namespace) -> int:
-    from cart2d import mission_file
-    from cart2d.mission import main_mission  # tqdm and friends only for this command
-
-    report = args.report or mission_file.default_report_path(args.mission)
-    mcap = recording_cli.mission_mcap_path(args, args.mission, report)
-    return main_mission(args.mission, report, args.speed, args.seed, mcap, args.record_camera_fps)
-
-
-def cmd_replay(args: argparse.Namespace) -> int:
-    from cart2d.recording.replay_cli import main_replay
-
-    return main_replay(args)
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = cli_args.Parser(prog="cart2d", description=__doc__)
-    parser.add_argument("-v", "--verbose", action="store_true")
-    parser.add_argument("--version", action="version", version=cli_args.version_text())
-    sub = parser.add_subparsers(dest="command", required=True)
-
-    sim = sub.add_parser("sim", help="the simulator running the built firmware, with the gateway and panel")
-    _network_args(sim)
-    sim.add_argument(
-        "--speed", type=cli_args.speed, default="1", help="simulated seconds per second, or 'max' (default 1)"
-    )
-    sim.add_argument("--seed", type=cli_args.seed, default=1, help="seed of the simulator's random faults")
-    sim.add_argument(
-        "--no-bootloader",
-        action="store_true",
-        help="a bare chip: no Optiboot in the simulated Nano's boot section (by default it runs there, as on "
-        "every Nano: resets start it, and firmware updates go through avrdude as on the real cart); the "
-        "firmware then starts right after a reset, and cannot be updated from the panel",
-    )
-    sim.add_argument(
-        "--fault",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="a simulator fault for this run (repeatable; PUT /api/sim/faults changes them later): "
-        + ", ".join(f"{f.name} ({f.range_text()})" for f in fault_table.FAULTS),
-    )
-    recording_cli.add_live_arguments(sim)
-    sim.add_argument(
-        "--camera-port",
-        type=cli_args.camera_port_number,
-        default=8180,
-        help="the simulated ESP32-CAM's port (/capture, /status, /control); its stream on the next one "
-        "(default 8180)",
-    )
-    sim.add_argument("--no-camera", action="store_true", help="run without the simulated camera")
-    sim.add_argument(
-        "--world",
-        type=Path,
-        metavar="FILE.json",
-        help='boxes standing in the simulated world, as a mission\'s "world": {"boxes": [{"x", "y", "sx", '
-        '"sy", "height", "colour", "id"}, ...]} (m); the panel\'s Box mode and /api/sim/boxes change them',
-    )
-    _camera_args(sim)
-    sim.set_defaults(run=cmd_sim)
-
-    serve = sub.add_parser("serve", help="the gateway and panel for a real cart on a serial port")
-    serve.add_argument(
-        "--serial",
-        required=True,
-        help="the Nano's serial port, e.g. /dev/ttyUSB0, or a network bridge: socket://HOST:PORT, "
-        "rfc2217://HOST:PORT (docs/network-link.md)",
-    )
-    serve.add_argument("--baud", type=int, default=115200)
-    _network_args(serve)
-    recording_cli.add_live_arguments(serve)
-    _camera_args(serve)
-    serve.set_defaults(run=cmd_serve)
-
-    mission = sub.add_parser("mission", help="run a mission in the simulator and write a report")
-    mission.add_argument("mission", type=Path, help="MISSION.json: grid, obstacles, start, goals, ...")
-    mission.add_argument(
-        "--report", type=Path, help="where to write the report (default: MISSION.report.json beside it)"
-    )
-    mission.add_argument(
-        "--speed", type=cli_args.speed, default="max", help="simulated seconds per second, or 'max' (default)"
-    )
-    mission.add_argument("--seed", type=cli_args.seed, default=1)
-    recording_cli.add_mission_arguments(mission)
-    mission.set_defaults(run=cmd_mission)
-
-    replay = sub.add_parser("replay", help="play an MCAP recording back into the panel (read-only)")
-    replay.add_argument(
-        "file", type=Path, help="a recording of cart2d mission, sim --record or serve --record"
-    )
-    replay.add_argument(
-        "--speed", type=cli_args.replay_speed, default=1.0, help="recorded seconds per second (default 1)"
-    )
-    replay.add_argument("--loop", action="store_true", help="start again at the end")
-    replay.add_argument("--host", type=cli_args.host, help="bind address (default 127.0.0.1)")
-    replay.add_argument("--port", type=cli_args.port_number, help="HTTP port (default 8080)")
-    replay.add_argument(
-        "--allow-host", action="append", default=[], metavar="NAME", help="also answer to this Host name"
-    )
-    replay.set_defaults(run=cmd_replay)
-
-    calibrate = sub.add_parser("calibrate", help="odometry calibration (UMBmark): wheel radii and track")
-    add_calibrate_arguments(calibrate)
-    calibrate.set_defaults(run=main_calibrate)
-
-    camera = sub.add_parser("camera", help="the cart's camera: calibrate")
-    camera_sub = camera.add_subparsers(dest="camera_command", required=True)
-    camera_calibrate = camera_sub.add_parser(
-        "calibrate", help="the camera's lens and ground homography from checkerboard views"
-    )
-    add_camera_calibrate_arguments(camera_calibrate)
-    camera_calibrate.set_defaults(run=main_camera_calibrate)
-    return parser
-
-
-def _stop_like_ctrl_c(signum: int, frame: FrameType | None) -> None:
-    # uvicorn re-raises a SIGTERM it caught once it has shut down; with the default action the
-    # process would die there, before the finally blocks that stop the simulator and the link.
-    raise KeyboardInterrupt
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, _stop_like_ctrl_c)
-    logging.basicConfig(
-        level=logging.INFO if args.verbose else logging.WARNING, format="%(name)s: %(message)s"
-    )
-    serving.install_log_filter()  # a flood of one message (a refused connection each) stays a few lines
-    try:
-        code: int = args.run(args)
-    except KeyboardInterrupt:
-        code = 0
-    return code
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -12,115 +12,91 @@ import math
 import os
 import tempfile
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from cart2d import faults as fault_table
 from cart2d.files import read_regular
 from cart2d.params import footprint_radius_m, robot, settings_table
 from cart2d.planning import Grid, PlanError
-from cart2d.shown import clipped, for_people, quoted
-from cart2d.simulator import Box
+from cart2d.shown import for_people, quoted
+from cart2d.simulation import faults as fault_table
+from cart2d.simulation.world_file import MAX_FILE_BYTES, WorldSpec
+from cart2d.store import PlanningStep
+from cart2d.tools.missions.events import MapEvent
 
-Model = TypeVar("Model", bound=BaseModel)
-MAX_COORDINATE_M = 1e5  # what the simulator takes (sim/src/world_change.cpp, kMaxCoordinateM)
-MAX_PROBLEMS = 20  # a file's problems listed, then how many more
-MAX_FILE_BYTES = 16 * 1024 * 1024  # a mission or world file: 10 000 boxes take about 1 MB
+Coordinate = Annotated[float, Field(allow_inf_nan=False)]
+Finite = Annotated[float, Field(allow_inf_nan=False)]
+
+
+class GridSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    cols: int = Field(10, ge=2, le=1000)
+    rows: int = Field(10, ge=2, le=1000)
+    step: float = Field(0.2, ge=0.01, le=10.0, allow_inf_nan=False)
+
+
+class MissionSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    grid: GridSpec = Field(default_factory=GridSpec)
+    map: str | None = Field(
+        None,
+        min_length=1,
+        max_length=4096,
+        description="a ROS map_server .yaml (relative to the mission file), in place of 'grid'",
+    )
+    unknown_is_free: bool = Field(False, description="with 'map': plan through unknown cells")
+    planning_step: PlanningStep | None = Field(None, description="with 'map': the planning grid's step, m")
+    events: list[MapEvent] = Field(
+        default_factory=list,
+        max_length=1000,
+        description="map changes at simulated times: obstacles added and removed (physical in the simulator)",
+    )
+    obstacles: list[tuple[Coordinate, Coordinate]] = Field(default_factory=list)
+    start: tuple[Coordinate, Coordinate, Coordinate] = (0.0, 0.0, 0.0)
+    goals: list[tuple[Coordinate, Coordinate]] = Field(min_length=1, max_length=1000)
+    settings: dict[str, Finite] = Field(default_factory=dict, description="firmware settings by name")
+    faults: dict[str, Finite] = Field(default_factory=dict, description="simulator faults (sim/README.md)")
+    timeout_s: float = Field(120.0, gt=0.0, le=1e5, allow_inf_nan=False, description="simulated seconds")
+    behaviour: Literal["cart2d", "seed"] = Field(
+        "cart2d",
+        description="'seed': the seed's planner and settings (cart2d/planning/baseline.py), "
+        "to compare against",
+    )
+    resets_at_s: list[float] = Field(
+        default_factory=list,
+        max_length=100,
+        description="simulated seconds after the first goal's start at which the MCU is reset (reset button)",
+    )
+    world: WorldSpec | None = Field(None, description="physical boxes the map does not show")
+    perception: bool | None = Field(
+        None, description="the simulated camera and perception (default: on when the mission has a world)"
+    )
+    lockstep: bool = Field(
+        True,
+        description="with perception: the simulator waits while perception is behind "
+        "(cart2d/simulation/lockstep.py); false: it drives on, as a cart behind a slow gateway would",
+    )
+
+    @model_validator(mode="after")
+    def map_or_grid(self) -> MissionSpec:
+        if self.map is not None and "grid" in self.model_fields_set:
+            raise ValueError("give 'map' or 'grid', not both")
+        if self.map is not None and self.behaviour == "seed":
+            raise ValueError("the seed's behaviour plans on a node grid only: give 'grid', not 'map'")
+        return self
+
+    @field_validator("resets_at_s")
+    @classmethod
+    def finite_times(cls, times: list[float]) -> list[float]:
+        if not all(math.isfinite(t) and t >= 0.0 for t in times):
+            raise ValueError("reset times must be finite and not negative")
+        return sorted(times)
 
 
 def default_report_path(mission: Path) -> Path:
     """MISSION.report.json beside MISSION.json."""
     return mission.with_name(f"{mission.stem if mission.suffix == '.json' else mission.name}.report.json")
-
-
-def _where(loc: tuple[int | str, ...]) -> str:
-    text = ""
-    for part in loc:  # a part may be a key of the file: cut short
-        key = clipped(str(part), 40)
-        text += f"[{part}]" if isinstance(part, int) else (f".{key}" if text else key)
-    return text or "the mission"
-
-
-def _sentence(error: Any, keys: list[str]) -> str:
-    loc = tuple(error["loc"])
-    where = _where(loc)
-    kind = error["type"]
-    if kind == "extra_forbidden":
-        parent = _where(loc[:-1]) if len(loc) > 1 else ""
-        if parent:
-            return f"unknown key {quoted(loc[-1])} in {parent}"
-        return f"unknown key {quoted(where)} (a mission has: {', '.join(keys)})"
-    if loc == ("goals",) and kind in ("missing", "too_short"):
-        return "no goals: a mission needs at least one goal [x, y]"
-    if kind == "missing":
-        return f"{where} is missing"
-    message = clipped(str(error["msg"]))
-    return f"{where}: {message[0].lower()}{message[1:]}"
-
-
-def parse(data: bytes, model: type[Model], name: str) -> tuple[Model | None, list[str]]:
-    """The file's content as `model`, or one sentence per problem (not JSON, unknown keys, values
-    of the wrong kind or out of range)."""
-    try:
-        raw = json.loads(data.decode("utf-8"))
-    except UnicodeDecodeError:
-        return None, [f"{name} is not UTF-8 text"]
-    except json.JSONDecodeError as exc:
-        return None, [f"{name} is not JSON: {exc.msg} at line {exc.lineno}, column {exc.colno}"]
-    except RecursionError:
-        return None, [f"{name} is nested too deep to be a mission (lists or objects inside each other)"]
-    except ValueError:  # Python's bound on an integer's digits (sys.get_int_max_str_digits)
-        return None, [f"{name} holds an integer with too many digits"]
-    if not isinstance(raw, dict):
-        return None, [f"{name} holds {type(raw).__name__ if raw is not None else 'null'}, not a JSON object"]
-    try:
-        return model.model_validate(raw), []
-    except ValidationError as exc:
-        keys = list(model.model_fields)
-        errors = exc.errors()
-        more = [f"and {len(errors) - MAX_PROBLEMS} more problems"] if len(errors) > MAX_PROBLEMS else []
-        return None, [_sentence(error, keys) for error in errors[:MAX_PROBLEMS]] + more
-
-
-class BoxSpec(BaseModel):
-    """A physical box of a mission's world: centre and size (m), axis-aligned; height and colour
-    for the camera."""
-
-    model_config = ConfigDict(extra="forbid")
-    x: float = Field(ge=-MAX_COORDINATE_M, le=MAX_COORDINATE_M, allow_inf_nan=False)
-    y: float = Field(ge=-MAX_COORDINATE_M, le=MAX_COORDINATE_M, allow_inf_nan=False)
-    sx: float = Field(gt=0.0, le=100.0, allow_inf_nan=False)
-    sy: float = Field(gt=0.0, le=100.0, allow_inf_nan=False)
-    height: float = Field(0.3, gt=0.0, le=10.0, allow_inf_nan=False)
-    colour: str = Field("#b8742f", pattern=r"^#[0-9a-fA-F]{6}$")
-    id: str | None = Field(None, min_length=1, max_length=100)
-
-    def box(self) -> Box:
-        return Box(self.x, self.y, self.sx, self.sy, self.height, self.colour, self.id)
-
-
-class WorldSpec(BaseModel):
-    """A mission's physical world beyond the map's walls (issue 14): boxes the cart cannot pass and
-    the camera sees, not on the map unless also listed in "obstacles"."""
-
-    model_config = ConfigDict(extra="forbid")
-    boxes: list[BoxSpec] = Field(default_factory=list, max_length=10_000)
-
-
-def world_problems(start: tuple[float, float, float], world: WorldSpec | None) -> list[str]:
-    """The start must leave the cart's footprint clear of every box."""
-    if world is None:
-        return []
-    r, (x, y, _) = footprint_radius_m(), start
-    problems = []
-    for k, b in enumerate(world.boxes):
-        dx, dy = max(abs(x - b.x) - b.sx / 2, 0.0), max(abs(y - b.y) - b.sy / 2, 0.0)
-        if math.hypot(dx, dy) < r:
-            problems.append(
-                f"world.boxes[{k}] at ({b.x:g}, {b.y:g}) is under the cart's footprint at the start"
-            )
-    return problems
 
 
 def perception_on(perception: bool | None, has_world: bool) -> bool:

@@ -1,7 +1,7 @@
 """`cart2d camera calibrate --sim`: the calibration against the simulated camera, which places the
 checkerboard itself (Simulator.place_target) where a person would hold it and takes the frame
 captured after it was placed (the camera's latency: a frame in flight still shows the board where
-it was). The views and the maths are the real camera's (calibrate_command.calibrate).
+it was). The views and the maths are the real camera's (views.calibrate).
 
 Conventions shared with the simulator (sim/README.md, "The camera"), checked by
 tests/test_perception_sim.py: a placement (R, t) puts inner corner (i, j) of a cols x rows
@@ -22,13 +22,13 @@ import cv2
 import numpy as np
 
 from cart2d.params import robot
-from cart2d.perception.calibrate_command import Image, Placement, Pose, board_placements, calibrate
 from cart2d.perception.calibration import Board, CameraCalibration, GroundBoard
 from cart2d.perception.camera_model import FloatArray, Intrinsics, Mount
 from cart2d.perception.synthetic import true_pixels
 from cart2d.simulation.controls import Board as SimBoard
 from cart2d.simulation.controls import CameraControls
 from cart2d.simulator import SideChannel, SimOptions, Simulator, SimulatorError, World
+from cart2d.tools.camera_calibration.views import Image, Placement, Pose, board_placements, calibrate
 
 # A board held in the air must stay above the floor, which a camera 0.25 m up looking 25 degrees
 # down sees from about 0.35 m on: the held board is smaller than the floor board (9 x 6 corners

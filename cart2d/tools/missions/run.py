@@ -4,14 +4,14 @@ A mission is a map, a start pose and goals; the runner drives to each goal in tu
 same gateway code as the web API (plan from the measured pose, upload, follow STATUS) and
 reports, per goal, whether it was reached, the simulated time, the errors (ground truth against
 goal and against odometry) and the path length driven and planned. The mission file is checked
-whole before anything runs (mission_file.py); once it runs, the report is written however it
+whole before anything runs (spec.py); once it runs, the report is written however it
 ends, and a goal off the map or unreachable is reported with its reason and nothing is sent.
 `resets_at_s` presses the simulated reset button: the goal in progress fails with the reset's
 words, and the goals after it are not driven (the gateway no longer trusts the pose).
 
 `"map": "path/to/map.yaml"` (a ROS map_server map, relative to the mission file) takes the place
 of `"grid"`: the gateway plans on it and its occupied cells are the simulated world's walls.
-`"events"` change the map at simulated times (cart2d/mission_events.py): the report lists
+`"events"` change the map at simulated times (cart2d/tools/missions/events.py): the report lists
 them and every replan of the gateway (time, reason, plan time, new length)."""
 
 from __future__ import annotations
@@ -25,95 +25,30 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 from tqdm import tqdm
 
-from cart2d import mission_file
-from cart2d.baseline import SEED_SETTINGS, seed_path
 from cart2d.gateway import Gateway, PoseUntrusted
 from cart2d.gateway.live_map import planner_for, world_for
 from cart2d.link import CommandRefused, Link, LinkError, firmware, path_stream
 from cart2d.maps import MapError, load_ros_map
-from cart2d.mission_camera import mission_camera, perception_report
-from cart2d.mission_events import EventPlayer, MapEvent, Pacer, snapped
-from cart2d.mission_trace import Recorder
 from cart2d.params import robot, setting_id
 from cart2d.planning import Grid, PlanError, Point, point_polyline_distance, polyline_length
+from cart2d.planning.baseline import SEED_SETTINGS, seed_path
 from cart2d.recording import open_recording
 from cart2d.recording.session import DEFAULT_CAMERA_FPS
+from cart2d.simulation import world_file
 from cart2d.simulation.lockstep import Lockstep
 from cart2d.simulator import SimOptions, Simulator, SimulatorError
-from cart2d.store import FloorPlan, GatewaySettings, MapSettings, PlanningStep, Store
+from cart2d.store import FloorPlan, GatewaySettings, MapSettings, Store
+from cart2d.tools.missions import spec as mission_file
+from cart2d.tools.missions.camera import mission_camera, perception_report
+from cart2d.tools.missions.events import EventPlayer, Pacer, snapped
+from cart2d.tools.missions.spec import MissionSpec
+from cart2d.tools.missions.trace import Recorder
 
-Coordinate = Annotated[float, Field(allow_inf_nan=False)]
 Tell = Callable[[dict[str, Any]], None]  # a message of the mission's own for its recording
-Finite = Annotated[float, Field(allow_inf_nan=False)]
-
-
-class GridSpec(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    cols: int = Field(10, ge=2, le=1000)
-    rows: int = Field(10, ge=2, le=1000)
-    step: float = Field(0.2, ge=0.01, le=10.0, allow_inf_nan=False)
-
-
-class MissionSpec(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    grid: GridSpec = Field(default_factory=GridSpec)
-    map: str | None = Field(
-        None,
-        min_length=1,
-        max_length=4096,
-        description="a ROS map_server .yaml (relative to the mission file), in place of 'grid'",
-    )
-    unknown_is_free: bool = Field(False, description="with 'map': plan through unknown cells")
-    planning_step: PlanningStep | None = Field(None, description="with 'map': the planning grid's step, m")
-    events: list[MapEvent] = Field(
-        default_factory=list,
-        max_length=1000,
-        description="map changes at simulated times: obstacles added and removed (physical in the simulator)",
-    )
-    obstacles: list[tuple[Coordinate, Coordinate]] = Field(default_factory=list)
-    start: tuple[Coordinate, Coordinate, Coordinate] = (0.0, 0.0, 0.0)
-    goals: list[tuple[Coordinate, Coordinate]] = Field(min_length=1, max_length=1000)
-    settings: dict[str, Finite] = Field(default_factory=dict, description="firmware settings by name")
-    faults: dict[str, Finite] = Field(default_factory=dict, description="simulator faults (sim/README.md)")
-    timeout_s: float = Field(120.0, gt=0.0, le=1e5, allow_inf_nan=False, description="simulated seconds")
-    behaviour: Literal["cart2d", "seed"] = Field(
-        "cart2d",
-        description="'seed': the seed's planner and settings (cart2d/baseline.py), to compare against",
-    )
-    resets_at_s: list[float] = Field(
-        default_factory=list,
-        max_length=100,
-        description="simulated seconds after the first goal's start at which the MCU is reset (reset button)",
-    )
-    world: mission_file.WorldSpec | None = Field(None, description="physical boxes the map does not show")
-    perception: bool | None = Field(
-        None, description="the simulated camera and perception (default: on when the mission has a world)"
-    )
-    lockstep: bool = Field(
-        True,
-        description="with perception: the simulator waits while perception is behind "
-        "(cart2d/simulation/lockstep.py); false: it drives on, as a cart behind a slow gateway would",
-    )
-
-    @model_validator(mode="after")
-    def map_or_grid(self) -> MissionSpec:
-        if self.map is not None and "grid" in self.model_fields_set:
-            raise ValueError("give 'map' or 'grid', not both")
-        if self.map is not None and self.behaviour == "seed":
-            raise ValueError("the seed's behaviour plans on a node grid only: give 'grid', not 'map'")
-        return self
-
-    @field_validator("resets_at_s")
-    @classmethod
-    def finite_times(cls, times: list[float]) -> list[float]:
-        if not all(math.isfinite(t) and t >= 0.0 for t in times):
-            raise ValueError("reset times must be finite and not negative")
-        return sorted(times)
 
 
 # Faults that make the link retry: its waits are wall-clock time, so a mission with them runs
@@ -443,15 +378,15 @@ def _drive_goals(run: _Run, progress: bool, goals: list[dict[str, Any]]) -> None
 
 
 def check_mission(mission_path: Path, report_path: Path) -> tuple[MissionSpec | None, list[str]]:
-    """The mission, or every problem found before it runs (mission_file.py), one sentence each."""
+    """The mission, or every problem found before it runs (spec.py), one sentence each."""
     data, problems = mission_file.read_problems(mission_path)
     spec = None
     if data is not None:
-        spec, problems = mission_file.parse(data, MissionSpec, str(mission_path))
+        spec, problems = world_file.parse(data, MissionSpec, str(mission_path))
     if spec is not None:
         problems += mission_file.settings_problems(spec.settings)
         problems += mission_file.faults_problems(spec.faults)
-        problems += mission_file.world_problems(spec.start, spec.world)
+        problems += world_file.world_problems(spec.start, spec.world)
         if spec.map is None:
             g = spec.grid
             grid = Grid(cols=g.cols, rows=g.rows, step_m=g.step)

@@ -9,7 +9,6 @@ import socket
 from collections.abc import Iterator
 from pathlib import Path
 
-from cart2d import cli_args
 from cart2d.recording.publisher import GatewayLike
 from cart2d.recording.session import (
     DEFAULT_CAMERA_FPS,
@@ -18,6 +17,7 @@ from cart2d.recording.session import (
     open_recording,
     session_file_name,
 )
+from cart2d.tools import cli_args
 
 
 def add_camera_fps_argument(parser: argparse.ArgumentParser) -> None:

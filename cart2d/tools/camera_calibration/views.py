@@ -1,5 +1,5 @@
-"""`cart2d camera calibrate`: the camera's lens and its ground homography from checkerboard
-views, saved next to the gateway's settings (cart2d/perception/calibration.py does the maths).
+"""The views of `cart2d camera calibrate` and the calibration from them: the camera's lens and
+its ground homography from checkerboard views (cart2d/perception/calibration.py does the maths).
 
 A real camera (`--camera URL`, the ESP32-CAM's base URL) is read one JPEG at a time from
 URL/capture while the user holds the board where the prompt says and presses Enter. `--synthetic`
@@ -11,13 +11,10 @@ pose of `view_plan` and of the board on the floor.
 
 from __future__ import annotations
 
-import argparse
 import math
-import sys
 import urllib.request
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -29,11 +26,8 @@ from cart2d.perception.calibration import (
     CameraCalibration,
     GroundBoard,
     calibrate_lens,
-    calibration_path,
     find_corners,
     fit_ground,
-    load_calibration,
-    save_calibration,
 )
 from cart2d.perception.camera_model import FloatArray, Intrinsics, Mount
 
@@ -336,108 +330,3 @@ def calibrate(
         f"at worst) from where they lie; {fit.outliers} corner(s) left out"
     )
     return CameraCalibration.of(lens, fit)
-
-
-def _board(text: str) -> tuple[int, int]:
-    try:
-        cols, rows = (int(n) for n in text.lower().split("x"))
-    except ValueError:
-        cols = rows = 0
-    if not (3 <= cols <= 30 and 3 <= rows <= 30 and cols != rows):
-        raise argparse.ArgumentTypeError(
-            f"{text!r}: give the inner corners as COLSxROWS, such as 9x6 (not square)"
-        )
-    return cols, rows
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    where = parser.add_mutually_exclusive_group(required=True)
-    where.add_argument("--camera", metavar="URL", help="the ESP32-CAM's base URL, e.g. http://192.168.4.2")
-    where.add_argument(
-        "--sim", action="store_true", help="the simulated camera (a simulator of its own places the board)"
-    )
-    where.add_argument("--synthetic", action="store_true", help="a dry run on rendered views of a known lens")
-    parser.add_argument(
-        "--sim-address",
-        metavar="HOST:PORT",
-        help="with --sim: a running `cart2d sim`'s side channel (it prints it), not a simulator of its own",
-    )
-    parser.add_argument("--board", type=_board, default=(9, 6), help="inner corners, COLSxROWS (default 9x6)")
-    parser.add_argument(
-        "--square-m",
-        type=float,
-        help="square side, m (default 0.03; --sim: 0.015 held up, 0.03 on the floor)",
-    )
-    parser.add_argument(
-        "--views", type=int, help=f"views of the held board (default 12, --sim 20; at least {MIN_VIEWS})"
-    )
-    parser.add_argument(
-        "--floor-x-m",
-        type=float,
-        default=0.45,
-        help="the floor board's middle, ahead of the wheel axis, m (default 0.45)",
-    )
-    parser.add_argument(
-        "--floor-y-m", type=float, default=0.0, help="... and left of the centre line, m (default 0)"
-    )
-    parser.add_argument("--out", type=Path, help=f"where to save (default: {calibration_path()})")
-
-
-def main_camera_calibrate(args: argparse.Namespace, say: Callable[[str], None] = print) -> int:
-    sim = bool(args.sim)
-    views_wanted = args.views if args.views is not None else (SIM_VIEWS if sim else 12)
-    square_m = args.square_m if args.square_m is not None else 0.03
-    if args.sim_address and not sim:
-        print("cart2d camera calibrate: --sim-address goes with --sim", file=sys.stderr)
-        return 2
-    if views_wanted < MIN_VIEWS or not 0.01 <= square_m <= 0.2:
-        print(
-            f"cart2d camera calibrate: --views at least {MIN_VIEWS}, --square-m from 0.01 to 0.2",
-            file=sys.stderr,
-        )
-        return 2
-    mount = Mount.from_robot()
-    board = Board(args.board[0], args.board[1], square_m)
-    ground = GroundBoard(board, args.floor_x_m, args.floor_y_m)
-    try:
-        if sim:
-            from cart2d.perception.sim_calibration import (
-                HELD_SQUARE_M,
-                calibrate_in_simulator,
-                calibrate_running_simulator,
-                describe_truth,
-            )
-            from cart2d.simulation.controls import CameraTimeout
-            from cart2d.simulator import SimulatorError
-
-            held = board if args.square_m is not None else Board(board.cols, board.rows, HELD_SQUARE_M)
-            try:
-                if args.sim_address:
-                    result = calibrate_running_simulator(
-                        args.sim_address, held, ground, views_wanted, mount, say
-                    )
-                else:
-                    result = calibrate_in_simulator(held, ground, views_wanted, mount, say=say)
-            except (SimulatorError, CameraTimeout) as exc:
-                raise ValueError(f"the simulator: {exc}") from exc
-            say(describe_truth(mount))
-        elif args.synthetic:
-            truth, views, floor = synthetic_views(board, ground, views_wanted, mount)
-            result = calibrate(views, floor, board, ground, mount, say)
-            say(
-                f"the synthetic lens was fx {truth.fx:.1f} fy {truth.fy:.1f} cx {truth.cx:.1f} "
-                f"cy {truth.cy:.1f} px, k1 {truth.dist[0]:.3f} k2 {truth.dist[1]:.3f}"
-            )
-        else:
-            views, floor_view = camera_views(args.camera, board, ground, views_wanted, mount, input)
-            result = calibrate(views, floor_view, board, ground, mount, say)
-    except (ValueError, OSError) as exc:
-        print(f"cart2d camera calibrate: {exc}", file=sys.stderr)
-        return 1
-    path = save_calibration(result, args.out)
-    reloaded = load_calibration(path, mount)
-    if not reloaded.calibrated:
-        print(f"cart2d camera calibrate: {path} could not be read back", file=sys.stderr)
-        return 1
-    say(f"saved to {path}; the gateway loads it at start")
-    return 0

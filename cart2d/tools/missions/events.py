@@ -2,7 +2,7 @@
 gateway's work.
 
 An event adds and removes obstacles at a simulated time after the mission's start (its first
-goal's: cart2d/mission.py). Twice: in the simulator, scheduled in advance at that exact time, as
+goal's: cart2d/tools/missions/run.py). Twice: in the simulator, scheduled in advance at that exact time, as
 physical obstacles (boxes of their cells: the cart cannot pass them, touching one counts as a
 collision); and in the gateway's map once the simulator has reached that time, as a user's click
 would, so the gateway checks the rest of the path and replans if the change blocks it.
