@@ -37,6 +37,18 @@ from dataclasses import asdict
 from typing import Any
 
 from cart2d.gateway.blind import BlindWatch
+from cart2d.gateway.bus import (
+    EventBus,
+    MapChanged,
+    MissionEnded,
+    MissionStarted,
+    PerceivedChanged,
+    PoseCorrected,
+    Restarted,
+    SimulatorExited,
+    SimulatorRestarted,
+    ViewerMessage,
+)
 from cart2d.gateway.live_map import Replan, RouteAhead, planner_for
 from cart2d.gateway.look import look_before_driving
 from cart2d.gateway.map_edits import MapMixin
@@ -100,10 +112,9 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self._frames_at_route = 0  # telemetry frames received when the last route was sent
         self.looks_turned = 0  # turns on the spot to look before a route left (look.py)
         self._lock = threading.RLock()  # guards settings, planner and mission
-        # The listeners are replaced, never changed in place, under their own lock: publishing
-        # reads them without any lock (telemetry and a stop share none).
-        self._listeners_lock = threading.Lock()
-        self._listeners: tuple[Listener, ...] = ()
+        self.bus = EventBus()  # what happened, typed; viewers' messages too (bus.py)
+        self.bus.subscribe(MapChanged, lambda e: self._routes_changed(e.why))
+        self.bus.subscribe(PerceivedChanged, lambda e: self._routes_changed(e.why))
         self._stop = threading.Event()
         self._wake = threading.Event()  # look at STATUS now (telemetry's TICK went backwards)
         # (mission, routine) of each stop answered, to record as ended under the lock (stop())
@@ -196,20 +207,12 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
     # -- live data ---------------------------------------------------------------------------
     def subscribe(self, listener: Listener) -> Callable[[], None]:
         """Calls listener(message) for telemetry, truth and mission events; returns unsubscribe."""
-        with self._listeners_lock:
-            self._listeners = (*self._listeners, listener)
-
-        def unsubscribe() -> None:
-            with self._listeners_lock:
-                self._listeners = tuple(known for known in self._listeners if known is not listener)
-
-        return unsubscribe
+        return self.bus.subscribe(ViewerMessage, lambda event: listener(event.message))
 
     def _publish(self, message: dict[str, Any]) -> None:
         """Hands `message` to every listener; they must not block (the server's hop into its
         event loop, a list's append)."""
-        for listener in self._listeners:
-            listener(message)
+        self.bus.publish(ViewerMessage(message))
 
     def _on_telemetry(self, t: Telemetry) -> None:
         last, self._last_tick = self._last_tick, t.tick
@@ -266,6 +269,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
                 route_start=plan.start,
                 route=plan.waypoints,
             )
+            self.bus.publish(MissionStarted((x, y)))
             if self.link.stopped_since(token):  # the stop went right after the last frame
                 self._end_mission("failed", self.stop_reason)
                 raise MotionCancelled("the path was sent as a stop came: the stop ended it")
@@ -282,6 +286,11 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self._frames_at_route = self.link.telemetry_count
 
     # -- replanning ---------------------------------------------------------------------------
+    def _routes_changed(self, why: str) -> None:
+        """The map or the perceived layer changed (lock held): a driven route it blocks is replanned."""
+        if self.mission.state == "driving" and self.mission.route:
+            self._check_route(f"the map changed: {why}")
+
     def _check_route(self, why: str) -> None:
         """Checks the rest of the driven route against the map now (the planner's own check:
         footprint plus clearance); replans from the measured pose if it is blocked (lock held)."""
@@ -509,6 +518,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self.mission.reason = reason
         self.mission.ended_s = time.monotonic()
         self._publish({"type": "mission", **self.mission_view()})
+        self.bus.publish(MissionEnded(self.mission.goal, state, reason))
 
     # -- firmware settings -----------------------------------------------------------------------
     def firmware_settings(self) -> list[dict[str, object]]:
@@ -660,6 +670,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             self.pose_trust = PoseTrust()
         log.info("pose trusted: %s", how)
         self._publish({"type": "pose_trust", "trusted": True, "reason": "", "how": how})
+        self.bus.publish(PoseCorrected(how))
 
     # -- restarts ----------------------------------------------------------------------------
     def read_status(self, restarted_for_sure: bool = False) -> firmware.Status:
@@ -797,6 +808,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
                 self.link.stop()
         (log.info if caused_by else log.warning)("%s", report.message)
         self._publish({"type": "reset", **asdict(report), "pose_trust": trust})
+        self.bus.publish(Restarted(bool(caused_by), caused_by, bool(trust["trusted"]), ended))
 
     # -- the monitor -------------------------------------------------------------------------
     def _watch(self) -> None:
@@ -912,6 +924,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             self.simulator = SimulatorState("restarting", self.simulator.restarts, " ".join(sentences))
         log.warning("%s", self.simulator.message)
         self._publish({"type": "simulator", **asdict(self.simulator)})
+        self.bus.publish(SimulatorExited(how))
         try:
             self._restart_simulator(process, how)
         finally:
@@ -939,6 +952,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             self.simulator = SimulatorState(state, restarts, f"{self.simulator.message} {words}")
         (log.error if error else log.warning)("%s", self.simulator.message)
         self._publish({"type": "simulator", **asdict(self.simulator)})
+        self.bus.publish(SimulatorRestarted(restarts, error, answered))
 
     def _start_simulator_again(self, sim: Simulator, how: str) -> tuple[str, bool]:
         """Starts the simulator on the firmware it ran (then on the last one that answered);
