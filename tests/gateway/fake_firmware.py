@@ -33,9 +33,13 @@ class FakeFirmware(Link):
         self.pose[0], self.pose[1] = self.path[-1]
         self.mode, self.index, self.flags = "IDLE", len(self.path) - 1, {"ARRIVED"}
 
-    def restart(self) -> None:
-        """The MCU restarted (its watchdog): idle, at (0, 0, 0), a new boot count."""
-        self.pose, self.mode, self.flags, self.path = [0.0, 0.0, 0.0], "IDLE", set(), []
+    def restart(self, keep_pose: bool = False) -> None:
+        """The MCU restarted (its watchdog): idle, a new boot count, at (0, 0, 0) unless it kept
+        its pose in RAM (POSE_RESTORED)."""
+        self.mode, self.path = "IDLE", []
+        self.flags = {"POSE_RESTORED"} if keep_pose else set()
+        if not keep_pose:
+            self.pose = [0.0, 0.0, 0.0]
         self.boot_count += 1
         self.uptime_s = 0.5
 
@@ -77,6 +81,8 @@ class FakeFirmware(Link):
             assert len(self.path) == count, "the fake takes whole paths in one frame"
             self.mode, self.index, self.flags = "PATH", 0, set()
             return (float(count), 0.0, 0.0)  # received, index, room
+        elif name == "REBOOT":
+            self.restart(keep_pose=True)
         elif name in ("STOP", "VELOCITY"):
             self.mode = "IDLE"
         elif name == "VERSION":

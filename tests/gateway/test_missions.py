@@ -128,3 +128,38 @@ def test_an_obstacle_on_the_goal_fails_the_mission_and_stops_the_cart(
     view = gateway.mission_view()
     assert view["state"] == "failed" and "no path remains" in view["reason"]
     assert cart.mode == "IDLE" and "STOP" in cart.requests
+
+
+def test_manual_driving_takes_the_mission_over(gateway: Gateway, cart: FakeFirmware) -> None:
+    gateway.go_to(1.6, 0.8)
+    gateway.drive(0.1, 0.0)
+    view = gateway.mission_view()
+    assert (view["state"], view["reason"]) == ("failed", "taken over by manual driving")
+    assert not gateway.mission.resumable  # VELOCITY replaced the firmware's path
+
+
+def test_abort_ends_only_the_mission_and_routine_it_was_meant_for(
+    gateway: Gateway, cart: FakeFirmware
+) -> None:
+    gateway.go_to(1.6, 0.8)
+    first = gateway.mission
+    gateway.go_to(1.6, 1.2)  # a new goal: a new mission
+    assert gateway.abort("a fault of the first mission", mission=first) is None
+    assert gateway.mission_view()["state"] == "driving"
+    assert gateway.abort("a fault now") == (1.6, 1.2)
+    assert gateway.mission_view()["reason"] == "a fault now"
+    assert gateway.abort("nothing drives") is None and gateway.mission_view()["reason"] == "a fault now"
+
+
+def test_a_stop_fails_the_reset_routine_before_it_squared_up(gateway: Gateway, cart: FakeFirmware) -> None:
+    gateway.start_reset_routine()
+    assert gateway.routine_view()["state"] == "running"
+    gateway.stop("stopped by the user")
+    assert gateway.routine_view() == {"state": "failed", "words": "stopped by the user before it squared up"}
+
+
+def test_the_plan_stays_an_object_in_the_mission_and_is_rendered_in_its_view(gateway: Gateway) -> None:
+    plan = gateway.go_to(1.6, 0.8)
+    assert gateway.mission.plan is plan
+    view = gateway.mission_view()["plan"]
+    assert view["waypoints"] == [list(p) for p in plan.waypoints] and view["length_m"] == pytest.approx(1.4)
