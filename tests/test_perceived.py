@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
+from cart2d.gateway.bus import EventBus
 from cart2d.gateway.live_map import planner_for
 from cart2d.gateway.perceived import PerceivedLayer, PerceptionMixin
-from cart2d.gateway.state import Mission
 from cart2d.maps import OCCUPIED, OccupancyMap
 from cart2d.params import robot
 from cart2d.planning import Grid, PlanError, Planner, point_square_distance, segment_square_distance
@@ -156,20 +156,17 @@ def test_a_perceived_cell_blocks_every_planner_cell_its_square_overlaps() -> Non
 
 
 class LoneLayer(PerceptionMixin):
-    """The perceived layer without a robot: a map, a mission that is not driving, messages kept."""
+    """The perceived layer without a robot: a map, no mission (nothing replans), messages kept."""
 
     def __init__(self, settings: GatewaySettings | None = None) -> None:
         self._lock = threading.RLock()
         self.settings = settings or GatewaySettings()
         self.map_planner = self.planner = planner_for(self.settings.map)
-        self.mission = Mission()
+        self.bus = EventBus()
         self.messages: list[dict[str, Any]] = []
 
     def _publish(self, message: dict[str, Any]) -> None:
         self.messages.append(message)
-
-    def _check_route(self, why: str) -> None:
-        raise AssertionError("no mission drives")
 
 
 def test_perceived_messages_come_at_most_twice_a_second_and_the_last_state_always_goes_out() -> None:

@@ -1,14 +1,8 @@
 """The gateway: what the seed's ESP32 did, as one object the HTTP API (cart2d/server/) and the
 command line use. It owns the link to the firmware, the map and its planner, the mission
-(idle / driving / arrived / failed) and the fan-out of live data to viewers.
-
-It also watches the MCU for restarts (docs/protocol.md, Reset causes): a monitor thread reads
-STATUS a few times a second, and a restart shows as a new boot count or an uptime that went
-backwards (telemetry's TICK going backwards makes it look at once). The first STATUS is the
-baseline: opening a Nano's port resets it. A restart ends any mission, is told to viewers and
-the log in words, and, unless the gateway asked for it and the firmware kept its pose, leaves
-the pose untrusted: no goal is planned from it until the user sets the pose, runs the reset
-routine or accepts the pose the firmware has.
+(idle / driving / arrived / failed) and the fan-out of live data to viewers (the event bus,
+bus.py). Restarts of the MCU and the pose's trust are restarts.py's: a restart ends the mission
+through abort(), the one way every fault, stop or takeover ends a mission and the reset routine.
 
 A stop is the last word the motors hear: it cancels every motion request asked for before it
 (the link's stop generations, cart2d/link/transport.py), also between the POSE a goal is
@@ -17,11 +11,11 @@ replaces the robot's program, it waits for the program that answers and stops th
 simulator it started exits on its own (a crash, a kill -9), the gateway ends the mission with
 the reason, says so (/ws message `simulator`, /api/status `simulator`) and starts it again.
 
-One class of ~800 lines on purpose: one lock guards the settings, the planner, the mission, the
-reset routine and the pose trust, and every method here keeps an invariant across them (a path
-is sent and its mission recorded together; a restart ends the mission and untrusts the pose
-together). What it keeps is in state.py; the map's edits (map_edits.py), perception
-(perceived.py) and the simulator's boxes (sim_world.py) are mixins under the same lock."""
+Still one class over ~500 lines (issue 23 splits it on): one lock guards the settings, the
+planner, the mission and the reset routine, and the methods here keep an invariant across them
+(a path is sent and its mission recorded together). What it keeps is in state.py; the map's
+edits (map_edits.py), perception (perceived.py) and the simulator's boxes (sim_world.py) are
+mixins under the same lock."""
 
 from __future__ import annotations
 
@@ -32,15 +26,26 @@ import math
 import subprocess
 import threading
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict
 from typing import Any
 
 from cart2d.gateway.blind import BlindWatch
+from cart2d.gateway.bus import (
+    EventBus,
+    MapChanged,
+    MissionEnded,
+    MissionStarted,
+    PerceivedChanged,
+    SimulatorExited,
+    SimulatorRestarted,
+    ViewerMessage,
+)
 from cart2d.gateway.live_map import Replan, RouteAhead, planner_for
 from cart2d.gateway.look import look_before_driving
 from cart2d.gateway.map_edits import MapMixin
 from cart2d.gateway.perceived import PerceptionMixin
+from cart2d.gateway.restarts import Restarts
 from cart2d.gateway.sim_world import SimWorldMixin
 from cart2d.gateway.state import (
     BUSY_POLL_S,
@@ -48,14 +53,16 @@ from cart2d.gateway.state import (
     ROUTINE_HEADING_TOLERANCE_RAD,
     ROUTINE_POSE_TOLERANCE_M,
     STATUS_POLL_S,
-    WAYS_OUT,
     Mission,
+    MissionEnd,
     PathTooLong,
     PoseOutsideArena,
     PoseTrust,
     PoseUntrusted,
     ResetReport,
     Routine,
+    RoutineEnd,
+    SimulatorRun,
     SimulatorState,
     exit_words,
     pose_text,
@@ -100,35 +107,35 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self._frames_at_route = 0  # telemetry frames received when the last route was sent
         self.looks_turned = 0  # turns on the spot to look before a route left (look.py)
         self._lock = threading.RLock()  # guards settings, planner and mission
-        # The listeners are replaced, never changed in place, under their own lock: publishing
-        # reads them without any lock (telemetry and a stop share none).
-        self._listeners_lock = threading.Lock()
-        self._listeners: tuple[Listener, ...] = ()
+        self.bus = EventBus()  # what happened, typed; viewers' messages too (bus.py)
+        self.bus.subscribe(MapChanged, lambda e: self._routes_changed(e.why))
+        self.bus.subscribe(PerceivedChanged, lambda e: self._routes_changed(e.why))
         self._stop = threading.Event()
         self._wake = threading.Event()  # look at STATUS now (telemetry's TICK went backwards)
         # (mission, routine) of each stop answered, to record as ended under the lock (stop())
         self._stops_to_record: list[tuple[Mission, Routine, str]] = []
         self._monitor = threading.Thread(target=self._watch, name="gateway monitor", daemon=True)
         self.version: firmware.Version | None = None
-        # Restarts: every STATUS the gateway reads goes through one ResetWatch, in the order read.
-        self._status_lock = threading.Lock()
         self.status_cache = StatusCache()  # what /api/status answers (status_cache.py)
-        self._resets = firmware.ResetWatch()
-        self._opens_seen = 0  # the link's port openings at the last STATUS
         self._last_tick: int | None = None
-        self._expected_reset = ""  # what the gateway is doing that restarts the MCU, if anything
-        self._expected_untrusts = ""  # why a pose kept through that restart is not trusted ("": it is)
-        self.last_reset: ResetReport | None = None
-        self.resets_noticed = 0
-        self.pose_trust = PoseTrust()
         self.routine = Routine()
+        self.restarts = Restarts(  # restarts.py: every STATUS read, the pose's trust
+            link,
+            self.status_cache,
+            self.bus,
+            self._pose,
+            self._restart_ended_motion,
+            press_reset=self._press_sim_reset if sim is not None else None,
+        )
         self.settings_cache = firmware.SettingsCache(link)
         self.flasher = Flasher(
             link,
             store.directory,
             sim,
             check=self._check_after_update,
-            resetting=lambda: self._resetting("a firmware update", certain=True, untrusts=FLASHED_POSE),
+            resetting=lambda: self.restarts.resetting(
+                "a firmware update", certain=True, untrusts=FLASHED_POSE
+            ),
         )
         self.simulator = SimulatorState()
         self._simulator_back = threading.Event()  # set while the simulator runs (or cannot be started)
@@ -196,20 +203,12 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
     # -- live data ---------------------------------------------------------------------------
     def subscribe(self, listener: Listener) -> Callable[[], None]:
         """Calls listener(message) for telemetry, truth and mission events; returns unsubscribe."""
-        with self._listeners_lock:
-            self._listeners = (*self._listeners, listener)
-
-        def unsubscribe() -> None:
-            with self._listeners_lock:
-                self._listeners = tuple(known for known in self._listeners if known is not listener)
-
-        return unsubscribe
+        return self.bus.subscribe(ViewerMessage, lambda event: listener(event.message))
 
     def _publish(self, message: dict[str, Any]) -> None:
         """Hands `message` to every listener; they must not block (the server's hop into its
         event loop, a list's append)."""
-        for listener in self._listeners:
-            listener(message)
+        self.bus.publish(ViewerMessage(message))
 
     def _on_telemetry(self, t: Telemetry) -> None:
         last, self._last_tick = self._last_tick, t.tick
@@ -261,13 +260,14 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
                 state="driving",
                 goal=(x, y),
                 started_s=time.monotonic(),
-                plan=self.plan_view(plan),
+                plan=plan,
                 token=token,
                 route_start=plan.start,
                 route=plan.waypoints,
             )
+            self.bus.publish(MissionStarted((x, y)))
             if self.link.stopped_since(token):  # the stop went right after the last frame
-                self._end_mission("failed", self.stop_reason)
+                self.abort(self.stop_reason)
                 raise MotionCancelled("the path was sent as a stop came: the stop ended it")
         self._publish({"type": "mission", **self.mission_view()})
         return plan
@@ -282,6 +282,11 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self._frames_at_route = self.link.telemetry_count
 
     # -- replanning ---------------------------------------------------------------------------
+    def _routes_changed(self, why: str) -> None:
+        """The map or the perceived layer changed (lock held): a driven route it blocks is replanned."""
+        if self.mission.state == "driving" and self.mission.route:
+            self._check_route(f"the map changed: {why}")
+
     def _check_route(self, why: str) -> None:
         """Checks the rest of the driven route against the map now (the planner's own check:
         footprint plus clearance); replans from the measured pose if it is blocked (lock held)."""
@@ -346,22 +351,22 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
                 self.link.stop()
             self._cancel_stream()
             log.warning("%s, and no path remains: %s", reason, exc)
-            self._end_mission("failed", f"{reason}, and no path remains: {exc}")
+            self.abort(f"{reason}, and no path remains: {exc}")
             return
         plan_time_s = time.perf_counter() - started
         try:
             self._send_route(plan, mission.token)
         except MotionCancelled:
-            self._end_mission("failed", self.stop_reason)
+            self.abort(self.stop_reason)
             return
         except (LinkError, CommandRefused) as exc:
             with contextlib.suppress(LinkError, CommandRefused):
                 self.link.stop()
-            self._end_mission("failed", f"{reason}; the new path could not be sent: {exc}")
+            self.abort(f"{reason}; the new path could not be sent: {exc}")
             return
         mission.generation += 1
         mission.route_start, mission.route = plan.start, plan.waypoints
-        mission.plan = self.plan_view(plan)
+        mission.plan = plan
         self._record_replan(mission, reason, plan_time_s, plan, "replanned")
         log.info("%s: replanned in %.3f s, %.2f m to go", reason, plan_time_s, plan.length_m)
         self._publish({"type": "mission", **self.mission_view()})
@@ -464,11 +469,8 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         first."""
         while self._stops_to_record:
             mission, routine, reason = self._stops_to_record.pop(0)
-            if self.mission is mission and mission.state == "driving":
-                self._end_mission("failed", reason)
+            if self.abort(reason, mission=mission, routine=routine) is not None:
                 mission.resumable = True  # the firmware keeps the path: START resumes it
-            if self.routine is routine and routine.state == "running":
-                self._end_routine("failed", f"{reason} before it squared up")
 
     def _wait_for_the_program(self) -> None:
         if self.flasher.running():
@@ -483,10 +485,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self.link.call("VELOCITY", v_mps, omega_radps, token=token)
         with self._lock:
             self.mission.resumable = False
-            if self.mission.state == "driving":
-                self._end_mission("failed", "taken over by manual driving")
-            if self.routine.state == "running":
-                self._end_routine("failed", "taken over by manual driving before it squared up")
+            self.abort("taken over by manual driving")
 
     def mission_view(self) -> dict[str, Any]:
         with self._lock:
@@ -498,17 +497,40 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
                     "goal": m.goal,
                     "reason": m.reason,
                     "elapsed_s": round(elapsed, 3),
-                    "plan": m.plan,
+                    "plan": self.plan_view(m.plan) if m.plan is not None else None,
                     "replans": [asdict(r) for r in m.replans],
                 }
             )
             return view
 
-    def _end_mission(self, state: str, reason: str) -> None:
+    def abort(
+        self,
+        reason: str,
+        routine_reason: str = "",
+        mission: Mission | None = None,
+        routine: Routine | None = None,
+    ) -> tuple[float, float] | None:
+        """Ends, as failed, the mission driving now with `reason` and the reset routine running
+        now with `routine_reason` (default: `reason` and "before it squared up"): the one way
+        every fault, stop or takeover ends them. `mission`, `routine`: only if they are still
+        these (what started since is not this fault's to end). Returns the goal of the mission
+        it ended, None if it ended none. Sends nothing to the firmware: the caller has stopped
+        the cart, or the firmware stopped it itself."""
+        with self._lock:
+            ended = None
+            if (mission is None or self.mission is mission) and self.mission.state == "driving":
+                ended = self.mission.goal or (0.0, 0.0)
+                self._end_mission("failed", reason)
+            if (routine is None or self.routine is routine) and self.routine.state == "running":
+                self._end_routine("failed", routine_reason or f"{reason} before it squared up")
+            return ended
+
+    def _end_mission(self, state: MissionEnd, reason: str) -> None:
         self.mission.state = state
         self.mission.reason = reason
         self.mission.ended_s = time.monotonic()
         self._publish({"type": "mission", **self.mission_view()})
+        self.bus.publish(MissionEnded(self.mission.goal, state, reason))
 
     # -- firmware settings -----------------------------------------------------------------------
     def firmware_settings(self) -> list[dict[str, object]]:
@@ -584,10 +606,10 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         if name == "REBOOT":
             self.read_status()  # the baseline the restart is noticed against
             noticed = self.resets_noticed
-            with self._resetting("a REBOOT sent through the gateway", certain=False):
+            with self.restarts.resetting("a REBOOT sent through the gateway", certain=False):
                 reply = self.link.request(code, args)
                 if reply.ok:
-                    self._wait_for_restart(noticed, 5.0)
+                    self.restarts.wait_for_restart(noticed, 5.0)
             return reply
         if name == "RESET_ROUTINE":
             x, y, theta = (firmware.read_setting(self.link, setting_id(n)) for n in RESET_POSE_SETTINGS)
@@ -624,7 +646,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             if not (mission.state == "failed" and mission.resumable and mission.plan):
                 return
         status = self.read_status()
-        if status.waypoint_count != len(mission.plan["waypoints"]):
+        if status.waypoint_count != len(mission.plan.waypoints):
             return
         outcome = status.path_outcome()
         with self._lock:
@@ -646,7 +668,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         with self._lock:
             return {"state": self.routine.state, "words": self.routine.words}
 
-    def _end_routine(self, state: str, words: str) -> None:
+    def _end_routine(self, state: RoutineEnd, words: str) -> None:
         self.routine = Routine(state, words)
         self._publish({"type": "routine", **self.routine_view()})
 
@@ -656,147 +678,46 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         return x, y, theta
 
     def _trust(self, how: str) -> None:
-        with self._lock:
-            self.pose_trust = PoseTrust()
-        log.info("pose trusted: %s", how)
-        self._publish({"type": "pose_trust", "trusted": True, "reason": "", "how": how})
+        self.restarts.trust(how)
 
     # -- restarts ----------------------------------------------------------------------------
     def read_status(self, restarted_for_sure: bool = False) -> firmware.Status:
-        """STATUS, shown to the restart watch in the order read; a restart is handled here
-        (`restarted_for_sure`: the gateway knows the MCU restarted since the last look)."""
-        with self._status_lock:
-            try:
-                status = firmware.read_status(self.link)
-            except (LinkError, CommandRefused) as exc:
-                self.status_cache.read_failed(str(exc))
-                raise
-            self.status_cache.status_read(status)
-            restarted = self._resets.saw(status) or restarted_for_sure
-            reopened = self.link.opens != self._opens_seen
-            self._opens_seen = self.link.opens
-        if restarted:
-            self._on_restart(status, reopened)
-        return status
+        """STATUS, shown to the restart watch (restarts.py) in the order read."""
+        return self.restarts.read_status(restarted_for_sure)
+
+    @property
+    def pose_trust(self) -> PoseTrust:
+        return self.restarts.pose_trust
+
+    @property
+    def resets_noticed(self) -> int:
+        return self.restarts.resets_noticed
+
+    @property
+    def last_reset(self) -> ResetReport | None:
+        return self.restarts.last_reset
+
+    def _restart_ended_motion(self, reason: str, routine_reason: str) -> tuple[float, float] | None:
+        """What a restart of the MCU ends (restarts.py): the path it lost, the mission and the
+        routine; the saved reverse_allowed is back (forward_only.py)."""
+        self.forwards_only_while_seeing(certain=False)
+        with self._lock:
+            self.mission.resumable = False  # a restart loses the path
+            if self._stream is not None:
+                self._stream.cancel()
+            return self.abort(reason, routine_reason)
+
+    def _press_sim_reset(self) -> None:
+        assert self.sim is not None
+        try:
+            self.sim.control("reset")
+        except SimulatorError as exc:
+            raise LinkError(f"the simulator did not reset the MCU: {exc}") from exc
 
     def soft_reset(self) -> ResetReport | None:
         """Restarts the MCU (REBOOT; the reset button in the simulator) and waits until the
         restart is noticed; returns its report (None if it was not noticed within 5 s)."""
-        self.read_status()  # the baseline it is compared with
-        noticed = self.resets_noticed
-        with self._resetting("a soft reset asked for through the gateway", certain=False):
-            if self.sim is not None:
-                try:
-                    self.sim.control("reset")
-                except SimulatorError as exc:
-                    raise LinkError(f"the simulator did not reset the MCU: {exc}") from exc
-            else:
-                self.link.call("REBOOT")
-            return self._wait_for_restart(noticed, 5.0)
-
-    def _wait_for_restart(self, noticed: int, wait_s: float) -> ResetReport | None:
-        """Reads STATUS until a restart after the `noticed` ones is noticed; its report, or
-        None after wait_s."""
-        deadline = time.monotonic() + wait_s
-        while self.resets_noticed == noticed and time.monotonic() < deadline:
-            time.sleep(0.02)
-            with contextlib.suppress(LinkError, CommandRefused):  # it may still be starting
-                self.read_status()
-        with self._lock:
-            return self.last_reset if self.resets_noticed != noticed else None
-
-    @contextlib.contextmanager
-    def _resetting(self, what: str, certain: bool, untrusts: str = "") -> Iterator[None]:
-        """Restarts noticed inside the block are the gateway's doing (`what`), not faults.
-        `certain`: the block restarts the MCU whatever STATUS shows (a new simulator, avrdude's
-        reset), so a restart is reported at its end if none was noticed: a fresh MCU whose uptime
-        has overtaken the old one's and whose boot count is 1 again looks like no restart.
-        `untrusts`: why a pose the firmware restored from RAM is not trusted after this restart
-        (a firmware update: FLASHED_POSE); "" when it is (a REBOOT, a soft reset of the same
-        firmware at rest, over in a second)."""
-        with self._lock:
-            self._expected_reset = what
-            self._expected_untrusts = untrusts
-            noticed = self.resets_noticed
-        try:
-            yield
-        finally:
-            if self.link.connected.is_set():
-                with contextlib.suppress(LinkError, CommandRefused):
-                    self.read_status(certain and self.resets_noticed == noticed)  # while it is expected
-            with self._lock:
-                self._expected_reset = ""
-
-    def _on_restart(self, status: firmware.Status, reopened: bool) -> None:
-        self.link.settings_may_change()  # the firmware loaded its settings from EEPROM again
-        self.forwards_only_while_seeing(certain=False)  # the saved reverse_allowed is back
-        try:
-            pose: tuple[float, float, float] | None = self._pose()
-        except (LinkError, CommandRefused):
-            pose = None
-        with self._lock:
-            caused_by, untrusts = self._expected_reset, self._expected_untrusts
-            port_reset = reopened and not caused_by and "EXTERNAL" in status.reset_cause
-            # What reset it is known when the gateway did it or its port's opening did: the
-            # flags' other possible triggers (the button, a hang) are then not listed.
-            cause = status.reset_words(trigger_known=bool(caused_by) or port_reset)
-            if port_reset:
-                cause += " (here the link to the robot was lost and its port reopened)"
-            restored = status.has("POSE_RESTORED")
-            when = time.strftime("%H:%M:%S")
-            head = (
-                f"The controller restarted at {when} (boot {status.boot_count}), "
-                + (f"as the gateway asked ({caused_by}): " if caused_by else "unexpectedly: ")
-                + f"{cause}."
-            )
-            sentences = [head]
-            ended = self.mission.state == "driving"
-            self.mission.resumable = False  # a restart loses the path
-            if self._stream is not None:
-                self._stream.cancel()
-            if ended:
-                goal = self.mission.goal or (0.0, 0.0)
-                self._end_mission("failed", f"the controller restarted: {cause}")
-                sentences.append(f"The mission to ({goal[0]:.2f}, {goal[1]:.2f}) failed.")
-            if self.routine.state == "running":
-                self._end_routine("failed", "the controller restarted before it squared up")
-            where = pose_text(*pose) if pose else "unknown"
-            if restored:
-                sentences.append(
-                    f"The firmware restored its pose from RAM, {where}: the pose at the reset, blind to any "
-                    "motion during it."
-                )
-                if caused_by and untrusts:
-                    sentences.append(f"It is not trusted after {caused_by}: {untrusts}.")
-            else:
-                sentences.append("Its pose restarted at (0, 0, 0).")
-            if not (caused_by and restored and not untrusts):
-                what = "kept the pose it had" if restored else "restarted at (0, 0, 0)"
-                if restored and caused_by:
-                    what += f", not trusted after {caused_by} ({untrusts})"
-                self.pose_trust = PoseTrust(False, f"the controller restarted at {when} ({cause}) and {what}")
-            if not self.pose_trust.trusted:
-                sentences.append(f"No goal is planned from it until you {WAYS_OUT}.")
-            report = ResetReport(
-                time=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-                cause=list(status.reset_cause),
-                cause_words=cause,
-                expected=bool(caused_by),
-                caused_by=caused_by,
-                boot_count=status.boot_count,
-                pose_restored=restored,
-                pose=dict(zip(("x", "y", "theta"), pose, strict=True)) if pose else None,
-                mission_ended=ended,
-                message=" ".join(sentences),
-            )
-            self.last_reset = report
-            self.resets_noticed += 1
-            trust = asdict(self.pose_trust)
-        if ended:  # the firmware is idle after a restart, unless a path reached it since: stop that
-            with contextlib.suppress(LinkError, CommandRefused):
-                self.link.stop()
-        (log.info if caused_by else log.warning)("%s", report.message)
-        self._publish({"type": "reset", **asdict(report), "pose_trust": trust})
+        return self.restarts.soft_reset()
 
     # -- the monitor -------------------------------------------------------------------------
     def _watch(self) -> None:
@@ -902,16 +823,17 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self._simulator_back.clear()
         with self._lock:
             sentences = [f"The simulator {how} at {when}."]
-            if self.mission.state == "driving":
-                goal = self.mission.goal or (0.0, 0.0)
-                self._end_mission("failed", f"the simulator {how}: the simulated cart stopped with it")
+            goal = self.abort(
+                f"the simulator {how}: the simulated cart stopped with it",
+                f"the simulator {how} before it squared up",
+            )
+            if goal is not None:
                 sentences.append(f"The mission to ({goal[0]:.2f}, {goal[1]:.2f}) failed.")
-            if self.routine.state == "running":
-                self._end_routine("failed", f"the simulator {how} before it squared up")
             sentences.append("The gateway is starting it again.")
             self.simulator = SimulatorState("restarting", self.simulator.restarts, " ".join(sentences))
         log.warning("%s", self.simulator.message)
         self._publish({"type": "simulator", **asdict(self.simulator)})
+        self.bus.publish(SimulatorExited(how))
         try:
             self._restart_simulator(process, how)
         finally:
@@ -927,24 +849,23 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
                 error, answered = self._start_simulator_again(sim, how)
         with self._lock:
             restarts = self.simulator.restarts + (0 if error else 1)
+            state: SimulatorRun = "failed" if error else "running"
             if error:
-                state, words = "failed", f"It could not be started again: {error}."
+                words = f"It could not be started again: {error}."
             elif answered:
-                state, words = "running", f"It runs again (restart {restarts}) and the firmware answers."
+                words = f"It runs again (restart {restarts}) and the firmware answers."
             else:
-                state, words = (
-                    "running",
-                    f"It runs again (restart {restarts}), but the firmware does not answer yet.",
-                )
+                words = f"It runs again (restart {restarts}), but the firmware does not answer yet."
             self.simulator = SimulatorState(state, restarts, f"{self.simulator.message} {words}")
         (log.error if error else log.warning)("%s", self.simulator.message)
         self._publish({"type": "simulator", **asdict(self.simulator)})
+        self.bus.publish(SimulatorRestarted(restarts, error, answered))
 
     def _start_simulator_again(self, sim: Simulator, how: str) -> tuple[str, bool]:
         """Starts the simulator on the firmware it ran (then on the last one that answered);
         returns why it could not ("" if it runs) and whether its firmware answered."""
         error = ""
-        with self._resetting(
+        with self.restarts.resetting(
             f"restarting the simulator, which {how}", certain=True, untrusts="a new simulator starts afresh"
         ):
             for attempt in range(SIM_START_TRIES):

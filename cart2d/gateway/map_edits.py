@@ -10,6 +10,7 @@ import threading
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
+from cart2d.gateway.bus import EventBus, MapChanged
 from cart2d.gateway.live_map import arena, planner_for, world_for
 from cart2d.gateway.perceived import PerceivedLayer, with_perceived
 from cart2d.gateway.sim_world import with_boxes
@@ -23,7 +24,6 @@ from cart2d.store import FloorPlan, GatewaySettings, MapSettings, Store
 
 if TYPE_CHECKING:
     from cart2d.gateway.camera import CameraFeed
-    from cart2d.gateway.state import Mission
 
 log = logging.getLogger(__name__)
 
@@ -42,16 +42,13 @@ class MapMixin:
     settings: GatewaySettings
     store: Store
     sim: Simulator | None
-    mission: Mission
     map_version: int
+    bus: EventBus
     map_planner: Planner
     planner: Planner
     perceived: PerceivedLayer
 
     def _publish(self, message: dict[str, Any]) -> None:
-        raise NotImplementedError
-
-    def _check_route(self, why: str) -> None:
         raise NotImplementedError
 
     if TYPE_CHECKING:  # PerceptionMixin's, which comes after this class in the Gateway's bases
@@ -205,5 +202,4 @@ class MapMixin:
         """Tells viewers, and replans a driven path the change blocks (lock held)."""
         self.map_version += 1
         self._publish({"type": "map", "version": self.map_version, "why": why})
-        if self.mission.state == "driving" and self.mission.route:
-            self._check_route(f"the map changed: {why}")
+        self.bus.publish(MapChanged(self.map_version, why))  # a driven route it blocks is replanned

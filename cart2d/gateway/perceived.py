@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from cart2d.gateway.bus import EventBus, PerceivedChanged
 from cart2d.gateway.camera import CameraFeed, Shown
 from cart2d.gateway.forward_only import ReverseGuard
 from cart2d.gateway.live_map import Layout, layout_for
@@ -41,7 +42,6 @@ from cart2d.gateway.seeing import Seeing, seeing_for
 from cart2d.planning import EPS, Grid, Planner
 
 if TYPE_CHECKING:
-    from cart2d.gateway.state import Mission
     from cart2d.link import Link
     from cart2d.store import CameraSettings, GatewaySettings, MapSettings
 
@@ -163,11 +163,8 @@ class PerceptionMixin:
     link: Link
     planner: Planner  # the routes' (with_perceived)
     map_planner: Planner  # the map's alone
-    mission: Mission
     settings: GatewaySettings
-
-    def _check_route(self, why: str) -> None:
-        raise NotImplementedError
+    bus: EventBus
 
     def update_settings(self, settings: GatewaySettings, why: str = "") -> None:
         raise NotImplementedError
@@ -300,8 +297,7 @@ class PerceptionMixin:
         mask = layer.mask(grid)
         if grid != self.planner.grid or not np.array_equal(old.mask(grid), mask):
             self.planner = self.map_planner if layout is None else layout.planner(also_blocked=mask)
-            if self.mission.state == "driving" and self.mission.route:
-                self._check_route(f"the map changed: {why}")
+            self.bus.publish(PerceivedChanged(why))  # a driven route it blocks is replanned
         self._tell_perceived()
 
     def _tell_perceived(self) -> None:

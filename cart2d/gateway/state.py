@@ -7,9 +7,15 @@ from __future__ import annotations
 import math
 import signal
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
-from cart2d.planning import PlanError
+from cart2d.planning import Plan, PlanError
+
+MissionState = Literal["idle", "driving", "arrived", "failed"]
+MissionEnd = Literal["arrived", "failed"]
+RoutineState = Literal["idle", "running", "done", "failed"]
+RoutineEnd = Literal["done", "failed"]
+SimulatorRun = Literal["running", "restarting", "failed"]
 
 
 class PathTooLong(PlanError):
@@ -70,19 +76,19 @@ class PoseTrust:
 class Routine:
     """The reset routine as started through the gateway."""
 
-    state: str = "idle"  # idle | running | done | failed
+    state: RoutineState = "idle"
     words: str = ""
     expected_pose: tuple[float, float, float] | None = None
 
 
 @dataclass
 class Mission:
-    state: str = "idle"  # idle | driving | arrived | failed
+    state: MissionState = "idle"
     goal: tuple[float, float] | None = None
     reason: str = ""
     started_s: float = 0.0
     ended_s: float = 0.0
-    plan: dict[str, Any] | None = field(default=None, repr=False)
+    plan: Plan | None = field(default=None, repr=False)  # rendered for people by Gateway.mission_view
     # Ended by a stop with its path still in the firmware: a START resumes it (Gateway.command).
     resumable: bool = False
     # The route in the firmware: where it started and its waypoints as sent; the stop generation
@@ -101,7 +107,7 @@ class SimulatorState:
     """The simulator the gateway started (cart2d sim): whether it runs, and its restarts after
     it exited on its own (a crash, a kill from outside)."""
 
-    state: str = "running"  # running | restarting | failed
+    state: SimulatorRun = "running"
     restarts: int = 0  # times the gateway started it again after it exited
     message: str = ""  # the last exit and restart, in sentences
 
