@@ -45,7 +45,7 @@ import serial
 from bench.common import Section, percentile, section_main, spread, table
 from cart2d.link import Link
 from cart2d.link.path_stream import POINTS_PER_FRAME
-from cart2d.link.protocol import Decoder, Reply, Telemetry, decode_reply, encode_request
+from cart2d.link.protocol import BITS_PER_BYTE, Decoder, Reply, Telemetry, decode_reply, encode_request
 from cart2d.params import robot
 from cart2d.simulator import SimOptions, Simulator, default_firmware
 from cart2d.spec import load_spec, repo_file
@@ -200,6 +200,11 @@ class Port:
         self._serial = serial.Serial(pty, 115200, timeout=0)
         self._serial.reset_input_buffer()
         self._decoder = Decoder()
+        # The decoder's clock is the line time of the bytes read so far, not the wall clock: a
+        # reply spans many steps (an 85-byte STATUS, 7.4 ms of line, over 74 steps of 0.1 ms),
+        # and a host that took over PARTIAL_MARGIN_S of wall time between two of them (a busy
+        # machine, a garbage collection) saw its partial reply expire and lost it.
+        self._line_s = 0.0
         self._seq = random.Random(seed).randrange(256)
         self.replies: dict[int, Reply] = {}
         self.telemetry: Telemetry | None = None
@@ -213,7 +218,8 @@ class Port:
 
     def poll(self) -> None:
         while data := self._serial.read(65536):
-            for item in self._decoder.feed(data):
+            self._line_s += len(data) * BITS_PER_BYTE / self._serial.baudrate
+            for item in self._decoder.feed(data, self._line_s):
                 if isinstance(item, Telemetry):
                     self.telemetry = item
                     self.telemetry_count += 1
