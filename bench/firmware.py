@@ -45,7 +45,15 @@ import serial
 from bench.common import Section, percentile, section_main, spread, table
 from cart2d.link import Link
 from cart2d.link.path_stream import POINTS_PER_FRAME
-from cart2d.link.protocol import BITS_PER_BYTE, Decoder, Reply, Telemetry, decode_reply, encode_request
+from cart2d.link.protocol import (
+    BITS_PER_BYTE,
+    Decoder,
+    Packet,
+    Reply,
+    Telemetry,
+    decode_reply,
+    encode_request,
+)
 from cart2d.params import robot
 from cart2d.simulator import SimOptions, Simulator, default_firmware
 from cart2d.spec import load_spec, repo_file
@@ -191,6 +199,23 @@ def tick_cycles(cpu: dict[str, Any]) -> list[int]:
     return [peak] + [round(rest / (n - 1))] * (n - 1)  # n > 2 never happens with 8 ms steps
 
 
+class SteppedDecoder:
+    """The link's Decoder for a paused simulator stepped from Python: its clock is the line time
+    of the bytes read so far, not the wall clock. A reply spans many steps (an 85-byte STATUS,
+    7.4 ms of line, over 74 steps of 0.1 ms), and a host that took over PARTIAL_MARGIN_S of wall
+    time between two of them (a busy machine, a garbage collection) saw its partial reply expire
+    and lost it."""
+
+    def __init__(self, baudrate: int) -> None:
+        self._decoder = Decoder()
+        self._baudrate = baudrate
+        self._line_s = 0.0
+
+    def feed(self, data: bytes) -> list[Packet | Telemetry]:
+        self._line_s += len(data) * BITS_PER_BYTE / self._baudrate
+        return self._decoder.feed(data, self._line_s)
+
+
 class Port:
     """The firmware's serial port, driven from the stepping loop alone: requests are written
     while the simulation is paused and everything it sent is read after each step, so a run
@@ -199,12 +224,7 @@ class Port:
     def __init__(self, pty: str, seed: int) -> None:
         self._serial = serial.Serial(pty, 115200, timeout=0)
         self._serial.reset_input_buffer()
-        self._decoder = Decoder()
-        # The decoder's clock is the line time of the bytes read so far, not the wall clock: a
-        # reply spans many steps (an 85-byte STATUS, 7.4 ms of line, over 74 steps of 0.1 ms),
-        # and a host that took over PARTIAL_MARGIN_S of wall time between two of them (a busy
-        # machine, a garbage collection) saw its partial reply expire and lost it.
-        self._line_s = 0.0
+        self._decoder = SteppedDecoder(self._serial.baudrate)
         self._seq = random.Random(seed).randrange(256)
         self.replies: dict[int, Reply] = {}
         self.telemetry: Telemetry | None = None
@@ -218,8 +238,7 @@ class Port:
 
     def poll(self) -> None:
         while data := self._serial.read(65536):
-            self._line_s += len(data) * BITS_PER_BYTE / self._serial.baudrate
-            for item in self._decoder.feed(data, self._line_s):
+            for item in self._decoder.feed(data):
                 if isinstance(item, Telemetry):
                     self.telemetry = item
                     self.telemetry_count += 1

@@ -14,9 +14,10 @@ from typing import Any
 import pytest
 import serial
 
+from bench.firmware import SteppedDecoder
 from cart2d.link import Link
 from cart2d.link.firmware import read_status
-from cart2d.link.protocol import Decoder, Packet, Reply, Telemetry, decode_reply, encode_request
+from cart2d.link.protocol import Packet, Reply, Telemetry, decode_reply, encode_request
 from cart2d.simulator import Simulator
 from cart2d.spec import load_spec
 from tests.conftest import high_rate_truth, start_sim, wait_idle
@@ -34,7 +35,7 @@ class RawPort:
     def __init__(self, sim: Simulator) -> None:
         self.sim = sim
         self.port = serial.Serial(sim.pty, 115200, timeout=0)
-        self.decoder = Decoder()
+        self.decoder = SteppedDecoder(self.port.baudrate)  # a partial reply timed by the line
 
     def close(self) -> None:
         self.port.close()
