@@ -71,6 +71,7 @@ python-checks: python-env
 	$(VENV)/bin/ruff check cart2d tests bench tools
 	$(VENV)/bin/ruff format --check cart2d tests bench tools
 	$(VENV)/bin/mypy
+	$(VENV)/bin/lint-imports
 
 python-tests: python-env firmware sim panel
 	$(PY) -m pytest -q
