@@ -47,7 +47,7 @@ def save(gateway: GatewayDep) -> dict[str, str]:
     responses=errors(401, 409, 503),
 )
 def load(gateway: GatewayDep) -> dict[str, str]:
-    gateway.link.call("LOAD")
+    gateway.load_settings()
     return {"result": "loaded"}
 
 
