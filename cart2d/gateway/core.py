@@ -543,6 +543,10 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self.link.call("SAVE")
         self._status_after_save()
 
+    def load_settings(self) -> None:
+        """LOAD: the firmware reads its settings back from EEPROM."""
+        self.link.call("LOAD")
+
     def _status_after_save(self) -> None:
         # /api/status answers from the last STATUS read (status_cache.py): read one now, so that
         # from this answer on it shows the EEPROM busy, not the STATUS from before the SAVE.
