@@ -56,8 +56,10 @@ test("the camera stalling mid-mission stops the cart, and the panel says it went
   const truths: Truth[] = [];
   page.on("websocket", (ws) =>
     ws.on("framereceived", ({ payload }) => {
-      const msg = JSON.parse(String(payload)) as { type?: string } & Record<string, unknown>;
-      if (msg.type === "truth") truths.push(msg as unknown as Truth);
+      // a frame: an array of messages (cart2d/server/live.py)
+      for (const msg of JSON.parse(String(payload)) as ({ type?: string } & Record<string, unknown>)[]) {
+        if (msg.type === "truth") truths.push(msg as unknown as Truth);
+      }
     }),
   );
   await page.goto(`${base}/`);

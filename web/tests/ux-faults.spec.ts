@@ -70,7 +70,7 @@ test("an encoder-radius fault set from the panel reaches the simulator and odome
   const input = row.locator("input");
   await expect(input).toHaveValue("1");
   await expect(row.locator(".tune-range")).toHaveText("0.5 … 2");
-  await expect(box.locator(".fault-row")).toHaveCount(12); // every key of cart2d/simulation/faults.py
+  await expect(box.locator(".fault-row")).toHaveCount(15); // every key of cart2d/simulation/faults.py
   const doc = row.locator(".tune-doc");
   await expect(doc).toBeHidden();
   await row.locator(".tune-name").click();

@@ -103,7 +103,7 @@ async function liveStream(page: Page): Promise<{ inject: (message: object) => vo
   });
   return {
     inject: (message) => {
-      for (const ws of routes) ws.send(JSON.stringify(message));
+      for (const ws of routes) ws.send(JSON.stringify([message])); // a frame: an array of messages
     },
   };
 }
