@@ -36,7 +36,7 @@ import tempfile
 import threading
 import time
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from multiprocessing.synchronize import Event as ProcessEvent
 from pathlib import Path
 from typing import Any
@@ -103,7 +103,10 @@ def cpu_seconds(pid: int) -> float:
 
 
 # -- the loads, each in a process of its own ---------------------------------------------------
-def conflicting_request(rng: random.Random) -> tuple[str, str, dict[str, Any] | None]:
+Request = tuple[str, str, dict[str, Any] | None]  # method, path, JSON body
+
+
+def conflicting_request(rng: random.Random) -> Request:
     kind = rng.randrange(8)
     point = {"x": rng.uniform(0.0, GRID_M), "y": rng.uniform(0.0, GRID_M)}
     if kind == 0:
@@ -121,10 +124,17 @@ def conflicting_request(rng: random.Random) -> tuple[str, str, dict[str, Any] | 
     return "GET", "/api/status", None
 
 
-def conflicting_clients(
-    port: int, clients: int, ready: ProcessEvent, done: ProcessEvent, results: Any
+def client_pool(
+    port: int,
+    count: int,
+    next_request: Callable[[random.Random], Request],
+    ready: ProcessEvent,
+    done: ProcessEvent,
+    results: Any,
 ) -> None:
-    count = clients
+    """`count` clients, each on its keep-alive connection sending `next_request(its rng)` as fast
+    as it is answered until `done`; the answers counted by status (0: no answer) into `results`,
+    `ready` once every client has had one."""
     answers: Counter[int] = Counter()
     lock = threading.Lock()
 
@@ -132,7 +142,7 @@ def conflicting_clients(
         rng = random.Random(seed)
         conn = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
         while not done.is_set():
-            method, path, body = conflicting_request(rng)
+            method, path, body = next_request(rng)
             data = json.dumps(body).encode() if body is not None else b""
             headers = {"Content-Type": "application/json"} if method != "GET" else {}
             try:
@@ -149,42 +159,26 @@ def conflicting_clients(
                 if sum(answers.values()) >= count:  # every client under way
                     ready.set()
 
-    threads = [threading.Thread(target=client, args=(seed,), daemon=True) for seed in range(clients)]
+    threads = [threading.Thread(target=client, args=(seed,), daemon=True) for seed in range(count)]
     for thread in threads:
         thread.start()
     for thread in threads:
         thread.join(120)
     results.put(dict(answers))
+
+
+def conflicting_clients(port: int, count: int, ready: ProcessEvent, done: ProcessEvent, results: Any) -> None:
+    """`count` clients sending conflicting_request()s: a classroom of panels."""
+    client_pool(port, count, conflicting_request, ready, done, results)
+
+
+def status_request(_: random.Random) -> Request:
+    return "GET", "/api/status", None
 
 
 def status_readers(port: int, count: int, ready: ProcessEvent, done: ProcessEvent, results: Any) -> None:
     """`count` clients, each reading GET /api/status on its connection as fast as it is answered."""
-    answers: Counter[int] = Counter()
-    lock = threading.Lock()
-
-    def reader() -> None:
-        conn = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
-        while not done.is_set():
-            try:
-                conn.request("GET", "/api/status")
-                response = conn.getresponse()
-                response.read()
-                status = response.status
-            except (OSError, http.client.HTTPException):
-                conn.close()
-                conn = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
-                status = 0
-            with lock:
-                answers[status] += 1
-                if sum(answers.values()) >= count:  # every client under way
-                    ready.set()
-
-    threads = [threading.Thread(target=reader, daemon=True) for _ in range(count)]
-    for thread in threads:
-        thread.start()
-    for thread in threads:
-        thread.join(120)
-    results.put(dict(answers))
+    client_pool(port, count, status_request, ready, done, results)
 
 
 def viewers(port: int, count: int, ready: ProcessEvent, done: ProcessEvent, results: Any) -> None:
