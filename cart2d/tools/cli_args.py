@@ -22,6 +22,14 @@ class Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} ({self.prog} --help lists the options)\n")
 
 
+def _number(text: str) -> float:
+    """The number typed, NaN if it is none (a range check then refuses it with its sentence)."""
+    try:
+        return float(text)
+    except ValueError:
+        return math.nan
+
+
 def port_number(text: str) -> int:
     try:
         port = int(text)
@@ -53,10 +61,7 @@ def speed(text: str) -> str:
     """'max', or a positive factor of real time, kept as typed (the simulator's --speed)."""
     if text == "max":
         return text
-    try:
-        factor = float(text)
-    except ValueError:
-        factor = math.nan
+    factor = _number(text)
     if not (math.isfinite(factor) and factor > 0.0):
         raise argparse.ArgumentTypeError(
             f"{text!r} is not a speed: give simulated seconds per second (a number above 0, such as "
@@ -67,10 +72,7 @@ def speed(text: str) -> str:
 
 def replay_speed(text: str) -> float:
     """A positive factor of the recorded pace (`cart2d replay --speed`)."""
-    try:
-        factor = float(text)
-    except ValueError:
-        factor = math.nan
+    factor = _number(text)
     if not (math.isfinite(factor) and 0.0 < factor <= 1000.0):
         raise argparse.ArgumentTypeError(
             f"{text!r} is not a replay speed: give recorded seconds per second, above 0 and at most 1000"
@@ -80,10 +82,7 @@ def replay_speed(text: str) -> float:
 
 def camera_fps(text: str) -> float:
     """The camera frames a second a recording keeps (`--record-camera-fps`): 0 for none."""
-    try:
-        fps = float(text)
-    except ValueError:
-        fps = math.nan
+    fps = _number(text)
     if not (math.isfinite(fps) and 0.0 <= fps <= 60.0):
         raise argparse.ArgumentTypeError(
             f"{text!r} is not a frame rate: give frames a second from 0 (no camera frames) to 60"
