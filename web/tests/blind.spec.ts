@@ -4,28 +4,19 @@
 // the cart, a toast says the camera went blind, the mission failed with that reason, the card
 // says blind in red and why; once the camera sends again the card says it sees.
 
-import { type ChildProcess, spawn } from "node:child_process";
-import { join } from "node:path";
+import { type ChildProcess } from "node:child_process";
 
 import { expect, test } from "@playwright/test";
 
-import { type Gateway, ROOT, startGateway } from "./gateway";
+import { type Gateway, startGateway, startTestCamera } from "./gateway";
 
 let camera: ChildProcess | null = null;
 let gateway: Gateway | null = null;
 
-function startCamera(): Promise<string> {
-  const python = join(ROOT, "build", "venv", "bin", "python");
-  const args = ["-m", "tests.mjpeg_server", "--every-s", "0.066", "--width", "320", "--height", "240"];
-  const child = spawn(python, args, { cwd: ROOT, stdio: ["ignore", "pipe", "inherit"] });
-  camera = child;
-  return new Promise((ok, fail) => {
-    const timer = setTimeout(() => fail(new Error("the test camera did not start")), 10_000);
-    child.stdout?.once("data", (d: Buffer) => {
-      clearTimeout(timer);
-      ok(d.toString().trim());
-    });
-  });
+async function startCamera(): Promise<string> {
+  const started = await startTestCamera(["--every-s", "0.066", "--width", "320", "--height", "240"]);
+  camera = started.child;
+  return started.url;
 }
 
 test.describe.configure({ mode: "serial" });

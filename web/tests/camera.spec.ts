@@ -3,12 +3,11 @@
 // cells put on its live map appear on the map and go with "Clear perceived". The shared gateway
 // (no camera) says how to give it one instead of a broken image.
 
-import { type ChildProcess, spawn } from "node:child_process";
-import { join } from "node:path";
+import { type ChildProcess } from "node:child_process";
 
 import { expect, test } from "@playwright/test";
 
-import { type Gateway, ROOT, startGateway } from "./gateway";
+import { type Gateway, startGateway, startTestCamera } from "./gateway";
 
 const SHARED = process.env["CART2D_URL"] ?? "";
 
@@ -17,19 +16,9 @@ let cameraUrl = "";
 let gateway: Gateway | null = null;
 
 async function startCamera(): Promise<string> {
-  const python = join(ROOT, "build", "venv", "bin", "python");
-  const child = spawn(python, ["-m", "tests.mjpeg_server", "--every-s", "0.1"], {
-    cwd: ROOT,
-    stdio: ["ignore", "pipe", "inherit"],
-  });
-  camera = child;
-  return new Promise((ok, fail) => {
-    const timer = setTimeout(() => fail(new Error("the test camera did not start")), 10_000);
-    child.stdout?.once("data", (d: Buffer) => {
-      clearTimeout(timer);
-      ok(d.toString().trim());
-    });
-  });
+  const started = await startTestCamera(["--every-s", "0.1"]);
+  camera = started.child;
+  return started.url;
 }
 
 test.describe.configure({ mode: "serial" });
