@@ -9,7 +9,9 @@
   request or nothing for FRESH_S first), never one being answered; at most BACKLOG wait to be
   accepted;
 - a WebSocket message is at most WS_MAX_BYTES;
-- repeated log lines are rate-limited (RepeatFilter).
+- repeated log lines are rate-limited (RepeatFilter);
+- a Ctrl-C before uvicorn has taken the signals waits until it has (Server): one that landed
+  inside asyncio's loop construction printed a traceback of its half-built loop.
 
 uvicorn (pinned with h11 in pyproject.toml) has no header timeout: the protocol below is its h11
 protocol, subclassed with the few methods it needs."""
@@ -17,11 +19,14 @@ protocol, subclassed with the few methods it needs."""
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 import resource
+import signal
 import socket
 import threading
 import time
+from collections.abc import Iterator
 from typing import Any, ClassVar
 
 import h11
@@ -231,13 +236,36 @@ def server(app: Any, connections: int = MAX_CONNECTIONS) -> uvicorn.Server:
         log_config=None,  # uvicorn's loggers go to the root handlers, and their RepeatFilter
         log_level="warning",
     )
-    return uvicorn.Server(config)
+    return Server(config)
+
+
+HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+
+
+class Server(uvicorn.Server):
+    """uvicorn's server, taking the signals serve() held back once its own handlers are in place
+    (a pending Ctrl-C is then uvicorn's graceful shutdown, re-raised as KeyboardInterrupt after)."""
+
+    @contextlib.contextmanager
+    def capture_signals(self) -> Iterator[None]:
+        with super().capture_signals():
+            if threading.current_thread() is threading.main_thread():
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD_SIGNALS)
+            yield
 
 
 def serve(app: Any, sock: socket.socket, connections: int = MAX_CONNECTIONS) -> None:
     """Runs `app` on the listening socket `sock` (listening_socket(), with the backlog of
-    descriptor_budget()) until Ctrl-C or SIGTERM."""
-    server(app, connections).run(sockets=[sock])
+    descriptor_budget()) until Ctrl-C or SIGTERM. The signals wait, blocked, from here until
+    uvicorn's handlers take them (Server.capture_signals)."""
+    main = threading.current_thread() is threading.main_thread()
+    if main:
+        signal.pthread_sigmask(signal.SIG_BLOCK, HELD_SIGNALS)
+    try:
+        server(app, connections).run(sockets=[sock])
+    finally:
+        if main:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD_SIGNALS)
 
 
 class RepeatFilter(logging.Filter):
