@@ -143,6 +143,7 @@ class Viewer:
         self.sent = 0  # frames sent
         self.merged = 0  # frames it was too far behind to be sent one by one
         self.dropped = 0  # events it lost because it read too slowly
+        self.thinned = 0  # samples and superseded states left out of its merged frames
 
     def put(self, frame: Frame) -> None:
         self.frames.append(frame)
@@ -160,6 +161,7 @@ class Viewer:
         items = [item for frame in self.frames for item in frame.items]
         chosen, dropped = kept(items)
         self.dropped += dropped
+        self.thinned += len(items) - len(chosen) - dropped
         return Frame.of(chosen)
 
 
@@ -173,6 +175,7 @@ class LoopFanout:
         self.slowdown = 1  # doubles while frames are late (_adapt)
         self.frames = 0
         self.late_frames = 0  # frames more than LAG_S late (the loop or the machine was busy)
+        self.thinned = 0  # samples over the budget and superseded states left out of frames
         self._queue: deque[dict[str, Any]] = deque()
         self._lock = threading.Lock()
         self._scheduled = False
@@ -206,6 +209,7 @@ class LoopFanout:
         if not messages or not self.viewers:
             return
         frame = Frame.encoded(messages, self._budget.allowed(since))
+        self.thinned += len(messages) - len(frame.items)
         self._budget.spend(frame)
         self.frames += 1
         for viewer in self.viewers:
