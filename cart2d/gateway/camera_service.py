@@ -100,16 +100,19 @@ class CameraService:
             old_seeing = self.seeing if replaced else None
             if replaced:
                 self.seeing = None
-            if feed is not None and feed is not old:
+        if replaced:  # stopped before the new one is attached, not under the lock: the old
+            assert old is not None  # feed's last frame may be waiting for it
+            old.stop()
+            if old_seeing is not None:
+                old_seeing.close()
+        if feed is not None and feed is not old:
+            with self._lock:
+                if self.camera is not feed:
+                    return  # replaced meanwhile by another call, which stopped it
                 self.seeing = seeing_for(self, self.directory)
                 feed.add_processor(self.seeing)
                 for sink in self._sinks:
                     self._sinks[sink] = feed.subscribe(sink)
-        if replaced:  # not under the lock: the old feed's last frame may be taking it
-            assert old is not None
-            old.stop()
-            if old_seeing is not None:
-                old_seeing.close()
         self.forwards_only_while_seeing(certain=False)
 
     def sees(self) -> bool:
