@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -16,14 +15,15 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from cart2d.gateway.bus import EventBus
-from cart2d.gateway.live_map import planner_for
-from cart2d.gateway.perceived import PerceivedLayer, PerceptionMixin
+from cart2d.gateway.bus import EventBus, ViewerMessage
+from cart2d.gateway.camera_service import CameraService
+from cart2d.gateway.map_service import LiveMap
+from cart2d.gateway.perceived import PerceivedLayer
 from cart2d.maps import OCCUPIED, OccupancyMap
 from cart2d.params import robot
 from cart2d.planning import Grid, PlanError, Planner, point_square_distance, segment_square_distance
 from cart2d.server import create_app
-from cart2d.store import FloorPlan, GatewaySettings, MapSettings
+from cart2d.store import FloorPlan, GatewaySettings, MapSettings, Store
 from tests.conftest import wait_for
 from tests.test_live_map import WIDE, GatewayRig
 from tests.test_server import BASE_URL, JSON
@@ -155,22 +155,29 @@ def test_a_perceived_cell_blocks_every_planner_cell_its_square_overlaps() -> Non
     assert not PerceivedLayer(((5.0, 5.0, 1.0), (-1.0, 0.5, 1.0)), 0.05).mask(grid).any()
 
 
-class LoneLayer(PerceptionMixin):
+class LoneLayer(CameraService):
     """The perceived layer without a robot: a map, no mission (nothing replans), messages kept."""
 
-    def __init__(self, settings: GatewaySettings | None = None) -> None:
-        self._lock = threading.RLock()
-        self.settings = settings or GatewaySettings()
-        self.map_planner = self.planner = planner_for(self.settings.map)
-        self.bus = EventBus()
+    def __init__(self, tmp_path: Path, settings: GatewaySettings | None = None) -> None:
+        bus = EventBus()
+        live_map = LiveMap(Store(tmp_path), settings or GatewaySettings(), bus)
+        super().__init__(None, live_map, bus, tmp_path)  # type: ignore[arg-type]  # no link: never sees
         self.messages: list[dict[str, Any]] = []
+        bus.subscribe(ViewerMessage, lambda event: self.messages.append(event.message))
 
-    def _publish(self, message: dict[str, Any]) -> None:
-        self.messages.append(message)
+    @property
+    def planner(self) -> Planner:
+        return self.live_map.planner
+
+    @property
+    def map_planner(self) -> Planner:
+        return self.live_map.map_planner
 
 
-def test_perceived_messages_come_at_most_twice_a_second_and_the_last_state_always_goes_out() -> None:
-    layer = LoneLayer()
+def test_perceived_messages_come_at_most_twice_a_second_and_the_last_state_always_goes_out(
+    tmp_path: Path,
+) -> None:
+    layer = LoneLayer(tmp_path)
     for k in range(10):  # a burst, much faster than 2 Hz
         layer.set_perceived([(1.0, 0.2 * k / 10, 0.9)], "a burst")
     told = [m for m in layer.messages if m["type"] == "perceived"]
@@ -180,8 +187,8 @@ def test_perceived_messages_come_at_most_twice_a_second_and_the_last_state_alway
     assert last == {"type": "perceived", "resolution": 0.05, "cells": [[1.0, 0.18, 0.9]]}
 
 
-def test_camera_messages_come_at_most_five_times_a_second() -> None:
-    layer = LoneLayer()
+def test_camera_messages_come_at_most_five_times_a_second(tmp_path: Path) -> None:
+    layer = LoneLayer(tmp_path)
     fov = [(0.1, 0.0), (1.5, -0.8), (1.5, 0.8)]
     for k in range(10):
         layer.tell_camera(float(k), fov, [(1.0, 0.0)])
@@ -194,13 +201,15 @@ def test_camera_messages_come_at_most_five_times_a_second() -> None:
     }
 
 
-def test_on_a_floor_plan_perceived_cells_block_with_its_walls_and_clearing_keeps_the_walls() -> None:
+def test_on_a_floor_plan_perceived_cells_block_with_its_walls_and_clearing_keeps_the_walls(
+    tmp_path: Path,
+) -> None:
     # a 3 x 2 m room at 5 cm, walled round, with a wall from y = 0 to 1.2 m at x = 1.5
     cells = np.zeros((40, 60), dtype=np.int8)
     cells[0, :] = cells[-1, :] = cells[:, 0] = cells[:, -1] = OCCUPIED
     cells[:24, 29:31] = OCCUPIED
     plan = FloorPlan.of(OccupancyMap((-0.5, -0.5), 0.05, cells), "room")
-    layer = LoneLayer(GatewaySettings(map=MapSettings.model_validate({"floor_plan": plan})))
+    layer = LoneLayer(tmp_path, GatewaySettings(map=MapSettings.model_validate({"floor_plan": plan})))
     start, goal = (0.0, 0.0), (2.0, 0.0)
     over_the_wall = layer.planner.plan(start, goal)  # round the wall's top, at y = 0.7 m
     assert max(y for _, y in over_the_wall.waypoints) > 0.7
@@ -234,12 +243,14 @@ def cells_over(
     return sorted(out)
 
 
-def test_a_gap_the_cart_fits_through_stays_open_when_the_camera_sees_its_sides_a_little_too_near() -> None:
+def test_a_gap_the_cart_fits_through_stays_open_when_the_camera_sees_its_sides_a_little_too_near(
+    tmp_path: Path,
+) -> None:
     # The missions benchmark's wall with a gap in the seed's arena (10 x 10 nodes, 0.2 m): boxes
     # fill nodes (4, 0..3) and (4, 7..9), 1 cm inside their cells; the gap is y 0.69 to 1.31 m, the
     # cart needs 2 x 0.2 m. The camera places each face up to 3 cm too near (JPEG bleeding): on
     # the map's 0.2 m grid those cells would block the gap's edge cells and close it.
-    layer = LoneLayer()
+    layer = LoneLayer(tmp_path)
     seen = cells_over([(0.71, 0.0, 0.89, 0.72), (0.71, 1.28, 0.89, 1.8)], 0.05)
     layer.set_perceived(seen, "the camera saw the wall")
     plan = layer.planner.plan((0.2, 0.4), (1.6, 1.4))

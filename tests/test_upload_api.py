@@ -105,7 +105,7 @@ def test_a_stop_answers_while_a_new_floor_plan_is_planned(
             order.append("planned")
         return planner_for(m)
 
-    monkeypatch.setattr("cart2d.gateway.map_edits.planner_for", held_planner)
+    monkeypatch.setattr("cart2d.gateway.map_service.planner_for", held_planner)
     uploaded: list[Any] = []
 
     def post() -> None:

@@ -24,12 +24,12 @@ from __future__ import annotations
 import logging
 import threading
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from cart2d.link import CommandRefused, LinkError
 
 if TYPE_CHECKING:
-    from cart2d.gateway.core import Gateway
+    from cart2d.gateway.camera import CameraFeed
     from cart2d.gateway.seeing import Seeing
 
 log = logging.getLogger(__name__)
@@ -38,10 +38,32 @@ POLL_S = 0.05  # a look at the feed this often: 0.05 s of a 0.5 s limit
 IN_HAND_S = 2.0  # a frame perception works on longer than this no longer counts as fresh
 
 
+class _Mission(Protocol):
+    @property
+    def state(self) -> str: ...
+
+
+class Watched(Protocol):
+    """What the watch asks of the gateway: its camera and perception, the mission, the stop."""
+
+    @property
+    def camera(self) -> CameraFeed | None: ...
+
+    @property
+    def seeing(self) -> Seeing | None: ...
+
+    @property
+    def mission(self) -> _Mission: ...
+
+    def sees(self) -> bool: ...
+
+    def stop(self, reason: str) -> object: ...
+
+
 class BlindWatch:
     """Stops the mission of `gateway` when its camera has been blind for the feed's `blind_s`."""
 
-    def __init__(self, gateway: Gateway, clock: Callable[[], float | None], poll_s: float = POLL_S) -> None:
+    def __init__(self, gateway: Watched, clock: Callable[[], float | None], poll_s: float = POLL_S) -> None:
         """`clock`: the cart's time in seconds (None while it is not known yet)."""
         self.gateway = gateway
         self.clock = clock

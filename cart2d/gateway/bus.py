@@ -52,11 +52,12 @@ class MapChanged(Event):
 
     version: int
     why: str
+    walls: bool = False  # its walls too (a new floor plan or grid): the simulated world's follow
 
 
 @dataclass(frozen=True)
 class PerceivedChanged(Event):
-    """What the camera sees changed the routes' planner (perceived.py)."""
+    """What the camera sees changed the routes' planner (camera_service.py)."""
 
     why: str
 

@@ -11,11 +11,11 @@ replaces the robot's program, it waits for the program that answers and stops th
 simulator it started exits on its own (a crash, a kill -9), the gateway ends the mission with
 the reason, says so (/ws message `simulator`, /api/status `simulator`) and starts it again.
 
-Still one class over ~500 lines (issue 23 splits it on): one lock guards the settings, the
-planner, the mission and the reset routine, and the methods here keep an invariant across them
-(a path is sent and its mission recorded together). What it keeps is in state.py; the map's
-edits (map_edits.py), perception (perceived.py) and the simulator's boxes (sim_world.py) are
-mixins under the same lock."""
+Still one class over ~500 lines (issue 23 splits it on): one lock guards the mission and the
+reset routine, and the methods here keep an invariant across them (a path is sent and its
+mission recorded together). What it keeps is in state.py. The live map (map_service.py) and the
+camera (camera_service.py) are services with their own state and locks, which this front
+delegates to; the simulator's boxes (sim_world.py) are still a mixin."""
 
 from __future__ import annotations
 
@@ -41,12 +41,15 @@ from cart2d.gateway.bus import (
     SimulatorRestarted,
     ViewerMessage,
 )
-from cart2d.gateway.live_map import Replan, RouteAhead, planner_for
+from cart2d.gateway.camera import CameraFeed, Shown
+from cart2d.gateway.camera_service import CameraService
+from cart2d.gateway.live_map import Replan, RouteAhead, world_for
 from cart2d.gateway.look import look_before_driving
-from cart2d.gateway.map_edits import MapMixin
-from cart2d.gateway.perceived import PerceptionMixin
+from cart2d.gateway.map_service import LiveMap
+from cart2d.gateway.perceived import PerceivedLayer
 from cart2d.gateway.restarts import Restarts
-from cart2d.gateway.sim_world import SimWorldMixin
+from cart2d.gateway.seeing import Seeing
+from cart2d.gateway.sim_world import SimWorldMixin, with_boxes
 from cart2d.gateway.state import (
     BUSY_POLL_S,
     RESET_POSE_SETTINGS,
@@ -71,13 +74,14 @@ from cart2d.gateway.status_cache import StatusCache
 from cart2d.link import CommandRefused, Link, LinkError, MotionCancelled, firmware, path_stream
 from cart2d.link.flashing import HURRIED_CHECK_S, Flasher
 from cart2d.link.protocol import Reply, Telemetry
+from cart2d.maps import OccupancyMap
 from cart2d.params import robot, setting_id
-from cart2d.planning import Plan, PlanError, Point, StartBlocked, polyline_length
+from cart2d.planning import Plan, PlanError, Planner, Point, StartBlocked, polyline_length
 from cart2d.planning.smoothing import round_corners
 from cart2d.shown import for_people
 from cart2d.simulator import Simulator, SimulatorError
 from cart2d.spec import load_spec
-from cart2d.store import GatewaySettings, Store
+from cart2d.store import CameraSettings, GatewaySettings, Store
 
 log = logging.getLogger(__name__)
 
@@ -90,26 +94,26 @@ FLASHED_POSE = "the program that kept it was replaced, and the cart may have bee
 Listener = Callable[[dict[str, Any]], None]
 
 
-class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, perceived.py, sim_world.py
+class Gateway(SimWorldMixin):  # sim_world.py
     def __init__(
         self, link: Link, store: Store, settings: GatewaySettings, sim: Simulator | None = None
     ) -> None:
         self.link = link
         self.store = store
-        self.settings = settings
         self.sim = sim
-        self.map_planner = planner_for(settings.map)  # the map's: the user's obstacles are its nodes
-        self.planner = self.map_planner  # the routes': with what the camera sees (perceived.py)
-        self.map_version = 1  # counts the map's changes (the panel fetches the map again)
+        self.bus = EventBus()  # what happened, typed; viewers' messages too (bus.py)
+        self.live_map = LiveMap(store, settings, self.bus, self._position)  # map_service.py
+        self.camera_service = CameraService(  # camera_service.py: the feed, perception
+            link, self.live_map, self.bus, store.directory, lambda: self.mission.replans
+        )
         self._last_truth_t: float | None = None  # the simulator's time in its latest truth message
         self.mission = Mission()
         self._stream: path_stream.PathStream | None = None  # the mission's path, streamed to the firmware
         self._frames_at_route = 0  # telemetry frames received when the last route was sent
         self.looks_turned = 0  # turns on the spot to look before a route left (look.py)
-        self._lock = threading.RLock()  # guards settings, planner and mission
-        self.bus = EventBus()  # what happened, typed; viewers' messages too (bus.py)
-        self.bus.subscribe(MapChanged, lambda e: self._routes_changed(e.why))
-        self.bus.subscribe(PerceivedChanged, lambda e: self._routes_changed(e.why))
+        self._lock = threading.RLock()  # guards the mission and the routine
+        self.bus.subscribe(MapChanged, self._map_changed)
+        self.bus.subscribe(PerceivedChanged, lambda e: self._routes_changed_locked(e.why))
         self._stop = threading.Event()
         self._wake = threading.Event()  # look at STATUS now (telemetry's TICK went backwards)
         # (mission, routine) of each stop answered, to record as ended under the lock (stop())
@@ -224,6 +228,131 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self._last_truth_t = truth.get("t")
         self._publish(truth)  # already {"type": "truth", ...}
 
+    # -- the live map (map_service.py) -------------------------------------------------------
+    @property
+    def settings(self) -> GatewaySettings:
+        return self.live_map.settings
+
+    @property
+    def planner(self) -> Planner:
+        """The routes' planner now (a snapshot no later change of the map alters)."""
+        return self.live_map.planner
+
+    @property
+    def map_planner(self) -> Planner:
+        return self.live_map.map_planner
+
+    @property
+    def map_version(self) -> int:
+        return self.live_map.version
+
+    def map_view(self) -> dict[str, Any]:
+        return self.live_map.map_view()
+
+    def floor_plan(self) -> OccupancyMap | None:
+        return self.live_map.floor_plan()
+
+    def set_obstacle(self, x: float, y: float, present: bool) -> dict[str, Any]:
+        return self.live_map.set_obstacle(x, y, present)
+
+    def clear_obstacles(self) -> tuple[list[Point], int]:
+        return self.live_map.clear_obstacles()
+
+    def change_obstacles(self, add: Sequence[Point], remove: Sequence[Point], why: str) -> dict[str, Any]:
+        return self.live_map.change_obstacles(add, remove, why)
+
+    def load_floor_plan(
+        self,
+        occupancy: OccupancyMap,
+        name: str = "",
+        planning_step_m: float | None = None,
+        unknown_is_free: bool = False,
+    ) -> dict[str, Any]:
+        return self.live_map.load_floor_plan(occupancy, name, planning_step_m, unknown_is_free)
+
+    def update_settings(self, settings: GatewaySettings, why: str = "new settings were loaded") -> None:
+        """Replaces the settings (a new map, a new camera take effect now) and saves them;
+        ValueError changes nothing."""
+        self.live_map.update_settings(settings, why, self.camera_service.follow_settings)
+
+    def _position(self) -> Point | None:
+        """Where the cart's pose says it stands, None if it cannot be read now."""
+        if not self.link.connected.is_set():
+            return None
+        try:
+            x, y, _ = self.link.call("POSE")
+        except (LinkError, CommandRefused):
+            return None
+        return (x, y)
+
+    def _map_changed(self, event: MapChanged) -> None:
+        """A driven route the change blocks is replanned; the simulator's walls follow new walls."""
+        self._routes_changed_locked(event.why)
+        if event.walls:
+            self._sync_world()
+
+    def _sync_world(self) -> None:
+        """The simulator's walls follow the map (and do so again after a restart), under the
+        simulator's lifecycle lock as its boxes' changes: the map it reads is the latest, whoever
+        sends last."""
+        if self.sim is None:
+            return
+        with self.sim.lifecycle:
+            world = with_boxes(world_for(self.settings.map), self.sim.options.world)  # boxes stay
+            self.sim.options.world = world
+            if self.sim.running():
+                try:
+                    self.sim.set_world(world)
+                except SimulatorError as exc:
+                    log.warning("the simulator's walls could not follow the map: %s", exc)
+
+    # -- the camera and perception (camera_service.py) ---------------------------------------
+    @property
+    def camera(self) -> CameraFeed | None:
+        return self.camera_service.camera
+
+    @camera.setter
+    def camera(self, feed: CameraFeed | None) -> None:
+        """A feed read without perception (tests, benchmarks); use_camera() attaches it."""
+        self.camera_service.camera = feed
+
+    @property
+    def seeing(self) -> Seeing | None:
+        return self.camera_service.seeing
+
+    @property
+    def perceived(self) -> PerceivedLayer:
+        return self.live_map.perceived
+
+    def use_camera(self, feed: CameraFeed | None) -> None:
+        self.camera_service.use_camera(feed)
+
+    def sees(self) -> bool:
+        return self.camera_service.sees()
+
+    def forwards_only_while_seeing(self, certain: bool = True) -> None:
+        self.camera_service.forwards_only_while_seeing(certain)
+
+    def add_camera_sink(self, sink: Callable[[Shown], None]) -> Callable[[], None]:
+        return self.camera_service.add_camera_sink(sink)
+
+    def set_camera(self, camera: CameraSettings) -> None:
+        self.camera_service.set_camera(camera)
+
+    def set_perceived(
+        self, cells: Sequence[Sequence[float]], why: str, resolution_m: float | None = None
+    ) -> dict[str, Any]:
+        return self.camera_service.set_perceived(cells, why, resolution_m)
+
+    def clear_perceived(self, why: str = "the perceived cells were cleared") -> dict[str, Any]:
+        return self.camera_service.clear_perceived(why)
+
+    def set_perception_enabled(self, enabled: bool) -> dict[str, Any]:
+        return self.camera_service.set_perception_enabled(enabled)
+
+    def perception_view(self) -> dict[str, Any]:
+        return self.camera_service.perception_view()
+
     # -- motion ------------------------------------------------------------------------------
     def go_to(self, x: float, y: float, token: int | None = None) -> Plan:
         """Plans from the measured pose to (x, y) and sends the path; PlanError, or
@@ -238,7 +367,9 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             if self.mission.state == "driving":
                 seeing.look()  # what stands in view now is on the map before the route is planned
             else:
-                self.looks_turned += look_before_driving(self, seeing, (x, y), token)
+                self.looks_turned += look_before_driving(
+                    self.link, lambda: self.planner, seeing, (x, y), token
+                )
         with self._lock:
             if not self.pose_trust.trusted:
                 raise PoseUntrusted(self.pose_trust.refusal())
@@ -282,6 +413,10 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self._frames_at_route = self.link.telemetry_count
 
     # -- replanning ---------------------------------------------------------------------------
+    def _routes_changed_locked(self, why: str) -> None:
+        with self._lock:
+            self._routes_changed(why)
+
     def _routes_changed(self, why: str) -> None:
         """The map or the perceived layer changed (lock held): a driven route it blocks is replanned."""
         if self.mission.state == "driving" and self.mission.route:

@@ -27,10 +27,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from cart2d.planning import Grid, PlanError
+from cart2d.planning import Grid, PlanError, Planner
 
 if TYPE_CHECKING:
-    from cart2d.gateway.core import Gateway
     from cart2d.gateway.seeing import Seeing
     from cart2d.link import Link
 
@@ -114,32 +113,34 @@ def _known(seeing: Seeing, grid: Grid) -> Callable[[np.ndarray], np.ndarray]:
     return known
 
 
-def look_before_driving(gateway: Gateway, seeing: Seeing, goal: Point, token: int | None) -> int:
+def look_before_driving(
+    link: Link, planner: Callable[[], Planner], seeing: Seeing, goal: Point, token: int | None
+) -> int:
     """The look (see the module's docstring) for a route to `goal` from where the cart stands,
     again for the route planned with what it showed (what the cart saw may send it another way),
-    at most MAX_LOOKS times; how many turns it took. Without the gateway's lock: the frames taken
-    in meanwhile need it."""
+    at most MAX_LOOKS times; how many turns it took. `planner()`: the routes' planner now (the
+    live map's snapshot, which no later change alters). Called with no lock held: the frames
+    taken in meanwhile change the map."""
     turns = 0
     w_max: float | None = None
     for _ in range(MAX_LOOKS + 1):
-        x, y, theta = gateway.link.call("POSE")
+        x, y, theta = link.call("POSE")
         seeing.look(at=(x, y, theta))
         if turns == MAX_LOOKS:
             return turns
+        routes = planner()
         try:
-            with gateway._lock:
-                planner = gateway.planner
-                plan = planner.plan((x, y), goal)
+            plan = routes.plan((x, y), goal)
         except PlanError:
             return turns  # go_to plans again and says why
         bearing = first_bearing((x, y), plan.waypoints)
         if bearing is None:
             return turns
-        heading = look_heading(theta, bearing, unseen_sides((x, y), bearing, _known(seeing, planner.grid)))
+        heading = look_heading(theta, bearing, unseen_sides((x, y), bearing, _known(seeing, routes.grid)))
         if heading is None:
             return turns
         if w_max is None:
-            w_max = float(gateway.link.call("MAX_SPEED_GET")[1])
-        turn_to(gateway.link, heading, w_max, token)
+            w_max = float(link.call("MAX_SPEED_GET")[1])
+        turn_to(link, heading, w_max, token)
         turns += 1
     return turns

@@ -2,7 +2,8 @@
 detector into the log-odds grid (cart2d/perception/pipeline.py). What the grid believes occupied
 becomes the perceived layer of the live map (cart2d/gateway/perceived.py, so a blocked route is
 replanned), the hits and the field of view go to viewers, and the detection is drawn on the
-picture the panel shows.
+picture the panel shows. What it asks of the gateway is a `SeeingHost`: the camera service
+(cart2d/gateway/camera_service.py).
 
 The pose at capture: a frame reaches the gateway `latency_s` after it was taken (one frame plus
 Wi-Fi on an ESP32-CAM; [sim.camera] latency_ms in the simulator), so the odometry pose is looked
@@ -19,7 +20,7 @@ import time
 from collections import deque
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -31,7 +32,8 @@ from cart2d.perception.occupancy import LogOddsGrid, Pose
 from cart2d.perception.pipeline import Perceived, Perception
 
 if TYPE_CHECKING:
-    from cart2d.gateway.core import Gateway
+    from cart2d.gateway.live_map import Replan
+    from cart2d.gateway.perceived import PerceivedLayer
 
 log = logging.getLogger(__name__)
 
@@ -124,22 +126,41 @@ def _grid_for(arena: dict[str, float], resolution_m: float) -> LogOddsGrid:
     return LogOddsGrid((x0, y0), resolution_m, width, height, hit_depth_m=OBSTACLE_DEPTH_M)
 
 
+class SeeingHost(Protocol):
+    """What perception asks of the gateway (the camera service, camera_service.py)."""
+
+    @property
+    def perceived(self) -> PerceivedLayer: ...
+
+    def subscribe(self, listener: Callable[[dict[str, Any]], None]) -> Callable[[], None]: ...
+
+    def arena(self) -> dict[str, float]: ...
+
+    def replans(self) -> list[Replan]: ...
+
+    def set_perceived(
+        self, cells: list[tuple[float, float, float]], why: str, resolution_m: float | None = None
+    ) -> object: ...
+
+    def tell_camera(self, t: float | None, fov: Any, hits: Any) -> None: ...
+
+
 class Seeing:
     """The camera feed's processor that turns frames into the live map's perceived layer."""
 
     def __init__(
         self,
-        gateway: Gateway,
+        host: SeeingHost,
         calibration: CameraCalibration | None = None,
         latency_s: float | None = None,
         resolution_m: float = GRID_RESOLUTION_M,
     ) -> None:
-        self.gateway = gateway
+        self.host = host
         self.calibration = calibration
         self.latency_s = default_latency_s() if latency_s is None else latency_s
         self.resolution_m = resolution_m
         self.poses = PoseHistory()
-        self._unsubscribe = gateway.subscribe(self.poses)
+        self._unsubscribe = host.subscribe(self.poses)
         self._arena: dict[str, float] | None = None
         self._perception: Perception | None = None
         self._sent: frozenset[tuple[int, int]] = frozenset()
@@ -165,7 +186,7 @@ class Seeing:
 
     def _perception_for_the_map(self) -> Perception:
         """A grid over the current map: a new map (its arena) starts a new belief."""
-        arena = self.gateway.map_view()["arena"]
+        arena = self.host.arena()
         if self._perception is None or arena != self._arena:
             self._arena = arena
             self._perception = Perception(_grid_for(arena, self.resolution_m), self.calibration)
@@ -173,8 +194,8 @@ class Seeing:
         return self._perception
 
     def __call__(self, frame: Frame, bgr: np.ndarray) -> Overlay | None:
-        g = self.gateway
-        layer = g.perceived
+        host = self.host
+        layer = host.perceived
         if not layer.enabled:
             self.skipped += 1
             return None
@@ -203,11 +224,11 @@ class Seeing:
         self._last_seen = seen
         self.frames += 1
         self.frame_log.append((frame.stamp_s, pose))
-        g.tell_camera(frame.stamp_s, seen.fov.tolist(), seen.hits.tolist())
-        replans = g.mission.replans
+        host.tell_camera(frame.stamp_s, seen.fov.tolist(), seen.hits.tolist())
+        replans = host.replans()
         before = len(replans)
         told = self._send(perception)  # a replan, if the route is blocked now, happens in here
-        if told and g.mission.replans is replans:  # not one another thread made meanwhile
+        if told and host.replans() is replans:  # not one another thread made meanwhile
             self.replan_causes.extend((r, frame.stamp_s) for r in replans[before:] if told in r.reason)
         with self._taken:
             self._captures.append((frame.received_s - self.latency_s, pose))
@@ -235,7 +256,7 @@ class Seeing:
         """Waits until LOOK_FRAMES frames captured after this call are on the map (at most
         `timeout_s`), unless the last ones taken in were captured within STILL of pose `at`, the
         cart's now (standing there, it has seen what it would see); whether they came. Not with
-        the gateway's lock held: taking a frame in needs it."""
+        the camera service's lock held: taking a frame in needs it."""
         since = time.monotonic()
         with self._taken:
             if (
@@ -262,19 +283,19 @@ class Seeing:
         if key == self._sent and (not key or now - self._sent_at < SEND_INTERVAL_S):
             return ""
         what = f"the camera sees {len(key)} occupied cell{'s' if len(key) != 1 else ''}"
-        self.gateway.set_perceived(cells, what, r)
-        self._layer = self.gateway.perceived
+        self.host.set_perceived(cells, what, r)
+        self._layer = self.host.perceived
         self._sent, self._sent_at = key, now
         return what
 
 
-def seeing_for(gateway: Gateway, directory: Path | None = None) -> Seeing:
-    """Perception with the calibration saved beside the gateway's settings (the nominal model,
-    with a warning in the log, if there is none)."""
-    path = calibration_path(directory or gateway.store.directory)
+def seeing_for(host: SeeingHost, directory: Path) -> Seeing:
+    """Perception with the calibration saved in `directory`, beside the gateway's settings (the
+    nominal model, with a warning in the log, if there is none)."""
+    path = calibration_path(directory)
     calibration = load_calibration(path)
     if not calibration.calibrated:
         log.warning(
             "the camera is not calibrated (cart2d camera calibrate): perception uses the nominal model"
         )
-    return Seeing(gateway, calibration)
+    return Seeing(host, calibration)
