@@ -1,7 +1,7 @@
 """The tests mirror the package (tests/<package>/test_*.py): nothing but conftest.py sits at the
 root of tests/, each test folder is a package (test modules of the same name in two folders), and
-no test module imports another test module: what tests share is in tests/support/ or a conftest.py.
-Every import counts, those inside functions too."""
+no test module (nor a benchmark) imports a test module: what tests share is in tests/support/ or
+a conftest.py. Every import counts, those inside functions too."""
 
 from __future__ import annotations
 
@@ -41,12 +41,14 @@ def imported_files(path: Path, root: Path) -> set[Path]:
     return found
 
 
-def imports_of_test_modules(root: Path) -> dict[str, list[str]]:
+def imports_of_test_modules(root: Path, others: Path | None = None) -> dict[str, list[str]]:
+    """Each module of `root` (or of `others`, a folder beside it) that imports a test module."""
     found: dict[str, list[str]] = {}
-    for path in sorted(root.rglob("*.py")):
+    importers = [*root.rglob("*.py"), *(others.rglob("*.py") if others else ())]
+    for path in sorted(importers):
         imported = sorted(str(f.relative_to(root)) for f in imported_files(path, root) if is_test_module(f))
         if imported:
-            found[str(path.relative_to(root))] = imported
+            found[str(path.relative_to(root.parent))] = imported
     return found
 
 
@@ -60,8 +62,8 @@ def test_every_folder_of_python_tests_is_a_package() -> None:
     assert sorted(str(f.relative_to(TESTS)) for f in folders if not (f / "__init__.py").exists()) == []
 
 
-def test_no_test_module_imports_another_test_module() -> None:
-    assert imports_of_test_modules(TESTS) == {}
+def test_no_test_module_imports_another_test_module_nor_a_benchmark_one() -> None:
+    assert imports_of_test_modules(TESTS, TESTS.parent / "bench") == {}
 
 
 def test_the_import_finder_finds_test_modules_however_imported(tmp_path: Path) -> None:
@@ -73,8 +75,11 @@ def test_the_import_finder_finds_test_modules_however_imported(tmp_path: Path) -
     (root / "a" / "test_two.py").write_text("def f():\n    from tests.a.test_one import y\n")
     (root / "a" / "test_three.py").write_text("from . import test_one\nfrom ..conftest import z\n")
     (root / "a" / "test_four.py").write_text("import tests.a.test_two\nfrom tests.a import test_three\n")
-    assert imports_of_test_modules(root) == {
-        "a/test_four.py": ["a/test_three.py", "a/test_two.py"],
-        "a/test_three.py": ["a/test_one.py", "conftest.py"],
-        "a/test_two.py": ["a/test_one.py"],
+    (tmp_path / "bench").mkdir()
+    (tmp_path / "bench" / "control.py").write_text("from tests.conftest import free_port\n")
+    assert imports_of_test_modules(root, tmp_path / "bench") == {
+        "bench/control.py": ["conftest.py"],
+        "tests/a/test_four.py": ["a/test_three.py", "a/test_two.py"],
+        "tests/a/test_three.py": ["a/test_one.py", "conftest.py"],
+        "tests/a/test_two.py": ["a/test_one.py"],
     }
