@@ -1,6 +1,6 @@
 """## The camera's stream through the gateway: rate, latency and fan-out
 
-A test camera on this machine (tests/mjpeg_server.py) streams QVGA JPEGs (320 x 240, quality 80,
+A test camera on this machine (tests/support/mjpeg_server.py) streams QVGA JPEGs (320 x 240, quality 80,
 a gradient with noise: about the size of the OV2640's) at the ESP32-CAM's 30 fps, each stamped
 with time.monotonic() as it is sent. Measured:
 
@@ -37,7 +37,7 @@ from cart2d.perception.mjpeg import Frame, MjpegReader
 from cart2d.server import create_app, serving
 from cart2d.simulator import SimOptions, Simulator
 from cart2d.store import Store
-from tests.mjpeg_server import MjpegServer
+from tests.support.mjpeg_server import MjpegServer
 
 NAME = "camera_stream"
 FPS = 30.0

@@ -44,8 +44,8 @@ from typing import Any
 import matplotlib.pyplot as plt
 
 from bench.common import Section, percentile, section_main, table
-from tests.conftest import free_port_pair
-from tests.live import GatewayProcess
+from tests.support.live import GatewayProcess
+from tests.support.sockets import free_port_pair
 
 NAME = "control"
 CLIENTS = 20

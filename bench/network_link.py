@@ -2,7 +2,7 @@
 
 The gateway's link (cart2d.link.Link) sends STATUS (7 bytes out, 68 back) and waits for its
 reply, on the simulator's pseudo-terminal directly and through Debian's ser2net on loopback
-(tests/ser2net.py's configuration, docs/network-link.md): RFC 2217 (`rfc2217://`) and raw TCP
+(tests/support/ser2net.py's configuration, docs/network-link.md): RFC 2217 (`rfc2217://`) and raw TCP
 (`socket://`), then raw TCP behind a relay that delays each direction by 20 ms (a good Wi-Fi
 link). Wall-clock time, the simulator at real time (its line is modelled at 115 200 baud).
 Target: the median through ser2net on loopback at most 5 ms above the direct line's, and no
@@ -22,7 +22,7 @@ from pathlib import Path
 from bench.common import Section, percentile, section_main, spread, table
 from cart2d.link import Link
 from cart2d.simulator import SimOptions, Simulator
-from tests.ser2net import DelayRelay, Ser2net
+from tests.support.ser2net import DelayRelay, Ser2net
 
 TARGET_EXTRA_MS = 5.0
 RELAY_DELAY_S = 0.02

@@ -18,7 +18,7 @@ struct Health {
 
 constexpr uint8_t kFirmwareMajor = 0;
 constexpr uint8_t kFirmwareMinor = 1;
-#ifdef CART2D_FIRMWARE_PATCH  // a test build that must answer with another version (tests/test_flash_optiboot.py)
+#ifdef CART2D_FIRMWARE_PATCH  // a test build that must answer with another version (tests/link/test_flash_optiboot.py)
 constexpr uint8_t kFirmwarePatch = CART2D_FIRMWARE_PATCH;
 #else
 constexpr uint8_t kFirmwarePatch = 0;

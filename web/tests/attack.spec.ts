@@ -15,7 +15,7 @@ const HEX = readFileSync(resolve(import.meta.dirname, "..", "..", "build", "firm
 // wipes the map and opens the gateway on every interface at its next start
 const SETTINGS = JSON.stringify({ version: 1, network: { host: "0.0.0.0", port: 8080 }, map: { cols: 10, rows: 10, step_m: 0.2, obstacles: [] } });
 
-// Every state-changing route (tests/test_web_guards.py checks this list against /openapi.json).
+// Every state-changing route (tests/server/test_web_guards.py checks this list against /openapi.json).
 const ROUTES: [string, string, string][] = [
   ["POST", "/api/firmware/update", HEX],
   ["POST", "/api/settings/file", SETTINGS],

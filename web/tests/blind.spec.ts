@@ -1,5 +1,5 @@
 // The camera is never silently blind (issue 22): a gateway of its own reads a test camera
-// (tests/mjpeg_server.py, QVGA frames perception takes in); the camera card says it sees. Mid-
+// (tests/support/mjpeg_server.py, QVGA frames perception takes in); the camera card says it sees. Mid-
 // mission the camera stalls (SIGSTOP: its connection stays open, nothing comes): the gateway stops
 // the cart, a toast says the camera went blind, the mission failed with that reason, the card
 // says blind in red and why; once the camera sends again the card says it sees.

@@ -1,4 +1,4 @@
-// The camera in the panel: a gateway of its own with a test camera (tests/mjpeg_server.py, an
+// The camera in the panel: a gateway of its own with a test camera (tests/support/mjpeg_server.py, an
 // MJPEG server like the ESP32-CAM's) shows the camera's frames through its re-stream; perceived
 // cells put on its live map appear on the map and go with "Clear perceived". The shared gateway
 // (no camera) says how to give it one instead of a broken image.

@@ -118,11 +118,11 @@ export async function startGateway(
 
 /** One message to the simulator's side channel (sim/README.md); resolves with its ack. What
  * the tests do to the robot that the panel cannot: the reset button, placing the cart. */
-/** tests/mjpeg_server.py, an MJPEG server like the ESP32-CAM's, with `args` (frame interval,
+/** tests/support/mjpeg_server.py, an MJPEG server like the ESP32-CAM's, with `args` (frame interval,
  * size); its stream's URL once it serves. */
 export function startTestCamera(args: string[]): Promise<{ child: ChildProcess; url: string }> {
   const python = join(ROOT, "build", "venv", "bin", "python");
-  const child = spawn(python, ["-m", "tests.mjpeg_server", ...args], { cwd: ROOT, stdio: ["ignore", "pipe", "inherit"] });
+  const child = spawn(python, ["-m", "tests.support.mjpeg_server", ...args], { cwd: ROOT, stdio: ["ignore", "pipe", "inherit"] });
   return new Promise((ok, fail) => {
     const timer = setTimeout(() => fail(new Error("the test camera did not start")), 10_000);
     child.stdout?.once("data", (d: Buffer) => {
