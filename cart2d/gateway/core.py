@@ -97,12 +97,12 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         # one lock for the mission, the routine and the map: the map's edits (map_edits.py,
         # perceived.py) change the planner in place, and its route check runs under it (missions.py)
         self._lock = threading.RLock()
-        self.routine = ResetRoutine(self._lock, self.bus, self._pose, self.restarts.trust)  # routine.py
+        self.reset_routine = ResetRoutine(self._lock, self.bus, self._pose, self.restarts.trust)  # routine.py
         self.missions = Missions(  # missions.py: go-to, stop, drive, replan, resume, abort
             link,
             self.bus,
             self.restarts,
-            self.routine,
+            self.reset_routine,
             self._lock,
             planner=lambda: self.planner,
             read_pose=self._pose,
@@ -113,9 +113,9 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             wake=self.monitor.wake,
         )
         self.monitor.follow(self.missions)
-        self.monitor.follow(self.routine)
+        self.monitor.follow(self.reset_routine)
         self.commands = Commands(  # commands.py: the generic command form
-            link, self.restarts, self.missions, self.routine, self._pose, self.monitor.wake
+            link, self.restarts, self.missions, self.reset_routine, self._pose, self.monitor.wake
         )
         self.settings_cache = firmware.SettingsCache(link)
         self.flasher = Flasher(
@@ -253,6 +253,11 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         return self.missions.mission
 
     @property
+    def routine(self) -> Routine:
+        """The reset routine as started through the gateway (routine.py)."""
+        return self.reset_routine.routine
+
+    @property
     def path_stream(self) -> path_stream.PathStream | None:
         """The stream of the last path go_to sent (it may still be sending)."""
         return self.missions.path_stream
@@ -278,7 +283,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         return plan_view(plan)
 
     def routine_view(self) -> dict[str, Any]:
-        return self.routine.view()
+        return self.reset_routine.view()
 
     # -- firmware settings -----------------------------------------------------------------------
     def firmware_settings(self) -> list[dict[str, object]]:
