@@ -314,7 +314,10 @@ class Missions:
         with self.lock:
             current = self.mission is mission and mission.generation == generation
             if outcome is not None and current and mission.state == "driving":
-                self._end_mission("failed" if outcome else "arrived", outcome)
+                if outcome:  # the firmware stopped it (its words), or its stream failed
+                    self.abort(outcome, mission=mission)  # no routine runs beside a driven path
+                else:
+                    self._end_mission("arrived", "")
         self._check_off_path()
 
     # -- replanning ---------------------------------------------------------------------------

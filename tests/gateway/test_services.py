@@ -134,6 +134,20 @@ def test_two_faults_end_the_mission_once_with_the_first_ones_reason(rig: Rig) ->
     assert not rig.missions.mission.resumable  # a restart loses the path
 
 
+def test_the_firmware_stopping_the_path_ends_the_mission_once_with_its_words(rig: Rig) -> None:
+    rig.missions.go_to(*GOAL)
+    rig.cart.mode, rig.cart.flags = "IDLE", {"BUMPER"}
+    rig.monitor.look()
+    rig.monitor.look()
+    assert rig.ended() == [
+        MissionEnded(
+            GOAL,
+            "failed",
+            "the cart touched something in front: a front switch closed and the firmware stopped it",
+        )
+    ]
+
+
 def test_a_route_the_map_blocks_is_replanned_round_the_box(rig: Rig) -> None:
     rig.missions.go_to(*GOAL)
     straight = list(rig.cart.path)
