@@ -10,6 +10,7 @@ import threading
 import pytest
 
 from cart2d.gateway.bus import Closing, Event, EventBus, MapChanged, MissionEnded, ViewerMessage
+from cart2d.gateway.commands import Commands
 from cart2d.gateway.live_map import planner_for
 from cart2d.gateway.missions import Missions
 from cart2d.gateway.monitor import Monitor
@@ -17,6 +18,7 @@ from cart2d.gateway.restarts import Restarts
 from cart2d.gateway.routine import ResetRoutine
 from cart2d.gateway.status_cache import StatusCache
 from cart2d.planning import Planner
+from cart2d.spec import load_spec
 from cart2d.store import MapSettings
 from tests.conftest import wait_for
 from tests.gateway.fake_firmware import FakeFirmware
@@ -70,6 +72,7 @@ class Rig:
         )
         self.monitor.follow(self.missions)
         self.monitor.follow(self.routine)
+        self.commands = Commands(self.cart, self.restarts, self.missions, self.routine, self.pose, self.wake)
         self.restarts.read_status()  # the baseline
 
     def pose(self) -> tuple[float, float, float]:
@@ -253,3 +256,36 @@ def test_the_monitor_is_woken_by_a_tick_that_went_backwards_and_closes_on_closin
     rig.monitor.start()
     rig.bus.publish(Closing())  # Gateway.close's one shutdown path
     assert not rig.monitor._thread.is_alive()
+
+
+def command(rig: Rig, name: str, *args: float) -> None:
+    reply = rig.commands.command(load_spec().code(name), args)
+    assert reply.ok
+
+
+def test_start_through_the_command_form_resumes_and_a_users_path_does_not(rig: Rig) -> None:
+    rig.missions.go_to(*GOAL)
+    command(rig, "STOP")
+    command(rig, "START")
+    assert rig.missions.mission_view()["state"] == "driving"
+    command(rig, "STOP")
+    command(rig, "WAIT_XY_ARRAY", 1, 0.4, 0.8)  # the user's own path replaces the mission's
+    command(rig, "START")
+    view = rig.missions.mission_view()
+    assert (view["state"], view["reason"]) == ("failed", "stopped by the user")
+
+
+def test_the_reset_routine_through_the_command_form_replaces_the_mission_and_is_followed(rig: Rig) -> None:
+    rig.missions.go_to(*GOAL)
+    command(rig, "RESET_ROUTINE")
+    assert rig.ended() == [MissionEnded(GOAL, "failed", "replaced by the reset routine")]
+    assert rig.routine.view()["state"] == "running" and rig.wakes == 1
+
+
+def test_a_pose_set_through_the_command_form_is_trusted_again(rig: Rig) -> None:
+    rig.cart.restart()
+    rig.monitor.look()
+    assert not rig.restarts.pose_trust.trusted
+    command(rig, "SET_POSE", 0.3, 0.4, 0.0)
+    assert rig.restarts.pose_trust.trusted
+    assert rig.told("pose_trust")[-1]["how"] == "the pose was set to (0.300 m, 0.400 m, 0.0°) with SET_POSE"
