@@ -75,6 +75,16 @@ class MissionEnded(Event):
 
 
 @dataclass(frozen=True)
+class RoutineStarted(Event):
+    """The firmware took RESET_ROUTINE through the gateway: a mission driving ends (replaced)."""
+
+
+@dataclass(frozen=True)
+class Closing(Event):
+    """The gateway closes (Gateway.close, its one shutdown path): each service stops what it runs."""
+
+
+@dataclass(frozen=True)
 class SimulatorExited(Event):
     """The simulator's process ended without being asked to (`how`: 'exited with status 1')."""
 

@@ -2,7 +2,7 @@
 
 A read of /api/status used to make two exchanges on the serial link (STATUS, then POSE), so a
 hundred readers queued a hundred pairs, in the server's thread pool and on the link (issue 22).
-The gateway's monitor reads STATUS a few times a second anyway (core.py, _watch); every STATUS
+The gateway's monitor reads STATUS a few times a second anyway (monitor.py); every STATUS
 and POSE the gateway reads, for whatever reason, is kept here with when it was read, and so is
 the pose of each telemetry frame (25 Hz, for nothing on the link; the monitor reads POSE only
 while telemetry does not come). /api/status answers from it: no request of a reader reaches the

@@ -3,7 +3,7 @@ sentence per problem, for `cart2d sim --fault KEY=VALUE`, missions' `"faults"`, 
 --faults` and PUT /api/sim/faults.
 
 The simulator checks them too (sim/src/faults.cpp, kFields) but stops at the first problem and
-only once it runs; this table repeats its keys and ranges, and tests/test_sim_faults.py holds the
+only once it runs; this table repeats its keys and ranges, and tests/simulation/test_faults.py holds the
 two together (every key and both ends of every range, against the real simulator)."""
 
 from __future__ import annotations

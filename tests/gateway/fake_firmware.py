@@ -85,6 +85,10 @@ class FakeFirmware(Link):
             self.restart(keep_pose=True)
         elif name in ("STOP", "VELOCITY"):
             self.mode = "IDLE"
+        elif name == "START":  # resumes the path it keeps (a stop keeps it), else holds still
+            self.mode = "PATH" if self.path and "ARRIVED" not in self.flags else "HOLD"
+        elif name == "RESET_ROUTINE":
+            self.mode, self.flags = "RESET_ROUTINE", set()
         elif name == "VERSION":
             return (1.0, 10000.0, 0.0, 0.0, 32.0, 0.0)
         elif name == "PARAM_GET":

@@ -48,7 +48,7 @@ def test_a_goal_is_planned_from_the_measured_pose_and_sent(
     assert gateway.mission_view()["state"] == "driving"
     assert MissionStarted((1.6, 0.8)) in events
     cart.arrive()
-    gateway._follow(gateway.read_status(), gateway.mission, gateway.routine)  # the monitor's round
+    gateway.monitor.look()  # the monitor's round
     assert gateway.mission_view()["state"] == "arrived"
     assert events[-1] == MissionEnded((1.6, 0.8), "arrived", "")
 

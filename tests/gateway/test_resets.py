@@ -139,8 +139,8 @@ def test_telemetry_tick_going_backwards_wakes_the_monitor_but_its_wrap_does_not(
     woken = []
     for tick in (65530, 65531, 65535, 2, 3, 1):  # on, on, a frame lost, the 16-bit wrap, on, back
         gateway._on_telemetry(frame(tick))
-        woken.append(gateway._wake.is_set())
-        gateway._wake.clear()
+        woken.append(gateway.monitor.woken.is_set())
+        gateway.monitor.woken.clear()
     assert woken == [False, False, False, False, False, True]
 
 

@@ -43,7 +43,7 @@ def test_a_mission_begun_after_the_stop_is_not_ended_by_it(rig: Rig) -> None:
         thread.join(20)
         assert answers and answers[0].status_code == 200
         rig.gateway.go_to(0.2, 0.6)  # a new goal after the stop, before its mission is recorded
-    wait_for(lambda: not rig.gateway._stops_to_record, 10)
+    wait_for(lambda: not rig.gateway.missions.stops_pending(), 10)
     mission = rig.client.get("/api/mission").json()
     assert mission["state"] == "driving" and mission["goal"] == [0.2, 0.6]
     assert rig.client.post("/api/stop").status_code == 200

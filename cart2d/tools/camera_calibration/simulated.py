@@ -4,7 +4,7 @@ captured after it was placed (the camera's latency: a frame in flight still show
 it was). The views and the maths are the real camera's (views.calibrate).
 
 Conventions shared with the simulator (sim/README.md, "The camera"), checked by
-tests/test_perception_sim.py: a placement (R, t) puts inner corner (i, j) of a cols x rows
+tests/perception/test_simulated_camera.py: a placement (R, t) puts inner corner (i, j) of a cols x rows
 INNER-corner board at R @ (i * square_m, j * square_m, 0) + t in the world, which is what
 Board.from_rotation takes; the cart's base_link is the world moved by the cart's true pose.
 """
@@ -206,7 +206,7 @@ def describe_truth(mount: Mount) -> str:
 def ground_errors(calibration: CameraCalibration, mount: Mount, range_m: float) -> FloatArray:
     """How far (m) the calibrated model puts floor points `range_m` ahead of the lens's foot from
     where they are, across the width of the picture: each point's raw pixel from the simulator's
-    true lens and mount (sim/README.md, "The camera"; tests/test_sim_camera.py checks the rendered
+    true lens and mount (sim/README.md, "The camera"; tests/simulation/test_camera.py checks the rendered
     pictures against the same model to a fraction of a pixel), projected back to the floor."""
     x = mount.x_m + range_m
     across = np.linspace(-1.0, 1.0, 81) * x  # wider than the picture: those outside are dropped
