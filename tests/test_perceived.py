@@ -18,6 +18,7 @@ from fastapi.testclient import TestClient
 
 from cart2d.gateway.bus import EventBus
 from cart2d.gateway.live_map import planner_for
+from cart2d.gateway.messages import LiveMessage, wire
 from cart2d.gateway.perceived import PerceivedLayer, PerceptionMixin
 from cart2d.maps import OCCUPIED, OccupancyMap
 from cart2d.params import robot
@@ -165,8 +166,8 @@ class LoneLayer(PerceptionMixin):
         self.bus = EventBus()
         self.messages: list[dict[str, Any]] = []
 
-    def _publish(self, message: dict[str, Any]) -> None:
-        self.messages.append(message)
+    def _publish(self, message: LiveMessage) -> None:
+        self.messages.append(wire(message))
 
 
 def test_perceived_messages_come_at_most_twice_a_second_and_the_last_state_always_goes_out() -> None:

@@ -30,6 +30,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict
 from typing import Any
 
+from cart2d.gateway import messages
 from cart2d.gateway.blind import BlindWatch
 from cart2d.gateway.bus import (
     EventBus,
@@ -44,6 +45,7 @@ from cart2d.gateway.bus import (
 from cart2d.gateway.live_map import Replan, RouteAhead, planner_for
 from cart2d.gateway.look import look_before_driving
 from cart2d.gateway.map_edits import MapMixin
+from cart2d.gateway.messages import LiveMessage
 from cart2d.gateway.perceived import PerceptionMixin
 from cart2d.gateway.restarts import Restarts
 from cart2d.gateway.sim_world import SimWorldMixin
@@ -203,9 +205,9 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
     # -- live data ---------------------------------------------------------------------------
     def subscribe(self, listener: Listener) -> Callable[[], None]:
         """Calls listener(message) for telemetry, truth and mission events; returns unsubscribe."""
-        return self.bus.subscribe(ViewerMessage, lambda event: listener(event.message))
+        return self.bus.subscribe(ViewerMessage, lambda event: listener(event.wire))
 
-    def _publish(self, message: dict[str, Any]) -> None:
+    def _publish(self, message: LiveMessage) -> None:
         """Hands `message` to every listener; they must not block (the server's hop into its
         event loop, a list's append)."""
         self.bus.publish(ViewerMessage(message))
@@ -218,11 +220,11 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         data = asdict(t)
         data["mode_name"] = firmware.mode_name(t.mode)
         data["flag_names"] = firmware.flag_names(t.flags)
-        self._publish({"type": "telemetry", **data})
+        self._publish(messages.TelemetryMessage(**data))
 
     def _on_truth(self, truth: dict[str, Any]) -> None:
         self._last_truth_t = truth.get("t")
-        self._publish(truth)  # already {"type": "truth", ...}
+        self._publish(messages.TruthMessage.model_validate(truth))
 
     # -- motion ------------------------------------------------------------------------------
     def go_to(self, x: float, y: float, token: int | None = None) -> Plan:
@@ -269,7 +271,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             if self.link.stopped_since(token):  # the stop went right after the last frame
                 self.abort(self.stop_reason)
                 raise MotionCancelled("the path was sent as a stop came: the stop ended it")
-        self._publish({"type": "mission", **self.mission_view()})
+        self._publish(messages.MissionMessage(**self.mission_view()))
         return plan
 
     def _send_route(self, plan: Plan, token: int | None) -> None:
@@ -369,7 +371,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         mission.plan = plan
         self._record_replan(mission, reason, plan_time_s, plan, "replanned")
         log.info("%s: replanned in %.3f s, %.2f m to go", reason, plan_time_s, plan.length_m)
-        self._publish({"type": "mission", **self.mission_view()})
+        self._publish(messages.MissionMessage(**self.mission_view()))
 
     def _record_replan(
         self, mission: Mission, reason: str, plan_time_s: float, plan: Plan | None, outcome: str
@@ -386,7 +388,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         )
         mission.replans.append(replan)
         mission.last_replan_s = now
-        self._publish({"type": "replan", **asdict(replan)})
+        self._publish(messages.ReplanMessage(**asdict(replan)))
 
     @property
     def waypoint_capacity(self) -> int:
@@ -529,7 +531,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self.mission.state = state
         self.mission.reason = reason
         self.mission.ended_s = time.monotonic()
-        self._publish({"type": "mission", **self.mission_view()})
+        self._publish(messages.MissionMessage(**self.mission_view()))
         self.bus.publish(MissionEnded(self.mission.goal, state, reason))
 
     # -- firmware settings -----------------------------------------------------------------------
@@ -636,7 +638,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
                 if self.mission.state == "driving":
                     self._end_mission("failed", "replaced by the reset routine")
                 self.routine = Routine("running", "driving slowly to the wall in front", (x, y, theta))
-                self._publish({"type": "routine", **self.routine_view()})
+                self._publish(messages.RoutineMessage(**self.routine_view()))
             self._wake.set()
         return reply
 
@@ -665,7 +667,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             else:
                 return
         log.info("the mission to %s resumed after a stop", mission.goal)
-        self._publish({"type": "mission", **self.mission_view()})
+        self._publish(messages.MissionMessage(**self.mission_view()))
         self._wake.set()
 
     def routine_view(self) -> dict[str, Any]:
@@ -674,7 +676,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
 
     def _end_routine(self, state: RoutineEnd, words: str) -> None:
         self.routine = Routine(state, words)
-        self._publish({"type": "routine", **self.routine_view()})
+        self._publish(messages.RoutineMessage(**self.routine_view()))
 
     def _pose(self) -> tuple[float, float, float]:
         x, y, theta = self.link.call("POSE")
@@ -836,7 +838,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             sentences.append("The gateway is starting it again.")
             self.simulator = SimulatorState("restarting", self.simulator.restarts, " ".join(sentences))
         log.warning("%s", self.simulator.message)
-        self._publish({"type": "simulator", **asdict(self.simulator)})
+        self._publish(messages.SimulatorMessage(**asdict(self.simulator)))
         self.bus.publish(SimulatorExited(how))
         try:
             self._restart_simulator(process, how)
@@ -862,7 +864,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
                 words = f"It runs again (restart {restarts}), but the firmware does not answer yet."
             self.simulator = SimulatorState(state, restarts, f"{self.simulator.message} {words}")
         (log.error if error else log.warning)("%s", self.simulator.message)
-        self._publish({"type": "simulator", **asdict(self.simulator)})
+        self._publish(messages.SimulatorMessage(**asdict(self.simulator)))
         self.bus.publish(SimulatorRestarted(restarts, error, answered))
 
     def _start_simulator_again(self, sim: Simulator, how: str) -> tuple[str, bool]:

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from cart2d.gateway.bus import EventBus, MapChanged
 from cart2d.gateway.live_map import arena, planner_for, world_for
+from cart2d.gateway.messages import LiveMessage, MapMessage
 from cart2d.gateway.perceived import PerceivedLayer, with_perceived
 from cart2d.gateway.sim_world import with_boxes
 from cart2d.link import CommandRefused, Link, LinkError
@@ -48,7 +49,7 @@ class MapMixin:
     planner: Planner
     perceived: PerceivedLayer
 
-    def _publish(self, message: dict[str, Any]) -> None:
+    def _publish(self, message: LiveMessage) -> None:
         raise NotImplementedError
 
     if TYPE_CHECKING:  # PerceptionMixin's, which comes after this class in the Gateway's bases
@@ -201,5 +202,5 @@ class MapMixin:
     def _map_changed(self, why: str) -> None:
         """Tells viewers, and replans a driven path the change blocks (lock held)."""
         self.map_version += 1
-        self._publish({"type": "map", "version": self.map_version, "why": why})
+        self._publish(MapMessage(version=self.map_version, why=why))
         self.bus.publish(MapChanged(self.map_version, why))  # a driven route it blocks is replanned

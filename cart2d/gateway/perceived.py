@@ -38,6 +38,7 @@ from cart2d.gateway.bus import EventBus, PerceivedChanged
 from cart2d.gateway.camera import CameraFeed, Shown
 from cart2d.gateway.forward_only import ReverseGuard
 from cart2d.gateway.live_map import Layout, layout_for
+from cart2d.gateway.messages import CameraMessage, LiveMessage, PerceivedMessage
 from cart2d.gateway.seeing import Seeing, seeing_for
 from cart2d.planning import EPS, Grid, Planner
 
@@ -169,7 +170,7 @@ class PerceptionMixin:
     def update_settings(self, settings: GatewaySettings, why: str = "") -> None:
         raise NotImplementedError
 
-    def _publish(self, message: dict[str, Any]) -> None:
+    def _publish(self, message: LiveMessage) -> None:
         raise NotImplementedError
 
     def use_camera(self, feed: CameraFeed | None) -> None:
@@ -306,7 +307,7 @@ class PerceptionMixin:
         if wait_s <= 0.0:
             self._perceived_sent_s = time.monotonic()
             view = self.perceived.view()
-            self._publish({"type": "perceived", "resolution": view["resolution"], "cells": view["cells"]})
+            self._publish(PerceivedMessage(resolution=view["resolution"], cells=view["cells"]))
         elif self._perceived_timer is None or not self._perceived_timer.is_alive():
             self._perceived_timer = threading.Timer(wait_s, self._tell_later)
             self._perceived_timer.daemon = True
@@ -326,11 +327,4 @@ class PerceptionMixin:
         if now - self._camera_sent_s < CAMERA_MESSAGE_S:
             return
         self._camera_sent_s = now
-        self._publish(
-            {
-                "type": "camera",
-                "t": t,
-                "fov": _to_mm(fov),
-                "hits": _to_mm(hits),
-            }
-        )
+        self._publish(CameraMessage(t=t, fov=_to_mm(fov), hits=_to_mm(hits)))
