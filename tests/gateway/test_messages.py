@@ -17,7 +17,7 @@ from pydantic import ValidationError
 
 from cart2d.gateway import Gateway
 from cart2d.gateway.bus import ViewerMessage
-from cart2d.gateway.messages import LIVE_MESSAGE, SimulatorMessage
+from cart2d.gateway.messages import LIVE_MESSAGE, SimulatorMessage, wire
 from cart2d.gateway.state import SimulatorRun, SimulatorState
 from cart2d.simulator import Box
 from cart2d.store import Store
@@ -90,6 +90,19 @@ def test_a_short_run_on_the_simulator_sends_only_messages_of_the_union(rig: Any)
         hello = json.loads(ws.receive_text())[0]
     assert LIVE_MESSAGE.validate_python(hello).type == "hello"
     assert {"telemetry", "truth", "sim_world", "map", "mission"} <= sent(list(events))
+    last = {e.message.type: e.wire for e in events}  # the JSON is the views' the dicts were made of
+    assert last["sim_world"] == {"type": "sim_world", **rig.gateway.sim_world_view()}
+    assert last["mission"] == {"type": "mission", **rig.gateway.mission_view()}
+    assert hello == {"type": "hello", **rig.gateway.mission_view()}
+
+
+def test_a_field_with_nothing_to_say_is_left_out_as_the_dicts_left_it_out() -> None:
+    box = {"id": "crate", "x": 1, "y": 1.5, "sx": 0.2, "sy": 0.2, "height": 0.3, "colour": "#b8742f"}
+    message = LIVE_MESSAGE.validate_python({"type": "sim_world", "version": 3, "boxes": [box]})
+    assert wire(message) == {"type": "sim_world", "version": 3, "boxes": [box]}  # no "solid": null
+    started = {"type": "goal", "index": 1, "of": 2, "goal": [1.0, 0.5], "state": "started"}
+    assert wire(LIVE_MESSAGE.validate_python(started)) == started  # no "reason": null
+    assert json.dumps(wire(message)) == json.dumps({"type": "sim_world", "version": 3, "boxes": [box]})
 
 
 @pytest.mark.parametrize(
