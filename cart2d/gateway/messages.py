@@ -32,7 +32,10 @@ def _type_first_and_required(schema: dict[str, Any]) -> None:
 
 
 class _Message(BaseModel):
+    """A /ws message: its `type` first (each kind narrows it to its tag), as in its JSON."""
+
     model_config = ConfigDict(extra="forbid", frozen=True, json_schema_extra=_type_first_and_required)
+    type: str
 
 
 class _Strict(BaseModel):
@@ -133,7 +136,6 @@ class ReplanView(_Strict):
 class _MissionView(_Message):
     """The mission (Gateway.mission_view): the first message a viewer gets (hello) and each change."""
 
-    type: str
     state: Literal["idle", "driving", "arrived", "failed"]
     goal: Point | None
     reason: str
@@ -150,9 +152,10 @@ class MissionMessage(_MissionView):
     type: Literal["mission"] = "mission"
 
 
-class ReplanMessage(_Message, ReplanView):
-    """A mission was replanned (its `type` comes last in the JSON, after the replan's fields)."""
+class ReplanMessage(ReplanView, _Message):
+    """A mission was replanned (one of the mission's `replans`, with its `type` first)."""
 
+    model_config = _Message.model_config
     type: Literal["replan"] = "replan"
 
 

@@ -68,6 +68,11 @@ def test_what_a_gateway_sends_on_a_fake_firmware_is_of_the_union(
     gateway.stop("stopped by the user")  # routine
     kinds = sent(events)
     assert kinds == {"mission", "map", "replan", "perceived", "camera", "reset", "pose_trust", "routine"}
+    (replan,) = gateway.mission.replans  # the JSON, keys in order, is the dict's it replaced
+    told = [e.wire for e in events if e.message.type == "replan"]
+    assert [json.dumps(m) for m in told] == [json.dumps({"type": "replan", **asdict(replan)})]
+    mission = [e.wire for e in events if e.message.type == "mission"][-1]
+    assert json.dumps(mission) == json.dumps({"type": "mission", **gateway.mission_view()})
 
 
 def test_the_simulators_state_is_a_simulator_message() -> None:

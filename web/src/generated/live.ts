@@ -127,9 +127,10 @@ export interface MissionMessage {
   replans: ReplanView[];
 }
 /**
- * A mission was replanned (its `type` comes last in the JSON, after the replan's fields).
+ * A mission was replanned (one of the mission's `replans`, with its `type` first).
  */
 export interface ReplanMessage {
+  type: "replan";
   reason: string;
   at_s: number;
   sim_t: number | null;
@@ -137,7 +138,6 @@ export interface ReplanMessage {
   length_m: number;
   waypoints: number;
   outcome: string;
-  type: "replan";
 }
 /**
  * The reset routine, squaring the cart up after a restart.
