@@ -53,6 +53,7 @@ from matplotlib.ticker import FuncFormatter, NullFormatter
 from bench.common import Section, percentile, section_main, spread, table
 from bench.firmware import TICK_HZ, drive_square
 from cart2d.gateway import Gateway
+from cart2d.gateway.messages import LiveMessage, Number, TelemetryMessage
 from cart2d.link import Link
 from cart2d.simulator import SideChannel, SimOptions, Simulator
 from cart2d.spec import load_spec
@@ -97,14 +98,20 @@ def gateway_process(port: int, home: str, conn: Connection) -> None:
             assert sim is not None and sim.process is not None
             conn.send({"control": sim.control_address, "sim_pid": sim.process.pid})
 
-        def _publish(self, message: dict[str, Any]) -> None:
-            if message.get("type") == "telemetry":  # called by the link's reader, just decoded
-                message["rx_monotonic_s"] = time.monotonic()
+        def _publish(self, message: LiveMessage) -> None:
+            if isinstance(message, TelemetryMessage):  # called by the link's reader, just decoded
+                message = StampedTelemetry(**message.model_dump(), rx_monotonic_s=time.monotonic())
             super()._publish(message)
 
     live.Gateway = StampedGateway  # type: ignore[attr-defined]  # the class cmd_sim builds
     camera = str(free_port_pair())  # the simulated camera as a user has it, on ports nobody else holds
     cli.main(["sim", "--port", str(port), "--host", "127.0.0.1", "--camera-port", camera])
+
+
+class StampedTelemetry(TelemetryMessage):
+    """A telemetry message with the gateway's time of its reception (the latency's start)."""
+
+    rx_monotonic_s: Number
 
 
 def free_port() -> int:

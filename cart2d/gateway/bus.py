@@ -13,7 +13,10 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, TypeVar
+
+from cart2d.gateway.messages import LiveMessage, wire
 
 
 @dataclass(frozen=True)
@@ -23,9 +26,14 @@ class Event:
 
 @dataclass(frozen=True)
 class ViewerMessage(Event):
-    """A message for viewers (/ws, the recording, a mission's trace): the dict as /ws sends it."""
+    """A message for viewers (/ws, the recording, a mission's trace): one of messages.py's."""
 
-    message: dict[str, Any]
+    message: LiveMessage
+
+    @cached_property
+    def wire(self) -> dict[str, Any]:
+        """The message as /ws sends it and recordings keep it, dumped once for all its viewers."""
+        return wire(self.message)
 
 
 @dataclass(frozen=True)

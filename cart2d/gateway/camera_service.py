@@ -20,6 +20,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from cart2d.gateway import messages
 from cart2d.gateway.bus import EventBus, PerceivedChanged, ViewerMessage
 from cart2d.gateway.camera import CameraFeed, Shown
 from cart2d.gateway.forward_only import ReverseGuard
@@ -80,7 +81,7 @@ class CameraService:
 
     def subscribe(self, listener: Listener) -> Callable[[], None]:
         """listener(message) for every viewers' message (telemetry brings the poses)."""
-        return self.bus.subscribe(ViewerMessage, lambda event: listener(event.message))
+        return self.bus.subscribe(ViewerMessage, lambda event: listener(event.wire))
 
     def arena(self) -> dict[str, float]:
         """Where the map's walls are, as the map's view shows them."""
@@ -218,7 +219,7 @@ class CameraService:
         if wait_s <= 0.0:
             self._perceived_sent_s = now
             view = self.perceived.view()
-            self._publish({"type": "perceived", "resolution": view["resolution"], "cells": view["cells"]})
+            self._publish(messages.PerceivedMessage(resolution=view["resolution"], cells=view["cells"]))
         elif self._perceived_timer is None or not self._perceived_timer.is_alive():
             self._perceived_timer = threading.Timer(wait_s, self._tell_later)
             self._perceived_timer.daemon = True
@@ -238,14 +239,7 @@ class CameraService:
         if now - self._camera_sent_s < CAMERA_MESSAGE_S:
             return
         self._camera_sent_s = now
-        self._publish(
-            {
-                "type": "camera",
-                "t": t,
-                "fov": _to_mm(fov),
-                "hits": _to_mm(hits),
-            }
-        )
+        self._publish(messages.CameraMessage(t=t, fov=_to_mm(fov), hits=_to_mm(hits)))
 
-    def _publish(self, message: dict[str, Any]) -> None:
+    def _publish(self, message: messages.LiveMessage) -> None:
         self.bus.publish(ViewerMessage(message))

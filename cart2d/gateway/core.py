@@ -22,6 +22,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict
 from typing import Any
 
+from cart2d.gateway import messages
 from cart2d.gateway.blind import BlindWatch
 from cart2d.gateway.bus import (
     Closing,
@@ -202,9 +203,9 @@ class Gateway(SimWorldMixin):  # sim_world.py
     # -- live data ---------------------------------------------------------------------------
     def subscribe(self, listener: Listener) -> Callable[[], None]:
         """Calls listener(message) for telemetry, truth and mission events; returns unsubscribe."""
-        return self.bus.subscribe(ViewerMessage, lambda event: listener(event.message))
+        return self.bus.subscribe(ViewerMessage, lambda event: listener(event.wire))
 
-    def _publish(self, message: dict[str, Any]) -> None:
+    def _publish(self, message: messages.LiveMessage) -> None:
         """Hands `message` to every listener; they must not block (the server's hop into its
         event loop, a list's append)."""
         self.bus.publish(ViewerMessage(message))
@@ -215,11 +216,11 @@ class Gateway(SimWorldMixin):  # sim_world.py
         data = asdict(t)
         data["mode_name"] = firmware.mode_name(t.mode)
         data["flag_names"] = firmware.flag_names(t.flags)
-        self._publish({"type": "telemetry", **data})
+        self._publish(messages.TelemetryMessage(**data))
 
     def _on_truth(self, truth: dict[str, Any]) -> None:
         self._last_truth_t = truth.get("t")
-        self._publish(truth)  # already {"type": "truth", ...}
+        self._publish(messages.TruthMessage.model_validate(truth))
 
     # -- the live map (map_service.py) -------------------------------------------------------
     @property
@@ -572,7 +573,7 @@ class Gateway(SimWorldMixin):  # sim_world.py
             sentences.append("The gateway is starting it again.")
             self.simulator = SimulatorState("restarting", self.simulator.restarts, " ".join(sentences))
         log.warning("%s", self.simulator.message)
-        self._publish({"type": "simulator", **asdict(self.simulator)})
+        self._publish(messages.SimulatorMessage(**asdict(self.simulator)))
         self.bus.publish(SimulatorExited(how))
         try:
             self._restart_simulator(process, how)
@@ -598,7 +599,7 @@ class Gateway(SimWorldMixin):  # sim_world.py
                 words = f"It runs again (restart {restarts}), but the firmware does not answer yet."
             self.simulator = SimulatorState(state, restarts, f"{self.simulator.message} {words}")
         (log.error if error else log.warning)("%s", self.simulator.message)
-        self._publish({"type": "simulator", **asdict(self.simulator)})
+        self._publish(messages.SimulatorMessage(**asdict(self.simulator)))
         self.bus.publish(SimulatorRestarted(restarts, error, answered))
 
     def _start_simulator_again(self, sim: Simulator, how: str) -> tuple[str, bool]:

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from cart2d.gateway import messages
 from cart2d.gateway.bus import EventBus, MapChanged, ViewerMessage
 from cart2d.gateway.live_map import Layout, arena, layout_for, planner_for
 from cart2d.gateway.perceived import PerceivedLayer
@@ -265,5 +266,5 @@ class LiveMap:
 
     def _tell(self, version: int, why: str, walls: bool) -> None:
         """Viewers and the bus, once the lock is released (see the module's docstring)."""
-        self.bus.publish(ViewerMessage({"type": "map", "version": version, "why": why}))
+        self.bus.publish(ViewerMessage(messages.MapMessage(version=version, why=why)))
         self.bus.publish(MapChanged(version, why, walls))

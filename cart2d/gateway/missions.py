@@ -24,6 +24,7 @@ from collections.abc import Callable
 from dataclasses import asdict
 from typing import Any
 
+from cart2d.gateway import messages
 from cart2d.gateway.bus import (
     Closing,
     EventBus,
@@ -102,7 +103,7 @@ class Missions:
         bus.subscribe(RoutineStarted, lambda _: self._replaced_by_routine())
         bus.subscribe(Closing, lambda _: self.cancel_stream())
 
-    def _publish(self, message: dict[str, Any]) -> None:
+    def _publish(self, message: messages.LiveMessage) -> None:
         self.bus.publish(ViewerMessage(message))
 
     # -- motion ------------------------------------------------------------------------------
@@ -144,7 +145,7 @@ class Missions:
             if self.link.stopped_since(token):  # the stop went right after the last frame
                 self.abort(self.stop_reason)
                 raise MotionCancelled("the path was sent as a stop came: the stop ended it")
-        self._publish({"type": "mission", **self.mission_view()})
+        self._publish(messages.MissionMessage(**self.mission_view()))
         return plan
 
     def _send_route(self, plan: Plan, token: int | None) -> None:
@@ -283,7 +284,7 @@ class Missions:
         self.mission.state = state
         self.mission.reason = reason
         self.mission.ended_s = self._clock()
-        self._publish({"type": "mission", **self.mission_view()})
+        self._publish(messages.MissionMessage(**self.mission_view()))
         self.bus.publish(MissionEnded(self.mission.goal, state, reason))
 
     # -- followed by the monitor (monitor.py) ---------------------------------------------------
@@ -410,7 +411,7 @@ class Missions:
         mission.plan = plan
         self._record_replan(mission, reason, plan_time_s, plan, "replanned")
         log.info("%s: replanned in %.3f s, %.2f m to go", reason, plan_time_s, plan.length_m)
-        self._publish({"type": "mission", **self.mission_view()})
+        self._publish(messages.MissionMessage(**self.mission_view()))
 
     def _record_replan(
         self, mission: Mission, reason: str, plan_time_s: float, plan: Plan | None, outcome: str
@@ -427,7 +428,7 @@ class Missions:
         )
         mission.replans.append(replan)
         mission.last_replan_s = now
-        self._publish({"type": "replan", **asdict(replan)})
+        self._publish(messages.ReplanMessage(**asdict(replan)))
 
     # -- resuming after a stop -------------------------------------------------------------------
     def resume(self, token: int | None) -> None:
@@ -455,7 +456,7 @@ class Missions:
             else:
                 return
         log.info("the mission to %s resumed after a stop", mission.goal)
-        self._publish({"type": "mission", **self.mission_view()})
+        self._publish(messages.MissionMessage(**self.mission_view()))
         self._wake()
 
     # -- views -----------------------------------------------------------------------------------

@@ -20,6 +20,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import asdict
 
 from cart2d.gateway.bus import EventBus, PoseCorrected, Restarted, ViewerMessage
+from cart2d.gateway.messages import PoseTrustMessage, ResetMessage
 from cart2d.gateway.state import WAYS_OUT, PoseTrust, ResetReport, pose_text
 from cart2d.gateway.status_cache import StatusCache
 from cart2d.link import CommandRefused, Link, LinkError, firmware
@@ -125,7 +126,7 @@ class Restarts:
         """The pose is right again (`how`, in words: set, accepted, squared up)."""
         self.pose_trust = PoseTrust()
         log.info("pose trusted: %s", how)
-        self.bus.publish(ViewerMessage({"type": "pose_trust", "trusted": True, "reason": "", "how": how}))
+        self.bus.publish(ViewerMessage(PoseTrustMessage(trusted=True, reason="", how=how)))
         self.bus.publish(PoseCorrected(how))
 
     def _on_restart(self, status: firmware.Status, reopened: bool) -> None:
@@ -161,7 +162,7 @@ class Restarts:
             with contextlib.suppress(LinkError, CommandRefused):
                 self.link.stop()
         (log.info if caused_by else log.warning)("%s", report.message)
-        self.bus.publish(ViewerMessage({"type": "reset", **asdict(report), "pose_trust": asdict(trust)}))
+        self.bus.publish(ViewerMessage(ResetMessage(**asdict(report), pose_trust=asdict(trust))))
         self.bus.publish(Restarted(bool(caused_by), caused_by, trust.trusted, goal is not None))
 
     def _report(

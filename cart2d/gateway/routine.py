@@ -13,6 +13,7 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
+from cart2d.gateway import messages
 from cart2d.gateway.bus import EventBus, RoutineStarted, ViewerMessage
 from cart2d.gateway.state import (
     ROUTINE_HEADING_TOLERANCE_RAD,
@@ -42,7 +43,7 @@ class ResetRoutine:
         self._trust = trust
         self.routine = Routine()
 
-    def _publish(self, message: dict[str, Any]) -> None:
+    def _publish(self, message: messages.LiveMessage) -> None:
         self.bus.publish(ViewerMessage(message))
 
     def view(self) -> dict[str, Any]:
@@ -58,7 +59,7 @@ class ResetRoutine:
         with self._lock:
             self.bus.publish(RoutineStarted())
             self.routine = Routine("running", "driving slowly to the wall in front", expected_pose)
-            self._publish({"type": "routine", **self.view()})
+            self._publish(messages.RoutineMessage(**self.view()))
 
     def fail(self, words: str, routine: Routine | None = None) -> None:
         """Ends the routine running now as failed with `words`; `routine`: only if it is still
@@ -69,7 +70,7 @@ class ResetRoutine:
 
     def _end(self, state: RoutineEnd, words: str) -> None:
         self.routine = Routine(state, words)
-        self._publish({"type": "routine", **self.view()})
+        self._publish(messages.RoutineMessage(**self.view()))
 
     # -- followed by the monitor (monitor.py) ---------------------------------------------------
     def busy(self) -> bool:

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from cart2d.files import read_regular
+from cart2d.gateway.messages import LiveMessage, SimWorldMessage
 from cart2d.params import footprint_radius_m
 from cart2d.simulation.world_file import MAX_FILE_BYTES, WorldSpec, parse
 from cart2d.simulator import Box, Simulator, World
@@ -79,7 +80,7 @@ class SimWorldMixin:
     # what the Gateway has (core.py)
     sim: Simulator | None
 
-    def _publish(self, message: dict[str, Any]) -> None:
+    def _publish(self, message: LiveMessage) -> None:
         raise NotImplementedError
 
     def _simulated(self) -> Simulator:
@@ -138,7 +139,7 @@ class SimWorldMixin:
 
     def _world_changed(self, ids: list[str], what: str) -> dict[str, Any]:
         view = self.sim_world_view()
-        self._publish({"type": "sim_world", **view})
+        self._publish(SimWorldMessage(**view))
         return {**view, what: ids}
 
 

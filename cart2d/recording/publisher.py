@@ -22,6 +22,7 @@ from typing import Any, Protocol
 import foxglove
 from foxglove import messages as fm
 
+from cart2d.gateway.messages import SimWorldMessage, wire
 from cart2d.recording import channels as c
 from cart2d.recording.clock import SessionClock
 from cart2d.simulator import SimulatorError
@@ -108,7 +109,7 @@ class Publisher:
         if getattr(self.gateway, "sim", None) is None or sim_world_view is None:
             return
         with contextlib.suppress(SimulatorError):
-            self._put({"type": "sim_world", **sim_world_view()})
+            self._put(wire(SimWorldMessage(**sim_world_view())))
 
     def publish_camera_jpeg(self, jpeg: bytes, stamp_ns: int) -> None:
         """A camera frame, JPEG-encoded, taken at `stamp_ns` (wall clock, ns)."""

@@ -14,6 +14,7 @@ import time
 from collections.abc import Callable
 from typing import Any, TypeVar
 
+from cart2d.gateway.messages import ReplayMessage, wire
 from cart2d.recording.channels import TOPIC_WS
 from cart2d.recording.recorded import Frame, Recorded, RecordingError, read_recording
 from cart2d.recording.replay_state import ReplayState
@@ -182,14 +183,14 @@ class Player:
         self._tell_frame()
 
     def _replay_message(self) -> dict[str, Any]:
-        view = {
-            "state": self.state,
-            "position_s": round(self._position(), 3),
-            "duration_s": round(self.recorded.duration_s, 3),
-            "seeks": self.seeks,
-            "version": self.version,
-        }
-        return {"type": "replay", **view}
+        state = ReplayMessage(
+            state=self.state,
+            position_s=round(self._position(), 3),
+            duration_s=round(self.recorded.duration_s, 3),
+            seeks=self.seeks,
+            version=self.version,
+        )
+        return wire(state)
 
     def _snapshot(self) -> list[dict[str, Any]]:
         return [{**self._replay_message(), **self.now.trails()}, *self.now.messages()]

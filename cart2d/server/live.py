@@ -42,6 +42,8 @@ from typing import Any, Protocol
 
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
+from cart2d.gateway.messages import HelloMessage, wire
+
 MAX_VIEWERS = 256
 TRY_AGAIN_LATER = 1013  # RFC 6455 §7.4.1 / IANA: the server is overloaded, try again later
 # Frames sent per second, all viewers together: at ~30 us a send (yappi), 75 ms a second of the
@@ -263,7 +265,7 @@ class Viewers:
             # The mission's view takes the gateway's lock, which planning may hold: not on the loop.
             hello = await asyncio.to_thread(self.gateway.mission_view)
             # first, before what came meanwhile
-            viewer.frames.insert(0, Frame.encoded([{"type": "hello", **hello}]))
+            viewer.frames.insert(0, Frame.encoded([wire(HelloMessage(**hello))]))
             viewer.ready.set()
             sending = asyncio.create_task(self._send(ws, viewer))
             receiving = asyncio.create_task(self._receive(ws))

@@ -8,6 +8,7 @@ from collections.abc import Callable
 import pytest
 
 from cart2d.gateway.bus import Event, EventBus, MapChanged, MissionEnded, PoseCorrected, ViewerMessage
+from cart2d.gateway.messages import MapMessage
 
 
 def test_a_handler_gets_the_events_of_its_type_only() -> None:
@@ -40,7 +41,7 @@ def test_unsubscribe_stops_only_that_handler() -> None:
     bus.subscribe(ViewerMessage, second.append)
     unsubscribe()
     unsubscribe()  # twice changes nothing
-    bus.publish(ViewerMessage({"type": "map"}))
+    bus.publish(ViewerMessage(MapMessage(version=1, why="a test")))
     assert first == [] and len(second) == 1
 
 

@@ -75,7 +75,7 @@ def told(service: CameraService) -> tuple[list[Event], list[dict[str, Any]]]:
     events: list[Event] = []
     service.bus.subscribe(Event, events.append)
     messages: list[dict[str, Any]] = []
-    service.bus.subscribe(ViewerMessage, lambda e: messages.append(e.message))
+    service.bus.subscribe(ViewerMessage, lambda e: messages.append(e.wire))
     return events, messages
 
 

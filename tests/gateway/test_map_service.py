@@ -31,7 +31,7 @@ def test_an_obstacle_change_is_told_once_with_the_new_version_and_saved(tmp_path
     m, events, store = live_map(tmp_path)
     m.change_obstacles(ACROSS, [], "a box was put down")
     assert [e for e in events if isinstance(e, MapChanged)] == [MapChanged(2, "a box was put down")]
-    assert [e.message for e in events if isinstance(e, ViewerMessage)] == [
+    assert [e.wire for e in events if isinstance(e, ViewerMessage)] == [
         {"type": "map", "version": 2, "why": "a box was put down"}
     ]
     assert len(store.load().map.obstacles) == 3 and m.map_view()["version"] == 2

@@ -163,7 +163,7 @@ class LoneLayer(CameraService):
         live_map = LiveMap(Store(tmp_path), settings or GatewaySettings(), bus)
         super().__init__(None, live_map, bus, tmp_path)  # type: ignore[arg-type]  # no link: never sees
         self.messages: list[dict[str, Any]] = []
-        bus.subscribe(ViewerMessage, lambda event: self.messages.append(event.message))
+        bus.subscribe(ViewerMessage, lambda event: self.messages.append(event.wire))
 
     @property
     def planner(self) -> Planner:

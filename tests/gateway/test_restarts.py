@@ -29,7 +29,7 @@ class Rig:
         return (1.0, 2.0) if self.driving else None
 
     def messages(self, kind: str) -> list[dict[str, object]]:
-        return [e.message for e in self.events if isinstance(e, ViewerMessage) and e.message["type"] == kind]
+        return [e.wire for e in self.events if isinstance(e, ViewerMessage) and e.message.type == kind]
 
 
 def test_no_restart_no_event() -> None:

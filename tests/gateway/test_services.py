@@ -90,7 +90,7 @@ class Rig:
         return [e for e in self.events if isinstance(e, MissionEnded)]
 
     def told(self, kind: str) -> list[dict[str, object]]:
-        return [e.message for e in self.events if isinstance(e, ViewerMessage) and e.message["type"] == kind]
+        return [e.wire for e in self.events if isinstance(e, ViewerMessage) and e.wire["type"] == kind]
 
     def block_the_route(self) -> None:
         """A box across the straight route, put on the map as map_edits.py does."""

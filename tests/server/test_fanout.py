@@ -39,7 +39,7 @@ class Source:
         return lambda: self.listeners.remove(listener)
 
     def mission_view(self) -> dict[str, Any]:
-        return {"state": "idle"}
+        return {"state": "idle", "goal": None, "reason": "", "elapsed_s": 0.0, "plan": None, "replans": []}
 
     def publish(self, message: dict[str, Any]) -> None:
         for listener in self.listeners:

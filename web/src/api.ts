@@ -1,5 +1,19 @@
 // The gateway's API (cart2d/server/, GET /openapi.json): the shapes the panel reads, and one
-// fetch wrapper that turns every failure into a sentence a person can act on.
+// fetch wrapper that turns every failure into a sentence a person can act on. The /ws messages
+// are generated from their models (cart2d/gateway/messages.py, `make ws-types`): never by hand.
+
+import type * as live from "./generated/live";
+
+export type {
+  CameraMessage,
+  GoalMessage,
+  LiveMessage,
+  PerceivedMessage,
+  ReplayMessage,
+  SimBox,
+  TelemetryMessage as Telemetry,
+  TruthMessage as Truth,
+} from "./generated/live";
 
 export type Point = [number, number];
 
@@ -42,13 +56,8 @@ export interface Plan {
   grid_length_m?: number;
 }
 
-export interface MissionView {
-  state: "idle" | "driving" | "arrived" | "failed";
-  goal: Point | null;
-  reason: string;
-  elapsed_s?: number;
-  plan: Plan | null;
-}
+/** The mission, as /api/status gives it and /ws "hello" and "mission" send it. */
+export type MissionView = Omit<live.MissionMessage, "type">;
 
 export interface FirmwareStatus {
   mode: string;
@@ -62,36 +71,15 @@ export interface FirmwareStatus {
   last_error: string | null;
 }
 
-export interface Pose {
-  x: number;
-  y: number;
-  theta: number;
-}
+export type Pose = live.Pose;
 
 /** A restart of the controller the gateway noticed (cart2d/gateway/state.py, ResetReport). */
-export interface ResetReport {
-  time: string; // ISO 8601, UTC
-  cause: string[];
-  cause_words: string;
-  expected: boolean; // the gateway caused it (a soft reset, a firmware update)
-  caused_by: string;
-  boot_count: number;
-  pose_restored: boolean;
-  pose: Pose | null;
-  mission_ended: boolean;
-  message: string;
-}
+export type ResetReport = Omit<live.ResetMessage, "type" | "pose_trust">;
 
 /** Whether the gateway plans from the firmware's pose; why not, in words. */
-export interface PoseTrust {
-  trusted: boolean;
-  reason: string;
-}
+export type PoseTrust = live.PoseTrustView;
 
-export interface RoutineView {
-  state: "idle" | "running" | "done" | "failed";
-  words: string;
-}
+export type RoutineView = Omit<live.RoutineMessage, "type">;
 
 export interface StatusView {
   link: { state: string; port: string; simulated: boolean; error?: string };
@@ -117,29 +105,6 @@ export interface ReplayView {
   version: number; // counts its changes of state: an older answer is out of date
 }
 
-/** The replay's own /ws message: its state changed; after a seek (and to a panel that opens)
- * also the cart's trails up to the position, before the state there. */
-export interface ReplayMessage {
-  type: "replay";
-  state: ReplayView["state"];
-  position_s: number;
-  duration_s: number;
-  seeks: number;
-  version: number;
-  trail?: Point[]; // odometry
-  truth_trail?: Point[];
-}
-
-/** A recorded mission's goal started or ended (`cart2d mission`'s recordings). */
-export interface GoalMessage {
-  type: "goal";
-  index: number;
-  of: number;
-  goal: Point;
-  state: "started" | "reached" | "failed";
-  reason?: string;
-}
-
 export interface ProtocolCommand {
   code: number;
   name: string;
@@ -155,91 +120,8 @@ export interface CommandReply {
   message: string;
 }
 
-export interface Telemetry {
-  type: "telemetry";
-  x: number;
-  y: number;
-  theta: number;
-  v_left: number;
-  v_right: number;
-  v_left_target: number;
-  v_right_target: number;
-  pwm_left: number;
-  pwm_right: number;
-  v: number;
-  omega: number;
-  v_target: number;
-  omega_target: number;
-  distance_to_waypoint: number;
-  waypoint_index: number;
-  mode_name: string;
-  flag_names: string[];
-  tick: number;
-}
-
-export interface Truth {
-  type: "truth";
-  t: number;
-  x: number;
-  y: number;
-  theta: number;
-  v: number;
-  omega: number;
-  collisions: number;
-  wall_contacts?: number; // touches of a wall, and of a box the map may not know (sim/README.md)
-  box_contacts?: number;
-}
-
-/** One message of /ws; each WebSocket message is an array of them, a frame (server/live.py). */
-export type LiveMessage =
-  | Telemetry
-  | Truth
-  | ({ type: "hello" } & MissionView)
-  | ({ type: "mission" } & MissionView)
-  | ({ type: "reset"; pose_trust: PoseTrust } & ResetReport)
-  | ({ type: "pose_trust"; how: string } & PoseTrust)
-  | ({ type: "routine" } & RoutineView)
-  | { type: "map"; version: number; why: string }
-  | PerceivedMessage
-  | CameraMessage
-  | SimWorldMessage
-  | ReplayMessage
-  | GoalMessage;
-
-/** A box standing in the simulated world (GET /api/sim/world): centre and size, m; height, m. */
-export interface SimBox {
-  id: string;
-  x: number;
-  y: number;
-  sx: number;
-  sy: number;
-  height: number;
-  colour: string;
-  solid?: boolean;
-}
-
 /** The simulated world's boxes (GET /api/sim/world; /ws "sim_world" when they change). */
-export interface SimWorldView {
-  version: number | null;
-  boxes: SimBox[];
-}
-
-export type SimWorldMessage = { type: "sim_world" } & SimWorldView;
-
-/** The live map's perceived layer (GET /api/perception, /ws "perceived"): [x, y, p_occupied]. */
-export interface PerceivedMessage {
-  type: "perceived";
-  resolution: number;
-  cells: [number, number, number][];
-}
-
-/** A processed camera frame (/ws "camera"): its field of view and the obstacle bases it saw, map m. */
-export interface CameraMessage {
-  type: "camera";
-  t: number | null;
-  fov: Point[];
-  hits: Point[];
-}
+export type SimWorldView = Omit<live.SimWorldMessage, "type">;
 
 /** A failed request, with the gateway's {"detail": ...} (or what went wrong) as its message. */
 export class ApiError extends Error {

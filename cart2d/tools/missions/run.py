@@ -31,6 +31,7 @@ from tqdm import tqdm
 
 from cart2d.gateway import Gateway, PoseUntrusted
 from cart2d.gateway.live_map import planner_for, world_for
+from cart2d.gateway.messages import GoalMessage, wire
 from cart2d.link import CommandRefused, Link, LinkError, firmware, path_stream
 from cart2d.maps import MapError, load_ros_map
 from cart2d.params import robot, setting_id
@@ -363,8 +364,8 @@ def _drive_goals(run: _Run, progress: bool, goals: list[dict[str, Any]]) -> None
     even one refused at once."""
     spec = run.spec
     for index, goal in enumerate(tqdm(spec.goals, desc="goals", unit="goal", disable=not progress), 1):
-        told = {"type": "goal", "index": index, "of": len(spec.goals), "goal": list(goal)}
-        run.tell({**told, "state": "started"})
+        started = GoalMessage(index=index, of=len(spec.goals), goal=tuple(goal), state="started")
+        run.tell(wire(started))
         result = _drive_to(run, goal)
         truth = run.sim.truth()
         x, y, _ = run.gateway.link.call("POSE")
@@ -374,7 +375,7 @@ def _drive_goals(run: _Run, progress: bool, goals: list[dict[str, Any]]) -> None
         )
         goals.append(result)
         ended = "reached" if result["reached"] else "failed"
-        run.tell({**told, "state": ended, "reason": result.get("reason", "")})
+        run.tell(wire(started.model_copy(update={"state": ended, "reason": result.get("reason", "")})))
 
 
 def check_mission(mission_path: Path, report_path: Path) -> tuple[MissionSpec | None, list[str]]:

@@ -1,0 +1,15 @@
+#!/usr/bin/env python3
+"""Print the JSON schema of the /ws messages (cart2d/gateway/messages.py), which `make ws-types`
+turns into the panel's types (web/src/generated/live.ts) with json-schema-to-typescript."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from cart2d.gateway.messages import json_schema
+
+if __name__ == "__main__":
+    print(json.dumps(json_schema(), indent=2))
