@@ -13,7 +13,8 @@ from typing import Any
 import pytest
 
 from cart2d.link import Link
-from cart2d.simulator import SimOptions, Simulator, default_binary, default_firmware
+from cart2d.link.built import default_binary, default_firmware
+from cart2d.simulation.simulator import SimOptions, Simulator
 
 
 def _require_builds() -> None:

@@ -12,8 +12,9 @@ from typing import Any
 
 import pytest
 
+from cart2d.link.built import default_binary, default_firmware
 from cart2d.link.firmware_files import check_hex
-from cart2d.simulator import SimulatorError, default_binary, default_firmware
+from cart2d.simulation.side_channel import SimulatorError
 from tests.conftest import run_for, wait_for
 from tests.test_server import OCTETS, Rig
 

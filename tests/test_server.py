@@ -18,10 +18,11 @@ from fastapi.testclient import TestClient
 from starlette.testclient import WebSocketDenialResponse
 from starlette.websockets import WebSocketDisconnect
 
-from cart2d.gateway import Gateway
 from cart2d.link import Link
 from cart2d.server import MAX_BODY_BYTES, create_app
-from cart2d.simulator import Simulator, SimulatorError
+from cart2d.simulation.side_channel import SimulatorError
+from cart2d.simulation.simulator import Simulator
+from cart2d.simulation.wiring import simulated_gateway
 from cart2d.store import Store
 from tests.conftest import run_for, start_sim, wait_for, wait_serving
 
@@ -39,12 +40,17 @@ class Rig:
         self.sim = start_sim(tmp_path, pty_link=tmp_path / "robot-tty", **sim_options)
         self.link = Link(self.sim.pty, timeout_s=0.2).open()
         self.store = Store(tmp_path / "gateway")
-        self.gateway = Gateway(self.link, self.store, self.store.load(), self.sim)
+        self.simulation = simulated_gateway(self.link, self.store, self.store.load(), self.sim)
+        self.gateway = self.simulation.gateway
         # Opening the port reset the Nano into Optiboot: the firmware answers once it has left it.
         self.gateway.wait_for_firmware(10.0, 0.1)
         self.gateway.start()
         # What the panel sends: its own Host, and every change as JSON (the guards refuse others).
-        self.client = TestClient(create_app(self.gateway, bind_host, token), base_url=BASE_URL, headers=JSON)
+        self.client = TestClient(
+            create_app(self.gateway, bind_host, token, simulation=self.simulation.add_routes),
+            base_url=BASE_URL,
+            headers=JSON,
+        )
 
     def close(self) -> None:
         self.gateway.close()
@@ -318,7 +324,9 @@ def test_a_gateway_off_loopback_without_token_does_not_start(tmp_path: Path) -> 
     sim: Simulator = start_sim(tmp_path)
     try:
         with Link(sim.pty) as link:
-            gateway = Gateway(link, Store(tmp_path / "g"), Store(tmp_path / "g").load(), sim)
+            gateway = simulated_gateway(
+                link, Store(tmp_path / "g"), Store(tmp_path / "g").load(), sim
+            ).gateway
             with pytest.raises(ValueError, match="token"):
                 create_app(gateway, "0.0.0.0", None)
     finally:

@@ -18,7 +18,7 @@ import pytest
 
 from cart2d.gateway import Gateway
 from cart2d.link import Link
-from cart2d.simulator import Simulator
+from cart2d.simulation.simulator import Simulator
 from cart2d.store import Store
 from tests.conftest import free_port, start_sim, wait_serving
 from tests.test_cli import cart2d, one_sentence

@@ -7,15 +7,15 @@ through abort(), the one way every fault, stop or takeover ends a mission and th
 A stop is the last word the motors hear: it cancels every motion request asked for before it
 (the link's stop generations, cart2d/link/transport.py), also between the POSE a goal is
 planned from and the path's last frame; while a firmware update or a restart of the simulator
-replaces the robot's program, it waits for the program that answers and stops that. When the
-simulator it started exits on its own (a crash, a kill -9), the gateway ends the mission with
-the reason, says so (/ws message `simulator`, /api/status `simulator`) and starts it again.
+replaces the robot's program, it waits for the program that answers and stops that. Besides its
+link it may be given a source of ground truth, a simulated world, a reset button and a
+bootloader port (collaborators.py): the simulation package wires them in, and its supervisor
+restarts a simulator that exits on its own (cart2d/simulation/supervisor.py).
 
 Still one class over ~500 lines (issue 23 splits it on): one lock guards the settings, the
 planner, the mission and the reset routine, and the methods here keep an invariant across them
 (a path is sent and its mission recorded together). What it keeps is in state.py; the map's
-edits (map_edits.py), perception (perceived.py) and the simulator's boxes (sim_world.py) are
-mixins under the same lock."""
+edits (map_edits.py) and perception (perceived.py) are mixins under the same lock."""
 
 from __future__ import annotations
 
@@ -23,10 +23,9 @@ import contextlib
 import dataclasses
 import logging
 import math
-import subprocess
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict
 from typing import Any
 
@@ -37,16 +36,14 @@ from cart2d.gateway.bus import (
     MissionEnded,
     MissionStarted,
     PerceivedChanged,
-    SimulatorExited,
-    SimulatorRestarted,
     ViewerMessage,
 )
+from cart2d.gateway.collaborators import GroundTruth, ResetButton, SimulatedWorld
 from cart2d.gateway.live_map import Replan, RouteAhead, planner_for
 from cart2d.gateway.look import look_before_driving
 from cart2d.gateway.map_edits import MapMixin
 from cart2d.gateway.perceived import PerceptionMixin
 from cart2d.gateway.restarts import Restarts
-from cart2d.gateway.sim_world import SimWorldMixin
 from cart2d.gateway.state import (
     BUSY_POLL_S,
     RESET_POSE_SETTINGS,
@@ -62,46 +59,50 @@ from cart2d.gateway.state import (
     ResetReport,
     Routine,
     RoutineEnd,
-    SimulatorRun,
-    SimulatorState,
-    exit_words,
     pose_text,
 )
 from cart2d.gateway.status_cache import StatusCache
 from cart2d.link import CommandRefused, Link, LinkError, MotionCancelled, firmware, path_stream
+from cart2d.link.bootloader import BootloaderPort
 from cart2d.link.flashing import HURRIED_CHECK_S, Flasher
 from cart2d.link.protocol import Reply, Telemetry
 from cart2d.params import robot, setting_id
 from cart2d.planning import Plan, PlanError, Point, StartBlocked, polyline_length
 from cart2d.planning.smoothing import round_corners
 from cart2d.shown import for_people
-from cart2d.simulator import Simulator, SimulatorError
 from cart2d.spec import load_spec
 from cart2d.store import GatewaySettings, Store
 
 log = logging.getLogger(__name__)
 
 UPDATE_WAIT_S = 150.0  # a stop during a firmware update waits this long at most for the firmware back
-SIM_RESTART_WAIT_S = 20.0  # and during a restart of the simulator
-SIM_START_TRIES = 3
+PROGRAM_WAIT_S = 20.0  # and while the program is replaced otherwise (a restart of the simulator)
 # Why a pose the firmware kept through a firmware update is not trusted (README, "Restarts").
 FLASHED_POSE = "the program that kept it was replaced, and the cart may have been moved while it was flashed"
 
 Listener = Callable[[dict[str, Any]], None]
 
 
-class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, perceived.py, sim_world.py
+class Gateway(MapMixin, PerceptionMixin):  # map_edits.py, perceived.py
     def __init__(
-        self, link: Link, store: Store, settings: GatewaySettings, sim: Simulator | None = None
+        self,
+        link: Link,
+        store: Store,
+        settings: GatewaySettings,
+        *,
+        truth: GroundTruth | None = None,
+        world: SimulatedWorld | None = None,
+        reset_button: ResetButton | None = None,
+        bootloader: BootloaderPort | None = None,
     ) -> None:
         self.link = link
         self.store = store
         self.settings = settings
-        self.sim = sim
+        self.truth = truth  # collaborators.py: all optional, given by the simulation package
+        self.world = world
         self.map_planner = planner_for(settings.map)  # the map's: the user's obstacles are its nodes
         self.planner = self.map_planner  # the routes': with what the camera sees (perceived.py)
         self.map_version = 1  # counts the map's changes (the panel fetches the map again)
-        self._last_truth_t: float | None = None  # the simulator's time in its latest truth message
         self.mission = Mission()
         self._stream: path_stream.PathStream | None = None  # the mission's path, streamed to the firmware
         self._frames_at_route = 0  # telemetry frames received when the last route was sent
@@ -125,27 +126,27 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
             self.bus,
             self._pose,
             self._restart_ended_motion,
-            press_reset=self._press_sim_reset if sim is not None else None,
+            press_reset=reset_button,
         )
         self.settings_cache = firmware.SettingsCache(link)
         self.flasher = Flasher(
             link,
             store.directory,
-            sim,
+            bootloader,
             check=self._check_after_update,
             resetting=lambda: self.restarts.resetting(
                 "a firmware update", certain=True, untrusts=FLASHED_POSE
             ),
         )
-        self.simulator = SimulatorState()
-        self._simulator_back = threading.Event()  # set while the simulator runs (or cannot be started)
-        self._simulator_back.set()
+        self._program_back = threading.Event()  # cleared while replacing_program() is held
+        self._program_back.set()
+        self._status_parts: dict[str, Callable[[], Any]] = {}  # add_status_part()
         self.blind_watch = BlindWatch(self, self.cart_time)  # stops a mission the camera went blind in
         self.stop_reason = "stopped by the user"  # the last stop's: a mission it cut short ends with it
         link.subscribe(self._on_telemetry)
-        if sim is not None:
-            sim.subscribe_truth(self._on_truth)
-            sim.on_exit = self._simulator_exited
+        if truth is not None:
+            truth.subscribe(self._publish)  # already {"type": "truth", ...}
+        if world is not None:
             self._sync_world()
 
     # -- lifecycle -------------------------------------------------------------------------
@@ -166,9 +167,9 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         self.blind_watch.close()
 
     def cart_time(self) -> float | None:
-        """The cart's clock, s: simulated time when the gateway runs the simulator (its latest
-        truth message; None before the first), else the monotonic clock."""
-        return self._last_truth_t if self.sim is not None else time.monotonic()
+        """The cart's clock, s: the ground truth's when there is one (simulated time; None before
+        its first message), else the monotonic clock."""
+        return self.truth.time_s() if self.truth is not None else time.monotonic()
 
     def _check_after_update(self, wait_s: float, hurried: Callable[[], bool]) -> None:
         self.wait_for_firmware(wait_s, 0.1, hurried)
@@ -219,10 +220,6 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         data["mode_name"] = firmware.mode_name(t.mode)
         data["flag_names"] = firmware.flag_names(t.flags)
         self._publish({"type": "telemetry", **data})
-
-    def _on_truth(self, truth: dict[str, Any]) -> None:
-        self._last_truth_t = truth.get("t")
-        self._publish(truth)  # already {"type": "truth", ...}
 
     # -- motion ------------------------------------------------------------------------------
     def go_to(self, x: float, y: float, token: int | None = None) -> Plan:
@@ -378,7 +375,7 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         replan = Replan(
             reason=reason,
             at_s=now - mission.started_s,
-            sim_t=self._last_truth_t if self.sim is not None else None,
+            sim_t=self.truth.time_s() if self.truth is not None else None,
             plan_time_s=plan_time_s,
             length_m=plan.length_m if plan is not None else 0.0,
             waypoints=len(plan.waypoints) if plan is not None else 0,
@@ -476,7 +473,18 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         if self.flasher.running():
             self.flasher.hurry()
             self.flasher.wait(UPDATE_WAIT_S)
-        self._simulator_back.wait(SIM_RESTART_WAIT_S)
+        self._program_back.wait(PROGRAM_WAIT_S)
+
+    @contextlib.contextmanager
+    def replacing_program(self) -> Iterator[None]:
+        """Held while the robot's program is replaced from outside the gateway (a restart of the
+        simulator; a firmware update is the flasher's, above): a stop meanwhile waits for the
+        program that answers, PROGRAM_WAIT_S at most, and stops that."""
+        self._program_back.clear()
+        try:
+            yield
+        finally:
+            self._program_back.set()
 
     def drive(self, v_mps: float, omega_radps: float, token: int | None = None) -> None:
         """Manual driving; the firmware stops by itself without a refresh within its timeout.
@@ -711,13 +719,6 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
                 self._stream.cancel()
             return self.abort(reason, routine_reason)
 
-    def _press_sim_reset(self) -> None:
-        assert self.sim is not None
-        try:
-            self.sim.control("reset")
-        except SimulatorError as exc:
-            raise LinkError(f"the simulator did not reset the MCU: {exc}") from exc
-
     def soft_reset(self) -> ResetReport | None:
         """Restarts the MCU (REBOOT; the reset button in the simulator) and waits until the
         restart is noticed; returns its report (None if it was not noticed within 5 s)."""
@@ -796,12 +797,11 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         last read them (the monitor does a few times a second): no request on the link."""
         link_state = "connected" if self.link.connected.is_set() else "reconnecting"
         view: dict[str, Any] = {
-            "link": {"state": link_state, "port": self.link.port, "simulated": self.sim is not None},
+            "link": {"state": link_state, "port": self.link.port, "simulated": self.simulated},
             "firmware": asdict(self.version) if self.version else None,
             "mission": self.mission_view(),
         }
-        if self.sim is not None:
-            view["simulator"] = asdict(self.simulator)
+        view.update((name, part()) for name, part in self._status_parts.items())
         if link_state == "connected":
             seen = self.status_cache.view()
             if error := seen.pop("error", None):
@@ -818,74 +818,11 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         view["routine"] = self.routine_view()
         return view
 
-    # -- the simulator, when it exits on its own ----------------------------------------------
-    def _simulator_exited(self, process: subprocess.Popen[str], returncode: int) -> None:
-        """The simulator's process ended without being asked to (its exit watcher's thread):
-        the mission ends with the reason, the user is told, and the simulator starts again."""
-        how = exit_words(returncode)
-        when = time.strftime("%H:%M:%S")
-        self._simulator_back.clear()
-        with self._lock:
-            sentences = [f"The simulator {how} at {when}."]
-            goal = self.abort(
-                f"the simulator {how}: the simulated cart stopped with it",
-                f"the simulator {how} before it squared up",
-            )
-            if goal is not None:
-                sentences.append(f"The mission to ({goal[0]:.2f}, {goal[1]:.2f}) failed.")
-            sentences.append("The gateway is starting it again.")
-            self.simulator = SimulatorState("restarting", self.simulator.restarts, " ".join(sentences))
-        log.warning("%s", self.simulator.message)
-        self._publish({"type": "simulator", **asdict(self.simulator)})
-        self.bus.publish(SimulatorExited(how))
-        try:
-            self._restart_simulator(process, how)
-        finally:
-            self._simulator_back.set()
+    def add_status_part(self, name: str, part: Callable[[], Any]) -> None:
+        """status_view()[name] is part() from now on (the simulator's supervisor's state)."""
+        self._status_parts[name] = part
 
-    def _restart_simulator(self, exited: subprocess.Popen[str], how: str) -> None:
-        sim = self.sim
-        assert sim is not None
-        self.flasher.wait(UPDATE_WAIT_S)  # an update under way ends first (its avrdude lost the port)
-        error, answered = "", False
-        with sim.lifecycle:
-            if sim.process is exited or not sim.running():  # else restarted meanwhile
-                error, answered = self._start_simulator_again(sim, how)
-        with self._lock:
-            restarts = self.simulator.restarts + (0 if error else 1)
-            state: SimulatorRun = "failed" if error else "running"
-            if error:
-                words = f"It could not be started again: {error}."
-            elif answered:
-                words = f"It runs again (restart {restarts}) and the firmware answers."
-            else:
-                words = f"It runs again (restart {restarts}), but the firmware does not answer yet."
-            self.simulator = SimulatorState(state, restarts, f"{self.simulator.message} {words}")
-        (log.error if error else log.warning)("%s", self.simulator.message)
-        self._publish({"type": "simulator", **asdict(self.simulator)})
-        self.bus.publish(SimulatorRestarted(restarts, error, answered))
-
-    def _start_simulator_again(self, sim: Simulator, how: str) -> tuple[str, bool]:
-        """Starts the simulator on the firmware it ran (then on the last one that answered);
-        returns why it could not ("" if it runs) and whether its firmware answered."""
-        error = ""
-        with self.restarts.resetting(
-            f"restarting the simulator, which {how}", certain=True, untrusts="a new simulator starts afresh"
-        ):
-            for attempt in range(SIM_START_TRIES):
-                firmware_file = sim.options.firmware if attempt == 0 else self.flasher.good_firmware()
-                try:
-                    sim.restart(firmware_file)
-                    error = ""
-                    break
-                except (SimulatorError, OSError) as exc:
-                    error = str(exc)
-                    time.sleep(0.5)
-            if error:
-                return error, False
-            try:
-                self.link.connected.wait(10.0)
-                self.wait_for_firmware(5.0, 0.1)
-                return "", True
-            except (LinkError, CommandRefused):
-                return "", False
+    @property
+    def simulated(self) -> bool:
+        """Whether the cart is a simulated one (it has a simulated world): for what is shown."""
+        return self.world is not None

@@ -5,27 +5,23 @@ a replan of a driven path the change blocks. Every method takes the Gateway's lo
 
 from __future__ import annotations
 
-import logging
 import threading
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 from cart2d.gateway.bus import EventBus, MapChanged
+from cart2d.gateway.collaborators import SimulatedWorld
 from cart2d.gateway.live_map import arena, planner_for, world_for
 from cart2d.gateway.perceived import PerceivedLayer, with_perceived
-from cart2d.gateway.sim_world import with_boxes
 from cart2d.link import CommandRefused, Link, LinkError
 from cart2d.maps import OccupancyMap
 from cart2d.params import footprint_radius_m
 from cart2d.planning import Planner, Point
 from cart2d.shown import for_people
-from cart2d.simulator import Simulator, SimulatorError
 from cart2d.store import FloorPlan, GatewaySettings, MapSettings, Store
 
 if TYPE_CHECKING:
     from cart2d.gateway.camera import CameraFeed
-
-log = logging.getLogger(__name__)
 
 
 def _walls_of(m: MapSettings) -> tuple[object, ...]:
@@ -41,7 +37,7 @@ class MapMixin:
     link: Link
     settings: GatewaySettings
     store: Store
-    sim: Simulator | None
+    world: SimulatedWorld | None
     map_version: int
     bus: EventBus
     map_planner: Planner
@@ -184,19 +180,10 @@ class MapMixin:
             self._sync_world()
 
     def _sync_world(self) -> None:
-        """The simulator's walls follow the map (and do so again after a restart), under the
-        simulator's lifecycle lock as its boxes' changes: the map it reads is the latest, whoever
-        sends last."""
-        if self.sim is None:
-            return
-        with self.sim.lifecycle:
-            world = with_boxes(world_for(self.settings.map), self.sim.options.world)  # boxes stay
-            self.sim.options.world = world
-            if self.sim.running():
-                try:
-                    self.sim.set_world(world)
-                except SimulatorError as exc:
-                    log.warning("the simulator's walls could not follow the map: %s", exc)
+        """The simulated world's walls follow the map (and do so again after a restart); it
+        reads the map when it sends them: the latest, whoever sends last (collaborators.py)."""
+        if self.world is not None:
+            self.world.follow_walls(lambda: world_for(self.settings.map))
 
     def _map_changed(self, why: str) -> None:
         """Tells viewers, and replans a driven path the change blocks (lock held)."""
