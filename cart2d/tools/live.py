@@ -185,7 +185,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
             pty_link=store.directory / "sim-tty",
             faults=faults,
             bootloader=None if args.no_bootloader else default_bootloader(),
-            # the map's walls and the --world boxes, placed again at every restart (sim_world.py)
+            # the map's walls and the --world boxes, placed again at every restart (simulation/world.py)
             world=with_boxes(world_for(where.settings.map), World(tuple(boxes))) if boxes else None,
         )
         try:
