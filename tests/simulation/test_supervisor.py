@@ -148,7 +148,7 @@ def test_a_stop_while_the_simulator_restarts_waits_for_the_new_program_and_stops
     exited.start()
     stopping = threading.Thread(target=gateway.stop)
     try:
-        while not sim.started_on:  # the restart has begun (the fake holds it there)
+        while not sim.started_on and exited.is_alive():  # the restart has begun (the fake holds it)
             exited.join(0.01)
         stopping.start()
         stopping.join(0.3)
