@@ -30,12 +30,12 @@ import cv2
 import numpy as np
 
 from bench.common import Section, percentile, section_main, table
-from cart2d.gateway import Gateway
 from cart2d.gateway.camera import CameraFeed
 from cart2d.link import Link
 from cart2d.perception.mjpeg import Frame, MjpegReader
 from cart2d.server import create_app, serving
-from cart2d.simulator import SimOptions, Simulator
+from cart2d.simulation.simulator import SimOptions, Simulator
+from cart2d.simulation.wiring import simulated_gateway
 from cart2d.store import Store
 from tests.support.mjpeg_server import MjpegServer
 
@@ -130,11 +130,12 @@ def run(out: Path, quick: bool) -> Section:
             sim = Simulator(SimOptions(speed="max", eeprom=Path(tmp) / "eeprom.bin")).start()
             link = Link(sim.pty, timeout_s=0.2).open()
             store = Store(Path(tmp) / "gateway")
-            gateway = Gateway(link, store, store.load(), sim)
+            simulation = simulated_gateway(link, store, store.load(), sim)
+            gateway = simulation.gateway
             gateway.start()
             feed = CameraFeed(camera.url).start()
             gateway.camera = feed
-            served = Served(create_app(gateway))
+            served = Served(create_app(gateway, simulation=simulation.add_routes))
             try:
                 for n in counts:
                     url = f"http://127.0.0.1:{served.port}/api/camera/stream"

@@ -36,7 +36,7 @@ from bench.firmware import SQUARE, circle_route
 from cart2d.link import Link
 from cart2d.link.path_stream import upload_path
 from cart2d.params import robot
-from cart2d.simulator import SimOptions, Simulator
+from cart2d.simulation.simulator import SimOptions, Simulator
 from cart2d.spec import load_spec
 
 NAME = "drivetrain"

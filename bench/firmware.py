@@ -44,6 +44,7 @@ import serial
 
 from bench.common import Section, percentile, section_main, spread, table
 from cart2d.link import Link
+from cart2d.link.built import default_firmware
 from cart2d.link.path_stream import POINTS_PER_FRAME
 from cart2d.link.protocol import (
     BITS_PER_BYTE,
@@ -55,7 +56,7 @@ from cart2d.link.protocol import (
     encode_request,
 )
 from cart2d.params import robot
-from cart2d.simulator import SimOptions, Simulator, default_firmware
+from cart2d.simulation.simulator import SimOptions, Simulator
 from cart2d.spec import load_spec, repo_file
 from tools.firmware_size import CHIP_FLASH, FLASH_BUDGET, RAM_BUDGET, RAM_TOTAL, sections, usage
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from bench.firmware import by_function, drive_square
 from cart2d.link import Link
-from cart2d.simulator import SimOptions, Simulator
+from cart2d.simulation.simulator import SimOptions, Simulator
 
 
 def main() -> int:

@@ -24,8 +24,9 @@ from collections.abc import Callable
 from pathlib import Path
 
 from bench.common import Section, section_main, table
+from cart2d.link.built import default_bootloader, default_firmware
 from cart2d.link.flashing import avrdude_command, run_avrdude
-from cart2d.simulator import SimOptions, Simulator, default_bootloader, default_firmware
+from cart2d.simulation.simulator import SimOptions, Simulator
 
 HEX = default_firmware().with_suffix(".hex")
 

@@ -21,7 +21,7 @@ from pathlib import Path
 
 from bench.common import Section, percentile, section_main, spread, table
 from cart2d.link import Link
-from cart2d.simulator import SimOptions, Simulator
+from cart2d.simulation.simulator import SimOptions, Simulator
 from tests.support.ser2net import DelayRelay, Ser2net
 
 TARGET_EXTRA_MS = 5.0

@@ -45,7 +45,8 @@ import matplotlib.pyplot as plt
 from bench.common import Section, percentile, section_main, table
 from cart2d.gateway import Gateway
 from cart2d.link import Link, LinkError
-from cart2d.simulator import SimOptions, Simulator
+from cart2d.simulation.simulator import SimOptions, Simulator
+from cart2d.simulation.wiring import simulated_gateway
 from cart2d.store import GatewaySettings, MapSettings, Store
 
 NAME = "noisy_link"
@@ -143,7 +144,8 @@ def stop_rig(faults: dict[str, float], seed: int) -> Iterator[StopRig]:
         eeprom = Path(tmp) / "eeprom.bin"
         options = SimOptions(speed="1", seed=seed, eeprom=eeprom, quiet=True, start=(0.2, 0.9, 0.0))
         with Simulator(options) as sim, Link(sim.pty) as link:
-            gateway = Gateway(link, Store(Path(tmp) / "gateway"), GatewaySettings(map=MapSettings()), sim)
+            settings = GatewaySettings(map=MapSettings())
+            gateway = simulated_gateway(link, Store(Path(tmp) / "gateway"), settings, sim).gateway
             rig = StopRig(sim, gateway)
             sim.subscribe_truth(rig.keep)
             sim.control("truth_rate", hz=TRUTH_HZ)

@@ -33,7 +33,7 @@ import matplotlib.pyplot as plt
 from bench.common import Section, section_main, spread, table
 from bench.firmware import Port, call, paused_sim
 from cart2d.params import robot, settings_table
-from cart2d.simulator import Simulator
+from cart2d.simulation.simulator import Simulator
 
 NAME = "safety"
 TRUTH_HZ = 2000.0

@@ -26,7 +26,7 @@ from typing import Any
 from bench.common import Section, section_main, spread, table
 from bench.firmware import F_CPU, Port, call, paused_sim
 from cart2d.link.protocol import encode_request
-from cart2d.simulator import SimOptions, Simulator
+from cart2d.simulation.simulator import SimOptions, Simulator
 from cart2d.spec import load_spec
 
 

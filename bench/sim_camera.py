@@ -15,7 +15,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from cart2d.simulator import Box, SimOptions, Simulator, World, arena_world
+from cart2d.maps.world import Box, World, arena_world
+from cart2d.simulation.simulator import SimOptions, Simulator
 from cart2d.spec import repo_file
 
 BOXES = (Box(0.6, 0.2, 0.2, 0.2), Box(1.0, -0.3, 0.2, 0.2), Box(1.4, 0.5, 0.2, 0.2))

@@ -21,7 +21,8 @@ from pathlib import Path
 
 from bench.firmware import SQUARE, drive_square
 from cart2d.link import Link
-from cart2d.simulator import Box, SimOptions, Simulator, World
+from cart2d.maps.world import Box, World
+from cart2d.simulation.simulator import SimOptions, Simulator
 
 ARENA = (-10.0, -10.0, 12.0, 12.0)
 ROUTE = [(0.0, 0.0), *SQUARE]

@@ -35,7 +35,7 @@ from cart2d.link.protocol import Telemetry
 from cart2d.params import planning_radius_m, robot, settings_table
 from cart2d.planning import Grid, Planner, Point
 from cart2d.planning.smoothing import CHORD_TURN_RAD, round_corners
-from cart2d.simulator import SimOptions, Simulator
+from cart2d.simulation.simulator import SimOptions, Simulator
 from cart2d.spec import load_spec
 from cart2d.tools.missions.run import run_mission
 from cart2d.tools.missions.spec import MissionSpec

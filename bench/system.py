@@ -55,7 +55,8 @@ from bench.firmware import TICK_HZ, drive_square
 from cart2d.gateway import Gateway
 from cart2d.gateway.messages import LiveMessage, Number, TelemetryMessage
 from cart2d.link import Link
-from cart2d.simulator import SideChannel, SimOptions, Simulator
+from cart2d.simulation.side_channel import SideChannel
+from cart2d.simulation.simulator import SimOptions, Simulator
 from cart2d.spec import load_spec
 from cart2d.tools.missions.camera import free_port_pair
 
@@ -89,21 +90,25 @@ def gateway_process(port: int, home: str, conn: Connection) -> None:
     log = os.open(Path(home) / "gateway.log", os.O_WRONLY | os.O_CREAT | os.O_APPEND)
     os.dup2(log, 1)  # its banner and the simulator's log (which inherits them) go to a file
     os.dup2(log, 2)
-    from cart2d.tools import cli, live
+    from cart2d.simulation import wiring
+    from cart2d.simulation.world import SimWorld
+    from cart2d.tools import cli
 
     class StampedGateway(Gateway):
         def __init__(self, *args: Any, **kwargs: Any) -> None:
             super().__init__(*args, **kwargs)
-            sim = self.sim
-            assert sim is not None and sim.process is not None
-            conn.send({"control": sim.control_address, "sim_pid": sim.process.pid})
+            world = kwargs["world"]
+            assert isinstance(world, SimWorld)
+            sim, process = world.sim, world.sim.process
+            assert process is not None
+            conn.send({"control": sim.control_address, "sim_pid": process.pid})
 
         def _publish(self, message: LiveMessage) -> None:
             if isinstance(message, TelemetryMessage):  # called by the link's reader, just decoded
                 message = StampedTelemetry(**message.model_dump(), rx_monotonic_s=time.monotonic())
             super()._publish(message)
 
-    live.Gateway = StampedGateway  # type: ignore[attr-defined]  # the class cmd_sim builds
+    wiring.Gateway = StampedGateway  # type: ignore[attr-defined]  # the class cmd_sim's wiring builds
     camera = str(free_port_pair())  # the simulated camera as a user has it, on ports nobody else holds
     cli.main(["sim", "--port", str(port), "--host", "127.0.0.1", "--camera-port", camera])
 

@@ -30,7 +30,7 @@ import matplotlib.pyplot as plt
 from bench.common import Section, section_main, spread, table
 from cart2d.link import Link
 from cart2d.planning import point_polyline_distance
-from cart2d.simulator import SimOptions, Simulator
+from cart2d.simulation.simulator import SimOptions, Simulator
 from cart2d.tools.umbmark.arithmetic import (
     Calibration,
     Geometry,

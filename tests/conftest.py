@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from cart2d.link import Link
-from cart2d.simulator import Simulator
+from cart2d.simulation.simulator import Simulator
 from tests.support.server import Rig
 from tests.support.sim import start_sim
 

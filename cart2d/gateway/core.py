@@ -5,20 +5,20 @@ and abort(), the one way every fault ends a mission and the reset routine), the 
 (routine.py), the STATUS monitor (monitor.py), restarts and the pose's trust (restarts.py).
 close() is the one shutdown path: the services subscribed to its Closing event.
 
-The live map (map_service.py) and the camera (camera_service.py) own their state and locks;
-the simulator's boxes (sim_world.py) are still a mixin. When the simulator it started exits
-on its own (a crash, a kill -9), the gateway ends the mission with the reason, says so (/ws
-message `simulator`, /api/status `simulator`) and starts it again; while it, or a firmware
-update, replaces the robot's program, a stop waits for the program that answers and stops it."""
+The live map (map_service.py) and the camera (camera_service.py) own their state and locks.
+Besides its link the gateway may be given a source of ground truth, a simulated world, a reset
+button and a bootloader port (collaborators.py): the simulation package wires them in, and its
+supervisor restarts a simulator that exits on its own (cart2d/simulation/supervisor.py). While
+the robot's program is replaced (a firmware update, replacing_program()), a stop waits for the
+program that answers and stops it."""
 
 from __future__ import annotations
 
 import contextlib
 import logging
-import subprocess
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict
 from typing import Any
 
@@ -28,12 +28,11 @@ from cart2d.gateway.bus import (
     Closing,
     EventBus,
     MapChanged,
-    SimulatorExited,
-    SimulatorRestarted,
     ViewerMessage,
 )
 from cart2d.gateway.camera import CameraFeed, Shown
 from cart2d.gateway.camera_service import CameraService
+from cart2d.gateway.collaborators import GroundTruth, ResetButton, SimulatedWorld
 from cart2d.gateway.commands import Commands
 from cart2d.gateway.live_map import world_for
 from cart2d.gateway.look import look_before_driving
@@ -44,49 +43,52 @@ from cart2d.gateway.perceived import PerceivedLayer
 from cart2d.gateway.restarts import Restarts
 from cart2d.gateway.routine import ResetRoutine
 from cart2d.gateway.seeing import Seeing
-from cart2d.gateway.sim_world import SimWorldMixin, with_boxes
 from cart2d.gateway.state import (
     Mission,
     PoseOutsideArena,
     PoseTrust,
     ResetReport,
     Routine,
-    SimulatorRun,
-    SimulatorState,
-    exit_words,
     pose_text,
 )
 from cart2d.gateway.status_cache import StatusCache
 from cart2d.link import CommandRefused, Link, LinkError, firmware, path_stream
+from cart2d.link.bootloader import BootloaderPort
 from cart2d.link.flashing import HURRIED_CHECK_S, Flasher
 from cart2d.link.protocol import Reply, Telemetry
 from cart2d.maps import OccupancyMap
 from cart2d.planning import Plan, Planner, Point
-from cart2d.simulator import Simulator, SimulatorError
 from cart2d.spec import load_spec
 from cart2d.store import CameraSettings, GatewaySettings, Store
 
 log = logging.getLogger(__name__)
 
 UPDATE_WAIT_S = 150.0  # a stop during a firmware update waits this long at most for the firmware back
-SIM_RESTART_WAIT_S = 20.0  # and during a restart of the simulator
-SIM_START_TRIES = 3
+PROGRAM_WAIT_S = 20.0  # and while the program is replaced otherwise (a restart of the simulator)
 # Why a pose the firmware kept through a firmware update is not trusted (README, "Restarts").
 FLASHED_POSE = "the program that kept it was replaced, and the cart may have been moved while it was flashed"
 
 Listener = Callable[[dict[str, Any]], None]
 
 
-class Gateway(SimWorldMixin):  # sim_world.py
+class Gateway:
     def __init__(
-        self, link: Link, store: Store, settings: GatewaySettings, sim: Simulator | None = None
+        self,
+        link: Link,
+        store: Store,
+        settings: GatewaySettings,
+        *,
+        truth: GroundTruth | None = None,
+        world: SimulatedWorld | None = None,
+        reset_button: ResetButton | None = None,
+        bootloader: BootloaderPort | None = None,
     ) -> None:
         """Wires the services (each owns its state; they meet on the bus or through what they
         are given here), in the order they depend on each other."""
         self.link = link
         self.store = store
-        self.sim = sim
-        self._last_truth_t: float | None = None  # the simulator's time in its latest truth message
+        self.truth = truth  # collaborators.py: all optional, given by the simulation package
+        self.world = world
         self.bus = EventBus()  # what happened, typed; viewers' messages too (bus.py)
         self.live_map = LiveMap(store, settings, self.bus, self._position)  # map_service.py
         self.camera_service = CameraService(  # camera_service.py: the feed, perception
@@ -101,7 +103,7 @@ class Gateway(SimWorldMixin):  # sim_world.py
             self._pose,
             # what a restart ends (missions.py, wired below: no STATUS is read before that)
             lambda reason, routine_reason: self.missions.restart_ended(reason, routine_reason),
-            press_reset=self._press_sim_reset if sim is not None else None,
+            press_reset=reset_button,
         )
         self.monitor = Monitor(  # monitor.py: STATUS a few times a second, to what it follows
             link, self.bus, self.read_status, self._pose, self.status_cache.telemetry_age_s
@@ -121,7 +123,7 @@ class Gateway(SimWorldMixin):  # sim_world.py
             look=self._look,
             forwards_only=self.forwards_only_while_seeing,
             wait_for_the_program=self._wait_for_the_program,
-            sim_time=lambda: self._last_truth_t if self.sim is not None else None,
+            sim_time=lambda: truth.time_s() if truth is not None else None,
             wake=self.monitor.wake,
         )
         self.monitor.follow(self.missions)
@@ -133,22 +135,22 @@ class Gateway(SimWorldMixin):  # sim_world.py
         self.flasher = Flasher(
             link,
             store.directory,
-            sim,
+            bootloader,
             check=self._check_after_update,
             resetting=lambda: self.restarts.resetting(
                 "a firmware update", certain=True, untrusts=FLASHED_POSE
             ),
         )
-        self.simulator = SimulatorState()
-        self._simulator_back = threading.Event()  # set while the simulator runs (or cannot be started)
-        self._simulator_back.set()
+        self._program_back = threading.Event()  # cleared while replacing_program() is held
+        self._program_back.set()
+        self._status_parts: dict[str, Callable[[], Any]] = {}  # add_status_part()
         self.blind_watch = BlindWatch(self, self.cart_time)  # stops a mission the camera went blind in
         self.bus.subscribe(Closing, lambda _: self.blind_watch.close())
         link.subscribe(self._on_telemetry)
         self.bus.subscribe(MapChanged, lambda e: self._sync_world() if e.walls else None)
-        if sim is not None:
-            sim.subscribe_truth(self._on_truth)
-            sim.on_exit = self._simulator_exited
+        if truth is not None:
+            truth.subscribe(lambda message: self._publish(messages.TruthMessage.model_validate(message)))
+        if world is not None:
             self._sync_world()
 
     # -- lifecycle -------------------------------------------------------------------------
@@ -166,9 +168,9 @@ class Gateway(SimWorldMixin):  # sim_world.py
         self.bus.publish(Closing())
 
     def cart_time(self) -> float | None:
-        """The cart's clock, s: simulated time when the gateway runs the simulator (its latest
-        truth message; None before the first), else the monotonic clock."""
-        return self._last_truth_t if self.sim is not None else time.monotonic()
+        """The cart's clock, s: the ground truth's when there is one (simulated time; None before
+        its first message), else the monotonic clock."""
+        return self.truth.time_s() if self.truth is not None else time.monotonic()
 
     def _check_after_update(self, wait_s: float, hurried: Callable[[], bool]) -> None:
         self.wait_for_firmware(wait_s, 0.1, hurried)
@@ -217,10 +219,6 @@ class Gateway(SimWorldMixin):  # sim_world.py
         data["mode_name"] = firmware.mode_name(t.mode)
         data["flag_names"] = firmware.flag_names(t.flags)
         self._publish(messages.TelemetryMessage(**data))
-
-    def _on_truth(self, truth: dict[str, Any]) -> None:
-        self._last_truth_t = truth.get("t")
-        self._publish(messages.TruthMessage.model_validate(truth))
 
     # -- the live map (map_service.py) -------------------------------------------------------
     @property
@@ -280,19 +278,10 @@ class Gateway(SimWorldMixin):  # sim_world.py
         return (x, y)
 
     def _sync_world(self) -> None:
-        """The simulator's walls follow the map (and do so again after a restart), under the
-        simulator's lifecycle lock as its boxes' changes: the map it reads is the latest, whoever
-        sends last."""
-        if self.sim is None:
-            return
-        with self.sim.lifecycle:
-            world = with_boxes(world_for(self.settings.map), self.sim.options.world)  # boxes stay
-            self.sim.options.world = world
-            if self.sim.running():
-                try:
-                    self.sim.set_world(world)
-                except SimulatorError as exc:
-                    log.warning("the simulator's walls could not follow the map: %s", exc)
+        """The simulated world's walls follow the map (and do so again after a restart); it
+        reads the map when it sends them: the latest, whoever sends last (collaborators.py)."""
+        if self.world is not None:
+            self.world.follow_walls(lambda: world_for(self.settings.map))
 
     # -- the camera and perception (camera_service.py) ---------------------------------------
     @property
@@ -365,7 +354,18 @@ class Gateway(SimWorldMixin):  # sim_world.py
         if self.flasher.running():
             self.flasher.hurry()
             self.flasher.wait(UPDATE_WAIT_S)
-        self._simulator_back.wait(SIM_RESTART_WAIT_S)
+        self._program_back.wait(PROGRAM_WAIT_S)
+
+    @contextlib.contextmanager
+    def replacing_program(self) -> Iterator[None]:
+        """Held while the robot's program is replaced from outside the gateway (a restart of the
+        simulator; a firmware update is the flasher's, above): a stop meanwhile waits for the
+        program that answers, PROGRAM_WAIT_S at most, and stops that."""
+        self._program_back.clear()
+        try:
+            yield
+        finally:
+            self._program_back.set()
 
     def drive(self, v_mps: float, omega_radps: float, token: int | None = None) -> None:
         self.missions.drive(v_mps, omega_radps, token)
@@ -507,13 +507,6 @@ class Gateway(SimWorldMixin):  # sim_world.py
     def last_reset(self) -> ResetReport | None:
         return self.restarts.last_reset
 
-    def _press_sim_reset(self) -> None:
-        assert self.sim is not None
-        try:
-            self.sim.control("reset")
-        except SimulatorError as exc:
-            raise LinkError(f"the simulator did not reset the MCU: {exc}") from exc
-
     def soft_reset(self) -> ResetReport | None:
         """Restarts the MCU (REBOOT; the reset button in the simulator) and waits until the
         restart is noticed; returns its report (None if it was not noticed within 5 s)."""
@@ -533,12 +526,11 @@ class Gateway(SimWorldMixin):  # sim_world.py
         last read them (the monitor does a few times a second): no request on the link."""
         link_state = "connected" if self.link.connected.is_set() else "reconnecting"
         view: dict[str, Any] = {
-            "link": {"state": link_state, "port": self.link.port, "simulated": self.sim is not None},
+            "link": {"state": link_state, "port": self.link.port, "simulated": self.simulated},
             "firmware": asdict(self.version) if self.version else None,
             "mission": self.mission_view(),
         }
-        if self.sim is not None:
-            view["simulator"] = asdict(self.simulator)
+        view.update((name, part()) for name, part in self._status_parts.items())
         if link_state == "connected":
             seen = self.status_cache.view()
             if error := seen.pop("error", None):
@@ -555,74 +547,11 @@ class Gateway(SimWorldMixin):  # sim_world.py
         view["routine"] = self.routine_view()
         return view
 
-    # -- the simulator, when it exits on its own ----------------------------------------------
-    def _simulator_exited(self, process: subprocess.Popen[str], returncode: int) -> None:
-        """The simulator's process ended without being asked to (its exit watcher's thread):
-        the mission ends with the reason, the user is told, and the simulator starts again."""
-        how = exit_words(returncode)
-        when = time.strftime("%H:%M:%S")
-        self._simulator_back.clear()
-        with self._lock:
-            sentences = [f"The simulator {how} at {when}."]
-            goal = self.abort(
-                f"the simulator {how}: the simulated cart stopped with it",
-                f"the simulator {how} before it squared up",
-            )
-            if goal is not None:
-                sentences.append(f"The mission to ({goal[0]:.2f}, {goal[1]:.2f}) failed.")
-            sentences.append("The gateway is starting it again.")
-            self.simulator = SimulatorState("restarting", self.simulator.restarts, " ".join(sentences))
-        log.warning("%s", self.simulator.message)
-        self._publish(messages.SimulatorMessage(**asdict(self.simulator)))
-        self.bus.publish(SimulatorExited(how))
-        try:
-            self._restart_simulator(process, how)
-        finally:
-            self._simulator_back.set()
+    def add_status_part(self, name: str, part: Callable[[], Any]) -> None:
+        """status_view()[name] is part() from now on (the simulator's supervisor's state)."""
+        self._status_parts[name] = part
 
-    def _restart_simulator(self, exited: subprocess.Popen[str], how: str) -> None:
-        sim = self.sim
-        assert sim is not None
-        self.flasher.wait(UPDATE_WAIT_S)  # an update under way ends first (its avrdude lost the port)
-        error, answered = "", False
-        with sim.lifecycle:
-            if sim.process is exited or not sim.running():  # else restarted meanwhile
-                error, answered = self._start_simulator_again(sim, how)
-        with self._lock:
-            restarts = self.simulator.restarts + (0 if error else 1)
-            state: SimulatorRun = "failed" if error else "running"
-            if error:
-                words = f"It could not be started again: {error}."
-            elif answered:
-                words = f"It runs again (restart {restarts}) and the firmware answers."
-            else:
-                words = f"It runs again (restart {restarts}), but the firmware does not answer yet."
-            self.simulator = SimulatorState(state, restarts, f"{self.simulator.message} {words}")
-        (log.error if error else log.warning)("%s", self.simulator.message)
-        self._publish(messages.SimulatorMessage(**asdict(self.simulator)))
-        self.bus.publish(SimulatorRestarted(restarts, error, answered))
-
-    def _start_simulator_again(self, sim: Simulator, how: str) -> tuple[str, bool]:
-        """Starts the simulator on the firmware it ran (then on the last one that answered);
-        returns why it could not ("" if it runs) and whether its firmware answered."""
-        error = ""
-        with self.restarts.resetting(
-            f"restarting the simulator, which {how}", certain=True, untrusts="a new simulator starts afresh"
-        ):
-            for attempt in range(SIM_START_TRIES):
-                firmware_file = sim.options.firmware if attempt == 0 else self.flasher.good_firmware()
-                try:
-                    sim.restart(firmware_file)
-                    error = ""
-                    break
-                except (SimulatorError, OSError) as exc:
-                    error = str(exc)
-                    time.sleep(0.5)
-            if error:
-                return error, False
-            try:
-                self.link.connected.wait(10.0)
-                self.wait_for_firmware(5.0, 0.1)
-                return "", True
-            except (LinkError, CommandRefused):
-                return "", False
+    @property
+    def simulated(self) -> bool:
+        """Whether the cart is a simulated one (it has a simulated world): for what is shown."""
+        return self.world is not None

@@ -22,10 +22,10 @@ import numpy as np
 import numpy.typing as npt
 
 from cart2d.maps import OCCUPIED, UNKNOWN, OccupancyMap
+from cart2d.maps.world import WallGrid, World, arena_world
 from cart2d.params import planning_radius_m, robot
 from cart2d.planning import CellKinds, Grid, GridGraph, Node, Planner, Point, point_segment_distance
 from cart2d.planning.refine import occupied_cells, odd_factor, refined_cells, refined_grid
-from cart2d.simulator import WallGrid, World, arena_world
 from cart2d.store import MapSettings
 
 # A grid made finer for small obstacles has at most this many nodes: it is rebuilt whenever the

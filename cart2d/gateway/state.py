@@ -1,11 +1,10 @@
 """What the gateway knows besides the map: the mission, the reset routine as started through
-it, how far it trusts the pose, the restarts it noticed, its simulator, and the errors that
+it, how far it trusts the pose, the restarts it noticed, and the errors that
 refuse a goal."""
 
 from __future__ import annotations
 
 import math
-import signal
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -15,7 +14,6 @@ MissionState = Literal["idle", "driving", "arrived", "failed"]
 MissionEnd = Literal["arrived", "failed"]
 RoutineState = Literal["idle", "running", "done", "failed"]
 RoutineEnd = Literal["done", "failed"]
-SimulatorRun = Literal["running", "restarting", "failed"]
 
 
 class PathTooLong(PlanError):
@@ -100,24 +98,3 @@ class Mission:
     generation: int = 0
     replans: list[Any] = field(default_factory=list, repr=False)
     last_replan_s: float = 0.0
-
-
-@dataclass(frozen=True)
-class SimulatorState:
-    """The simulator the gateway started (cart2d sim): whether it runs, and its restarts after
-    it exited on its own (a crash, a kill from outside)."""
-
-    state: SimulatorRun = "running"
-    restarts: int = 0  # times the gateway started it again after it exited
-    message: str = ""  # the last exit and restart, in sentences
-
-
-def exit_words(returncode: int) -> str:
-    """How a process ended, in words: 'was killed by signal 9 (SIGKILL)', 'exited with status 1'."""
-    if returncode < 0:
-        try:
-            name = signal.Signals(-returncode).name
-        except ValueError:
-            name = "an unknown signal"
-        return f"was killed by signal {-returncode} ({name})"
-    return f"exited with status {returncode}"

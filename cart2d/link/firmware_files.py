@@ -20,7 +20,7 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-from cart2d.simulator import default_binary
+from cart2d.link.built import default_binary
 
 CHECK_TIMEOUT_S = 10.0
 KEEP_FILES = 8  # firmware files kept besides the good one (the oldest go first)

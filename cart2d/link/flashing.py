@@ -1,7 +1,8 @@
 """Firmware updates: an uploaded Intel HEX file, checked (cart2d/link/firmware_files.py), then
-flashed with avrdude through the Nano's bootloader (the link lends it the port): the real cart's,
-or the simulator's, which runs Optiboot as every Nano does (SimOptions.bootloader): one code path
-for both. Runs as a background job whose state and log the panel polls.
+flashed with avrdude through the Nano's bootloader, reached by a bootloader port (bootloader.py):
+the real cart's serial port, or the simulator's, which runs Optiboot as every Nano does
+(cart2d/simulation/bootloader.py): one code path for both. Runs as a background job whose state
+and log the panel polls.
 
 The robot is never left on a program that does not speak the protocol: after flashing, the new
 firmware must answer VERSION (and be compatible) within CHECK_S; if it does not, or a stop comes
@@ -21,15 +22,14 @@ import shutil
 import subprocess
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
-from urllib.parse import urlsplit
 
+from cart2d.link.bootloader import BootloaderPort, SerialBootloader
 from cart2d.link.firmware_files import FirmwareArchive, check_hex, copy_into
 from cart2d.link.transport import Link
-from cart2d.simulator import Simulator, default_firmware
 
 # How long a new firmware has to answer once the link has its port back. Opening the port resets
 # the Nano again (DTR) and Optiboot waits in its bootloader: about 0.5 s when requests come at once
@@ -62,10 +62,6 @@ class UpdateJob:
         }
 
 
-class UpdateRefused(RuntimeError):
-    """No update can be made on this link (nothing started); the sentence says what to do."""
-
-
 class Flasher:
     """One firmware update at a time, in a background thread."""
 
@@ -73,7 +69,7 @@ class Flasher:
         self,
         link: Link,
         directory: Path,
-        sim: Simulator | None = None,
+        bootloader: BootloaderPort | None = None,
         baud: int = 115200,
         check: FirmwareCheck | None = None,
         resetting: Callable[[], AbstractContextManager[object]] | None = None,
@@ -84,7 +80,7 @@ class Flasher:
         self.resetting = resetting or contextlib.nullcontext
         self.directory = directory
         self.archive = FirmwareArchive(directory / "firmware")
-        self.sim = sim
+        self.bootloader: BootloaderPort = bootloader or SerialBootloader(link)
         self.baud = baud
         self.job = UpdateJob()
         self._lock = threading.Lock()
@@ -92,7 +88,8 @@ class Flasher:
         self._hurry = threading.Event()
         # The file the robot runs, by content, when the gateway knows it: the simulator's, or
         # the last one flashed. It becomes the one to roll back to once it has answered.
-        self.current = copy_into(self.archive, sim.options.firmware) if sim is not None else None
+        running = self.bootloader.running_firmware()
+        self.current = copy_into(self.archive, running) if running is not None else None
 
     # -- what the gateway tells and asks ----------------------------------------------------------
     def answered(self) -> None:
@@ -105,7 +102,7 @@ class Flasher:
         good = self.archive.good()
         if good is not None:
             return good
-        built = default_firmware() if self.sim is not None else default_firmware().with_suffix(".hex")
+        built = self.bootloader.built_firmware()
         return built if built.exists() else None
 
     def running(self) -> bool:
@@ -113,12 +110,7 @@ class Flasher:
 
     def refusal(self) -> None:
         """Raises UpdateRefused if avrdude cannot reach the robot's bootloader from here."""
-        if self.sim is not None and self.sim.options.bootloader is None:
-            raise UpdateRefused(
-                "the simulator runs without a bootloader (cart2d sim --no-bootloader), so nothing can flash "
-                "it: start it without --no-bootloader to update its firmware"
-            )
-        avrdude_port(self.link.port)
+        self.bootloader.avrdude_port()
 
     def hurry(self) -> None:
         """A stop: a new firmware that has not answered yet gets HURRIED_CHECK_S more, then it
@@ -189,37 +181,20 @@ class Flasher:
         self.current = None  # unknown until avrdude has written it
         self._avrdude(path, job)
         self.current = path
-        if self.sim is not None:
-            # The flash is in the simulated chip now; a restart of the simulator (a power
-            # cycle) must come back with it, as a Nano's flash does.
-            self.sim.options.firmware = path
+        self.bootloader.flashed(path)
 
     def _check(self, job: UpdateJob, wait_s: float) -> None:
         if self.check is not None:
             job.log.append("checking that it answers")
             self.check(wait_s, self._hurry.is_set)
 
-    @contextlib.contextmanager
-    def _real_time(self) -> Iterator[None]:
-        """A simulator runs in real time while avrdude talks to it: avrdude's waits are wall-clock
-        times, and Optiboot's wait for the programmer (1 s after a reset) is simulated time."""
-        if self.sim is None or self.sim.options.speed == "1":
-            yield
-            return
-        self.sim.control("speed", factor=1)
-        try:
-            yield
-        finally:
-            speed = self.sim.options.speed
-            self.sim.control("speed", factor=speed if speed == "max" else float(speed))
-
     def _avrdude(self, path: Path, job: UpdateJob) -> None:
         avrdude = shutil.which("avrdude")
         if avrdude is None:
             raise RuntimeError("avrdude is not installed (Debian package avrdude)")
-        cmd = avrdude_command(avrdude, avrdude_port(self.link.port), self.baud, path)
+        cmd = avrdude_command(avrdude, self.bootloader.avrdude_port(), self.baud, path)
         job.log.append(" ".join(cmd))
-        with self.link.released(), self._real_time():
+        with self.bootloader.programming():
             done = run_avrdude(cmd, job.log.append)
         job.log += [line for line in done.stderr.splitlines() if line.strip()][-20:]
         if done.returncode != 0:
@@ -234,27 +209,6 @@ def avrdude_command(avrdude: str, port: str, baud: int, path: Path) -> list[str]
     firmware a simulator was started on, which a rollback may write back, can be the ELF (`:e`)."""
     flash = f"flash:w:{path}:{'e' if is_elf(path) else 'i'}"
     return [avrdude, "-p", "m328p", "-c", "arduino", "-P", port, "-b", str(baud), "-D", "-U", flash]
-
-
-def avrdude_port(port: str) -> str:
-    """avrdude's -P for the link's port: a device path as it is, `socket://HOST:PORT` as
-    `net:HOST:PORT` (avrdude's raw TCP; what resets the Nano is the bridge opening its serial
-    device). UpdateRefused, in one sentence saying what to do, for a port avrdude cannot use."""
-    if "://" not in port:
-        return port
-    parts = urlsplit(port)
-    if parts.scheme == "socket" and parts.hostname and parts.port:
-        return f"net:{parts.hostname}:{parts.port}"
-    if parts.scheme == "rfc2217":
-        raise UpdateRefused(
-            f"avrdude cannot flash through {port} because it does not speak RFC 2217: give the bridge a raw "
-            "TCP port (ser2net's tcp accepter, ESPHome's stream_server), connect the gateway to it with "
-            "socket://HOST:PORT and update again"
-        )
-    raise UpdateRefused(
-        f"avrdude cannot flash through {port}: connect the gateway with a serial device path or a raw TCP "
-        "bridge (socket://HOST:PORT) and update again"
-    )
 
 
 def is_elf(path: Path) -> bool:

@@ -12,7 +12,6 @@ over; it never decreases within a session. A camera frame's header keeps the tim
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import queue
 import threading
@@ -25,7 +24,6 @@ from foxglove import messages as fm
 from cart2d.gateway.messages import SimWorldMessage, wire
 from cart2d.recording import channels as c
 from cart2d.recording.clock import SessionClock
-from cart2d.simulator import SimulatorError
 
 QUEUE_LENGTH = 4096  # ~40 s of telemetry (25 Hz) and truth (50 Hz) with a stalled worker
 _STOP = object()
@@ -105,11 +103,10 @@ class Publisher:
     def _put_world(self) -> None:
         """In simulation, the boxes standing at the start, as a /ws `sim_world` message (the panel
         fetches them; viewers are told only of changes)."""
-        sim_world_view = getattr(self.gateway, "sim_world_view", None)
-        if getattr(self.gateway, "sim", None) is None or sim_world_view is None:
-            return
-        with contextlib.suppress(SimulatorError):
-            self._put(wire(SimWorldMessage(**sim_world_view())))
+        world = getattr(self.gateway, "world", None)  # collaborators.SimulatedWorld, in simulation
+        view = world.boxes_view() if world is not None else None
+        if view is not None:
+            self._put(wire(SimWorldMessage(**view)))
 
     def publish_camera_jpeg(self, jpeg: bytes, stamp_ns: int) -> None:
         """A camera frame, JPEG-encoded, taken at `stamp_ns` (wall clock, ns)."""

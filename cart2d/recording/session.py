@@ -75,7 +75,7 @@ class Recording:
 
     def start(self) -> Recording:
         """Starts publishing (after the sinks: the channels are made once they exist)."""
-        simulated = getattr(self.gateway, "sim", None) is not None
+        simulated = bool(getattr(self.gateway, "simulated", False))
         self.publisher = Publisher(self.gateway, self.context, simulated).start()
         self._listener.publisher = self.publisher
         return self

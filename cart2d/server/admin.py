@@ -1,5 +1,5 @@
 """The API's administration routes: the gateway's settings (network, the settings file with the
-firmware's tuning) and, in simulation, the simulator's faults. Added to the app by create_app;
+firmware's tuning). Added to the app by create_app (the simulator's faults: cart2d/simulation/routes.py);
 `guarded` is its dependency that checks the access token."""
 
 from __future__ import annotations
@@ -10,58 +10,18 @@ from typing import Any
 
 from fastapi import FastAPI, HTTPException, Request, Response
 from fastapi.params import Depends
-from pydantic import BaseModel, ConfigDict, Field, create_model
 
 from cart2d.gateway import Gateway, backup
 from cart2d.link import LinkError
 from cart2d.server.addresses import address_problem
 from cart2d.server.models import MAX_MAP_BODY_BYTES, errors, inline_refs, read_body
-from cart2d.simulation import faults as fault_table
-from cart2d.simulator import SimulatorError
 from cart2d.store import (
     GatewaySettings,
-    Integer,
     NetworkSettings,
     SettingsFile,
     gateway_part,
     parse_settings,
 )
-
-NO_SIMULATOR = "there is no simulator: this gateway drives a real cart; faults exist only in simulation"
-
-
-def _fault_field(fault: fault_table.Fault) -> Any:
-    unit = f" ({fault.unit})" if fault.unit else ""
-    about = f"{fault.doc}{unit}"
-    if fault.whole:
-        return (Integer, Field(int(fault.default), ge=int(fault.low), le=int(fault.high), description=about))
-    return (float, Field(fault.default, ge=fault.low, le=fault.high, allow_inf_nan=False, description=about))
-
-
-# The faults a PUT sets: every key of cart2d/faults.py with its range; a key left out is off.
-SimFaultsIn: type[BaseModel] = create_model(
-    "SimFaultsIn",
-    __config__=ConfigDict(extra="forbid", strict=True),
-    **{fault.name: _fault_field(fault) for fault in fault_table.FAULTS},
-)
-
-
-def _faults_view(current: dict[str, float]) -> dict[str, Any]:
-    return {
-        "faults": current,
-        "available": [
-            {
-                "name": f.name,
-                "min": f.low,
-                "max": f.high,
-                "default": f.default,
-                "unit": f.unit,
-                "whole": f.whole,
-                "doc": f.doc,
-            }
-            for f in fault_table.FAULTS
-        ],
-    }
 
 
 def add_admin_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
@@ -162,36 +122,3 @@ def add_admin_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
             "firmware": restored,
             "words": words,
         }
-
-    # -- the simulator's faults --------------------------------------------------------------------
-    def simulator() -> Any:
-        if gateway.sim is None:
-            raise HTTPException(404, NO_SIMULATOR)
-        return gateway.sim
-
-    @app.get(
-        "/api/sim/faults",
-        summary="the simulator's faults now, and every fault with its range (simulation only)",
-        responses=errors(404, 503),
-    )
-    def get_faults() -> dict[str, Any]:
-        sim = simulator()
-        try:
-            return _faults_view(sim.faults())
-        except SimulatorError as exc:
-            raise HTTPException(503, f"the simulator does not answer: {exc}") from exc
-
-    @app.put(
-        "/api/sim/faults",
-        dependencies=[guarded],
-        summary="set the simulator's faults (those left out: off); they last until changed or the "
-        "gateway stops (simulation only)",
-        responses=errors(400, 401, 404, 422, 503),
-    )
-    def put_faults(body: SimFaultsIn) -> dict[str, Any]:
-        sim = simulator()
-        chosen = {k: float(v) for k, v in body.model_dump().items()}
-        try:
-            return _faults_view(sim.set_faults(chosen))
-        except SimulatorError as exc:
-            raise HTTPException(503, f"the simulator does not answer: {exc}") from exc

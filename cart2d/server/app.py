@@ -8,11 +8,12 @@ every state-changing request and the WebSocket need the access token."""
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
-from fastapi import FastAPI, Request, Response
+from fastapi import FastAPI, HTTPException, Request, Response
 from fastapi.exception_handlers import http_exception_handler
 from fastapi.exceptions import RequestValidationError
+from fastapi.params import Depends
 from fastapi.responses import HTMLResponse, JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
@@ -32,9 +33,11 @@ from cart2d.server.motion import MotionTokens, Stopper
 from cart2d.server.panel import MINIMAL_PAGE, PANEL_DIR, PanelFiles
 from cart2d.server.reads import ReadsInTurn
 from cart2d.server.routes import LIVE_ROUTER, ROUTERS
-from cart2d.server.sim_world import add_sim_world_routes
 
 log = logging.getLogger(__name__)
+
+AddRoutes = Callable[[FastAPI, Depends], None]  # adds routes to the app, given the token's check
+NO_SIMULATOR = "there is no simulator: this gateway drives a real cart; {what} exist only in simulation"
 
 
 def create_app(
@@ -42,10 +45,13 @@ def create_app(
     bind_host: str = "127.0.0.1",
     token: str | None = None,
     allowed_hosts: Sequence[str] = (),
+    simulation: AddRoutes | None = None,
 ) -> FastAPI:
     """The API for `gateway`. Off loopback, `token` is required for changes and the WebSocket.
     Every request passes the guards first (guards.py: Host, origin, content type, body size);
-    `allowed_hosts` are Host names to accept besides the gateway's own (a reverse proxy's)."""
+    `allowed_hosts` are Host names to accept besides the gateway's own (a reverse proxy's).
+    `simulation` adds the simulator's routes under /api/sim/ (the simulation package's wiring,
+    cart2d/simulation/wiring.py); without, they answer 404 with a sentence."""
     needs_token = not is_loopback(bind_host)
     if needs_token and not token:
         raise ValueError("a token is required when the gateway is not bound to loopback")
@@ -108,7 +114,7 @@ def create_app(
     add_admin_routes(app, gateway, Guarded)
     add_map_upload_route(app, gateway, Guarded)
     add_camera_routes(app, gateway, Guarded)
-    add_sim_world_routes(app, gateway, Guarded)
+    (simulation or _not_simulated)(app, Guarded)
 
     app.router.routes.extend(LIVE_ROUTER.routes)
 
@@ -125,3 +131,21 @@ def create_app(
     app.add_middleware(ReadsInTurn)  # outside the guards: a waiting read costs nothing (reads.py)
     app.add_middleware(MotionTokens, link=gateway.link)  # added last: the outermost layer
     return app
+
+
+def _not_simulated(app: FastAPI, guarded: Depends) -> None:
+    """A real cart's /api/sim/...: 404, in a sentence saying why (the panel hides what it lacks);
+    a change needs the token first, as the simulation's own routes do."""
+
+    def refuse(rest: str) -> None:
+        what = "faults" if rest == "faults" else "boxes"
+        raise HTTPException(404, NO_SIMULATOR.format(what=what))
+
+    app.add_api_route("/api/sim/{rest:path}", refuse, methods=["GET"], include_in_schema=False)
+    app.add_api_route(
+        "/api/sim/{rest:path}",
+        refuse,
+        methods=["PUT", "POST", "DELETE"],
+        dependencies=[guarded],
+        include_in_schema=False,
+    )

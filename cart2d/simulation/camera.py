@@ -33,7 +33,7 @@ from starlette.routing import Route
 
 from cart2d.params import robot
 from cart2d.simulation.controls import CameraTimeout, SimFrame, wait_frame
-from cart2d.simulator import SideChannel, SimulatorError
+from cart2d.simulation.side_channel import SideChannel, SimulatorError
 
 log = logging.getLogger(__name__)
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from cart2d.simulator import SideChannel
+    from cart2d.simulation.side_channel import SideChannel
 
 
 class CameraTimeout(RuntimeError):
@@ -112,7 +112,7 @@ def wait_frame(side: SideChannel, after_seq: int, timeout_s: float) -> SimFrame:
 
 
 class CameraControls:
-    """The camera's part of Simulator (mixed in: cart2d/simulator.py stays small)."""
+    """The camera's part of Simulator (mixed in: simulator.py stays small)."""
 
     side: SideChannel | None
     # The simulated ESP32-CAM's base URL once `cart2d sim` serves it (camera.py), for the gateway.

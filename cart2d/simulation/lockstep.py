@@ -32,7 +32,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from cart2d.params import robot
-from cart2d.simulator import Simulator, SimulatorError
+from cart2d.simulation.side_channel import SimulatorError
+from cart2d.simulation.simulator import Simulator
 
 if TYPE_CHECKING:
     from cart2d.gateway.camera import CameraFeed, Shown

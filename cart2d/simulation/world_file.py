@@ -10,9 +10,9 @@ from typing import Any, TypeVar
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from cart2d.maps.world import Box
 from cart2d.params import footprint_radius_m
 from cart2d.shown import clipped, quoted
-from cart2d.simulator import Box
 
 Model = TypeVar("Model", bound=BaseModel)
 MAX_COORDINATE_M = 1e5  # what the simulator takes (sim/src/world_change.cpp, kMaxCoordinateM)

@@ -12,13 +12,18 @@ import sys
 from cart2d.gateway import Gateway
 from cart2d.gateway.camera import CameraFeed
 from cart2d.gateway.live_map import world_for
-from cart2d.gateway.sim_world import with_boxes, world_file_boxes
 from cart2d.link import Link, LinkError, ports
+from cart2d.link.built import default_bootloader
+from cart2d.maps.world import World
 from cart2d.server import addresses, create_app, is_loopback, serving
+from cart2d.server.app import AddRoutes
 from cart2d.simulation import faults as fault_table
 from cart2d.simulation.camera import HOST as SIM_CAMERA_HOST
 from cart2d.simulation.camera import SimCameraServer
-from cart2d.simulator import SimOptions, Simulator, SimulatorError, World, default_bootloader
+from cart2d.simulation.side_channel import SimulatorError
+from cart2d.simulation.simulator import SimOptions, Simulator
+from cart2d.simulation.wiring import simulated_gateway
+from cart2d.simulation.world import with_boxes, world_file_boxes
 from cart2d.store import Store
 from cart2d.tools import cli_args
 from cart2d.tools import recording_args as recording_cli
@@ -130,8 +135,10 @@ def _connect(gateway: Gateway, wait_s: float) -> None:
     log.info("firmware %s on %s", version.firmware, gateway.link.port)
 
 
-def _serve(gateway: Gateway, where: Listening, allowed_hosts: list[str]) -> None:
-    app = create_app(gateway, where.host, where.settings.token, allowed_hosts)
+def _serve(
+    gateway: Gateway, where: Listening, allowed_hosts: list[str], simulation: AddRoutes | None = None
+) -> None:
+    app = create_app(gateway, where.host, where.settings.token, allowed_hosts, simulation)
     for line in where.banner():
         print(line, flush=True)
     serving.serve(app, where.sock, where.connections)
@@ -178,7 +185,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
             pty_link=store.directory / "sim-tty",
             faults=faults,
             bootloader=None if args.no_bootloader else default_bootloader(),
-            # the map's walls and the --world boxes, placed again at every restart (sim_world.py)
+            # the map's walls and the --world boxes, placed again at every restart (simulation/world.py)
             world=with_boxes(world_for(where.settings.map), World(tuple(boxes))) if boxes else None,
         )
         try:
@@ -188,7 +195,8 @@ def cmd_sim(args: argparse.Namespace) -> int:
             return 2
         camera = _start_camera(sim, args, camera_socks)
         link = Link(sim.pty).open()
-        gateway = Gateway(link, store, where.settings, sim)
+        simulation = simulated_gateway(link, store, where.settings, sim)
+        gateway = simulation.gateway
         try:
             with recording_cli.live_session(gateway, args):
                 _connect(gateway, 5.0)
@@ -210,7 +218,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
                         f"simulated ESP32-CAM on {where_cam} (/capture; stream on port {camera.port + 1})",
                         flush=True,
                     )
-                _serve(gateway, where, args.allow_host)
+                _serve(gateway, where, args.allow_host, simulation.add_routes)
         finally:
             _detach_camera(gateway)
             gateway.close()

@@ -14,7 +14,7 @@ import serial
 from cart2d.link import Link
 from cart2d.link.firmware import read_status
 from cart2d.link.protocol import encode_request
-from cart2d.simulator import Simulator
+from cart2d.simulation.simulator import Simulator
 from cart2d.spec import load_spec
 from tests.support.sim import events, start_sim, wait_idle
 from tests.support.waiting import wait_for

@@ -18,7 +18,7 @@ from bench.firmware import SteppedDecoder
 from cart2d.link import Link
 from cart2d.link.firmware import read_status
 from cart2d.link.protocol import Packet, Reply, Telemetry, decode_reply, encode_request
-from cart2d.simulator import Simulator
+from cart2d.simulation.simulator import Simulator
 from cart2d.spec import load_spec
 from tests.support.sim import high_rate_truth, start_sim, wait_idle
 

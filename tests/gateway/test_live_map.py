@@ -17,10 +17,11 @@ from fastapi.testclient import TestClient
 
 from cart2d.maps import OCCUPIED, OccupancyMap, save_ros_map
 from cart2d.maps.ros import image_bytes, ros_yaml
+from cart2d.maps.world import Box
 from cart2d.params import robot
 from cart2d.planning import point_square_distance
 from cart2d.server import create_app
-from cart2d.simulator import Box, SimulatorError
+from cart2d.simulation.side_channel import SimulatorError
 from cart2d.store import GatewaySettings
 from cart2d.tools.missions.run import run_mission
 from cart2d.tools.missions.spec import MissionSpec
@@ -190,7 +191,9 @@ def test_a_cart_pushed_off_its_path_is_replanned(wide: GatewayRig) -> None:
 def test_a_floor_plan_uploaded_through_the_api_becomes_the_map_and_the_walls(tmp_path: Path) -> None:
     rig = GatewayRig(tmp_path, GatewaySettings())
     try:
-        client = TestClient(create_app(rig.gateway), base_url=BASE_URL, headers=JSON)
+        client = TestClient(
+            create_app(rig.gateway, simulation=rig.simulation.add_routes), base_url=BASE_URL, headers=JSON
+        )
         cells = np.zeros((30, 50), dtype=np.int8)
         cells[:, 25] = OCCUPIED  # a wall across at x = -0.5 + 25 * 0.05 = 0.75 m
         cells[20:26, 5:9] = -1  # unknown, away from the cart at (0, 0)
@@ -231,7 +234,9 @@ def test_a_floor_plan_uploaded_through_the_api_becomes_the_map_and_the_walls(tmp
 def test_a_large_upload_is_taken_up_to_the_map_limit_only(tmp_path: Path) -> None:
     rig = GatewayRig(tmp_path, GatewaySettings())
     try:
-        client = TestClient(create_app(rig.gateway), base_url=BASE_URL, headers=JSON)
+        client = TestClient(
+            create_app(rig.gateway, simulation=rig.simulation.add_routes), base_url=BASE_URL, headers=JSON
+        )
         big = OccupancyMap((0.0, 0.0), 0.05, np.zeros((1000, 1000), dtype=np.int8))
         body = {"image": base64.b64encode(image_bytes(big, ".pgm")).decode(), "resolution_m": 0.05}
         answer = client.post("/api/map", json=body)  # 1.3 MB: over the 256 KiB of other requests

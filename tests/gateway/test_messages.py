@@ -18,8 +18,8 @@ from pydantic import ValidationError
 from cart2d.gateway import Gateway
 from cart2d.gateway.bus import ViewerMessage
 from cart2d.gateway.messages import LIVE_MESSAGE, SimulatorMessage, wire
-from cart2d.gateway.state import SimulatorRun, SimulatorState
-from cart2d.simulator import Box
+from cart2d.maps.world import Box
+from cart2d.simulation.supervisor import SimulatorRun, SimulatorState
 from cart2d.store import Store
 from tests.gateway.fake_firmware import FakeFirmware
 from tests.support.waiting import wait_for
@@ -85,7 +85,7 @@ def test_the_simulators_state_is_a_simulator_message() -> None:
 def test_a_short_run_on_the_simulator_sends_only_messages_of_the_union(rig: Any) -> None:
     events: list[ViewerMessage] = []
     rig.gateway.bus.subscribe(ViewerMessage, events.append)
-    rig.gateway.add_sim_boxes([Box(1.4, 1.4, 0.2, 0.2, id="crate")])
+    rig.simulation.world.add_boxes([Box(1.4, 1.4, 0.2, 0.2, id="crate")])
     assert rig.client.put("/api/map/obstacle", json={"x": 0.8, "y": 1.2}).status_code == 200
     answer = rig.client.post("/api/goto", json={"x": 0.6, "y": 0.2})
     assert answer.status_code == 200, answer.text
@@ -96,7 +96,7 @@ def test_a_short_run_on_the_simulator_sends_only_messages_of_the_union(rig: Any)
     assert LIVE_MESSAGE.validate_python(hello).type == "hello"
     assert {"telemetry", "truth", "sim_world", "map", "mission"} <= sent(list(events))
     last = {e.message.type: e.wire for e in events}  # the JSON is the views' the dicts were made of
-    assert last["sim_world"] == {"type": "sim_world", **rig.gateway.sim_world_view()}
+    assert last["sim_world"] == {"type": "sim_world", **rig.simulation.world.view()}
     assert last["mission"] == {"type": "mission", **rig.gateway.mission_view()}
     assert hello == {"type": "hello", **rig.gateway.mission_view()}
 

@@ -35,7 +35,9 @@ ACROSS = [(2.4, 0.6), (2.4, 0.8), (2.4, 1.0)]  # across the straight route at y 
 def rig_and_api(tmp_path: Path, **sim_options: Any) -> tuple[GatewayRig, TestClient]:
     """test_live_map's WIDE grid and the API on it."""
     rig = GatewayRig(tmp_path, WIDE, **sim_options)
-    return rig, TestClient(create_app(rig.gateway), base_url=BASE_URL, headers=JSON)
+    return rig, TestClient(
+        create_app(rig.gateway, simulation=rig.simulation.add_routes), base_url=BASE_URL, headers=JSON
+    )
 
 
 @pytest.fixture

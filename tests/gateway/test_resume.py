@@ -7,9 +7,9 @@ import math
 from pathlib import Path
 
 from bench.streaming import ARENA_NODES, ARENA_STEP_M, serpentine_mission
-from cart2d.gateway import Gateway
 from cart2d.link import Link
 from cart2d.planning import Grid
+from cart2d.simulation.wiring import simulated_gateway
 from cart2d.spec import load_spec
 from cart2d.store import GatewaySettings, MapSettings, Store
 from tests.support.server import Rig
@@ -61,7 +61,7 @@ def test_start_after_stop_resumes_a_long_path_and_its_stream(tmp_path: Path) -> 
             settings = GatewaySettings(
                 map=MapSettings(cols=ARENA_NODES, rows=ARENA_NODES, step_m=ARENA_STEP_M, obstacles=nodes)
             )
-            gateway = Gateway(link, Store(tmp_path / "gateway"), settings, sim)
+            gateway = simulated_gateway(link, Store(tmp_path / "gateway"), settings, sim).gateway
             gateway.check_firmware()
             link.call("SET_POSE", *mission["start"])
             gateway.start()

@@ -15,11 +15,11 @@ import pytest
 from fastapi.testclient import TestClient
 
 from cart2d.gateway.seeing import PoseHistory, Seeing
+from cart2d.maps.world import Box
 from cart2d.planning import segment_square_distance
 from cart2d.recording.channels import TOPIC_CAMERA
 from cart2d.recording.session import DEFAULT_CAMERA_FPS
 from cart2d.server import create_app
-from cart2d.simulator import Box
 from cart2d.tools.missions.camera import mission_camera
 from cart2d.tools.missions.run import run_mission
 from cart2d.tools.missions.spec import MissionSpec
@@ -113,7 +113,9 @@ def test_after_clear_perceived_a_box_seen_is_on_the_map_and_blocks_the_route(tmp
     # Once, a clear that left no cell believed after one frame (a cell needs two hits) was taken
     # for a new clear at every frame: the cart stayed blind until the gateway restarted.
     rig = GatewayRig(tmp_path, WIDE, speed="1")  # the camera in real time, as `cart2d sim` runs it
-    client = TestClient(create_app(rig.gateway), base_url=BASE_URL, headers=JSON)
+    client = TestClient(
+        create_app(rig.gateway, simulation=rig.simulation.add_routes), base_url=BASE_URL, headers=JSON
+    )
     try:
         rig.sim.control("place", x=0.4, y=0.8, theta=0.0)
         rig.link.call("SET_POSE", 0.4, 0.8, 0.0)
@@ -150,7 +152,9 @@ def test_a_change_of_framesize_at_rest_leaves_perception_seeing_once_it_is_back(
     # the drawing of the last QVGA frame on a VGA one raised IndexError and the feed's thread ended
     # for good, while /api/camera said connected at 15 fps; the cart then drove into a box.
     rig = GatewayRig(tmp_path, WIDE, speed="1")
-    client = TestClient(create_app(rig.gateway), base_url=BASE_URL, headers=JSON)
+    client = TestClient(
+        create_app(rig.gateway, simulation=rig.simulation.add_routes), base_url=BASE_URL, headers=JSON
+    )
     try:
         rig.sim.control("place", x=0.4, y=0.8, theta=0.0)
         rig.link.call("SET_POSE", 0.4, 0.8, 0.0)

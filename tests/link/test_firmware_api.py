@@ -6,7 +6,7 @@ import pytest
 
 from cart2d.link import CommandRefused, Link, firmware, path_stream
 from cart2d.params import settings_table
-from cart2d.simulator import Simulator
+from cart2d.simulation.simulator import Simulator
 from cart2d.spec import load_spec
 from tests.support.sim import wait_idle
 

@@ -11,8 +11,9 @@ from typing import Any
 
 import pytest
 
+from cart2d.link.built import default_binary, default_firmware
 from cart2d.link.firmware_files import check_hex
-from cart2d.simulator import SimulatorError, default_binary, default_firmware
+from cart2d.simulation.side_channel import SimulatorError
 from tests.support.server import OCTETS, Rig
 from tests.support.sim import run_for
 from tests.support.waiting import wait_for

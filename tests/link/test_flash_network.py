@@ -13,9 +13,9 @@ from typing import Any
 import pytest
 from fastapi.testclient import TestClient
 
-from cart2d.link.flashing import UpdateRefused, avrdude_port
+from cart2d.link.bootloader import UpdateRefused, avrdude_port
+from cart2d.link.built import default_firmware
 from cart2d.server import create_app
-from cart2d.simulator import default_firmware
 from tests.support.network_link import NetRig
 from tests.support.server import BASE_URL, JSON, OCTETS
 from tests.support.waiting import wait_for
@@ -45,7 +45,9 @@ def test_a_port_avrdude_cannot_use_is_refused_with_what_to_do(port: str) -> None
 @pytest.fixture
 def net(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[tuple[NetRig, TestClient]]:
     rig = NetRig(tmp_path, rfc2217=request.param)
-    client = TestClient(create_app(rig.gateway), base_url=BASE_URL, headers=JSON)
+    client = TestClient(
+        create_app(rig.gateway, simulation=rig.simulation.add_routes), base_url=BASE_URL, headers=JSON
+    )
     yield rig, client
     rig.close()
 

@@ -20,10 +20,11 @@ from typing import Any
 import pytest
 
 from cart2d.link import Link, flashing
+from cart2d.link.built import default_bootloader, default_firmware
 from cart2d.link.firmware import read_status, read_version
 from cart2d.link.flashing import avrdude_command
 from cart2d.link.transport import LinkTimeout
-from cart2d.simulator import Simulator, default_bootloader, default_firmware
+from cart2d.simulation.simulator import Simulator
 from cart2d.spec import repo_file
 from tests.support.server import OCTETS, Rig
 from tests.support.sim import events, start_sim

@@ -19,7 +19,7 @@ import pytest
 
 from cart2d.link import Link, LinkError, LinkTimeout
 from cart2d.link.transport import STALL_S
-from cart2d.simulator import Simulator
+from cart2d.simulation.simulator import Simulator
 from tests.support.cli import fake_ports_and_serve, one_sentence
 from tests.support.network_link import NetRig
 from tests.support.ser2net import DelayRelay, Ser2net

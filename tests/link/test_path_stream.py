@@ -26,7 +26,7 @@ from bench.streaming import (
 from cart2d.link import Link, firmware, path_stream
 from cart2d.link.protocol import Telemetry
 from cart2d.params import settings_table
-from cart2d.simulator import Simulator
+from cart2d.simulation.simulator import Simulator
 from cart2d.spec import load_spec
 from tests.support.waiting import wait_for
 

@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from cart2d.gateway.sim_world import world_file_boxes
 from cart2d.maps import OCCUPIED, MapError, OccupancyMap, load_ros_map, map_from_image, map_from_ros
 from cart2d.maps.ros import image_bytes, parse_ros_yaml, ros_yaml
 from cart2d.shown import QUOTE_CHARS
 from cart2d.simulation.faults import problems as fault_problems
+from cart2d.simulation.world import world_file_boxes
 from cart2d.simulation.world_file import MAX_PROBLEMS
 from cart2d.store import FloorPlan
 from cart2d.tools.cli import main

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cart2d.maps.world import Box, arena_world
 from cart2d.perception.calibration import (
     Board,
     CameraCalibration,
@@ -20,7 +21,7 @@ from cart2d.perception.calibration import (
 )
 from cart2d.perception.camera_model import Mount
 from cart2d.perception.detection import ObstacleDetector
-from cart2d.simulator import Box, SimOptions, Simulator, arena_world
+from cart2d.simulation.simulator import SimOptions, Simulator
 from cart2d.tools import cli
 from cart2d.tools.camera_calibration.simulated import (
     HELD_SQUARE_M,

@@ -99,7 +99,7 @@ class Served:
 def test_the_restream_serves_many_panels_and_a_slow_one_loses_frames(rig: Rig, camera: MjpegServer) -> None:
     feed = CameraFeed(camera.url)
     rig.gateway.camera = feed.start()
-    app = create_app(rig.gateway)
+    app = create_app(rig.gateway, simulation=rig.simulation.add_routes)
     served = Served(app)
     readers: list[MjpegReader] = []
     slow = socket.create_connection(("127.0.0.1", served.port))

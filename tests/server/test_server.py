@@ -18,10 +18,11 @@ from fastapi.testclient import TestClient
 from starlette.testclient import WebSocketDenialResponse
 from starlette.websockets import WebSocketDisconnect
 
-from cart2d.gateway import Gateway
 from cart2d.link import Link
 from cart2d.server import MAX_BODY_BYTES, create_app
-from cart2d.simulator import Simulator, SimulatorError
+from cart2d.simulation.side_channel import SimulatorError
+from cart2d.simulation.simulator import Simulator
+from cart2d.simulation.wiring import simulated_gateway
 from cart2d.store import Store
 from tests.support.server import BASE_URL, JSON, WS_BASE, Rig
 from tests.support.sim import run_for, start_sim
@@ -284,7 +285,9 @@ def test_a_gateway_off_loopback_without_token_does_not_start(tmp_path: Path) -> 
     sim: Simulator = start_sim(tmp_path)
     try:
         with Link(sim.pty) as link:
-            gateway = Gateway(link, Store(tmp_path / "g"), Store(tmp_path / "g").load(), sim)
+            gateway = simulated_gateway(
+                link, Store(tmp_path / "g"), Store(tmp_path / "g").load(), sim
+            ).gateway
             with pytest.raises(ValueError, match="token"):
                 create_app(gateway, "0.0.0.0", None)
     finally:

@@ -20,7 +20,7 @@ from typing import Any
 
 import pytest
 
-from cart2d.simulator import SideChannel
+from cart2d.simulation.side_channel import SideChannel
 from tests.support.live import Http, LiveGateway, wait_sim_time
 
 TICK_S = 0.008  # one control tick

@@ -40,7 +40,9 @@ def rig(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Rig]:
 def client(rig: Rig) -> Iterator[TestClient]:
     """One event loop for every request of the test (a TestClient outside `with` makes one each),
     the gateway back on its default map afterwards."""
-    with TestClient(create_app(rig.gateway), base_url=BASE_URL, headers=JSON) as c:
+    with TestClient(
+        create_app(rig.gateway, simulation=rig.simulation.add_routes), base_url=BASE_URL, headers=JSON
+    ) as c:
         yield c
     rig.gateway.update_settings(rig.gateway.settings.model_copy(update={"map": MapSettings()}))
 

@@ -22,10 +22,10 @@ import pytest
 from starlette.testclient import WebSocketDenialResponse
 from starlette.websockets import WebSocketDisconnect
 
+from cart2d.link.built import default_firmware
 from cart2d.server.guards import HostAllowlist, machine_addresses, same_origin, split_host
 from cart2d.server.models import MAX_BODY_BYTES, MAX_MAP_BODY_BYTES
 from cart2d.server.serving import HEADER_TIMEOUT_S, RepeatFilter
-from cart2d.simulator import default_firmware
 from tests.support.live import GatewayProcess
 from tests.support.server import WS_BASE, Rig
 

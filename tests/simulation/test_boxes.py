@@ -18,7 +18,7 @@ import pytest
 
 from cart2d.gateway import Gateway
 from cart2d.link import Link
-from cart2d.simulator import Simulator
+from cart2d.simulation.simulator import Simulator
 from cart2d.store import Store
 from tests.support.cli import cart2d, one_sentence
 from tests.support.server import Rig

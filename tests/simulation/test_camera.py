@@ -21,10 +21,11 @@ import cv2
 import numpy as np
 import pytest
 
+from cart2d.maps.world import Box, World, arena_world
 from cart2d.params import robot
 from cart2d.simulation.camera import PART_BOUNDARY, SimCameraServer
 from cart2d.simulation.controls import Board
-from cart2d.simulator import Box, Simulator, World, arena_world
+from cart2d.simulation.simulator import Simulator
 from tests.support.sim import start_sim
 
 PORT = 18280  # tests only; the stream on PORT + 1

@@ -13,7 +13,8 @@ import pytest
 from cart2d.gateway import Gateway
 from cart2d.link import Link
 from cart2d.simulation import faults as fault_table
-from cart2d.simulator import Simulator, SimulatorError
+from cart2d.simulation.side_channel import SimulatorError
+from cart2d.simulation.simulator import Simulator
 from cart2d.store import Store
 from tests.support.cli import cart2d
 from tests.support.server import Rig

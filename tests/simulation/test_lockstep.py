@@ -20,7 +20,7 @@ from cart2d.link import Link, LinkError
 from cart2d.perception.occupancy import Pose
 from cart2d.perception.pipeline import Perceived, Perception
 from cart2d.simulation.lockstep import ARRIVAL_MARGIN_S, CameraTiming, Lockstep
-from cart2d.simulator import Simulator
+from cart2d.simulation.simulator import Simulator
 from cart2d.tools.missions.run import run_mission
 from cart2d.tools.missions.spec import MissionSpec
 from tests.support.missions import mission

@@ -11,7 +11,8 @@ from pathlib import Path
 import pytest
 
 from cart2d.link import Link, LinkTimeout
-from cart2d.simulator import Simulator, SimulatorError
+from cart2d.simulation.side_channel import SimulatorError
+from cart2d.simulation.simulator import Simulator
 from tests.support.sim import events, run_for, start_sim
 from tests.support.waiting import wait_for
 

@@ -12,7 +12,8 @@ import pytest
 
 from cart2d.link import Link
 from cart2d.link.firmware import read_status
-from cart2d.simulator import Box, SimulatorError, WallGrid, World, arena_world, run_lengths
+from cart2d.maps.world import Box, WallGrid, World, arena_world, run_lengths
+from cart2d.simulation.side_channel import SimulatorError
 from tests.support.sim import events, high_rate_truth, start_sim, wait_idle
 
 BUMPER_X = 0.17  # robot.toml [body] bumper_x_m

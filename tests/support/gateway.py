@@ -7,9 +7,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from cart2d.gateway import Gateway
 from cart2d.link import Link
-from cart2d.simulator import Simulator
+from cart2d.simulation.simulator import Simulator
+from cart2d.simulation.wiring import simulated_gateway
 from cart2d.store import GatewaySettings, MapSettings, Store
 from tests.support.sim import start_sim
 from tests.support.waiting import wait_for
@@ -20,7 +20,8 @@ class GatewayRig:
         self.sim: Simulator = start_sim(tmp_path, **sim_options)
         self.link = Link(self.sim.pty, timeout_s=0.2).open()
         self.store = Store(tmp_path / "gateway")
-        self.gateway = Gateway(self.link, self.store, settings, self.sim)
+        self.simulation = simulated_gateway(self.link, self.store, settings, self.sim)
+        self.gateway = self.simulation.gateway
         self.gateway.check_firmware()
         self.gateway.start()
         self.messages: list[dict[str, Any]] = []

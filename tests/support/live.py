@@ -21,10 +21,11 @@ from typing import Any
 
 import psutil
 
-from cart2d.gateway import Gateway
 from cart2d.link import Link
 from cart2d.server import create_app, serving
-from cart2d.simulator import SideChannel, Simulator
+from cart2d.simulation.side_channel import SideChannel
+from cart2d.simulation.simulator import Simulator
+from cart2d.simulation.wiring import simulated_gateway
 from cart2d.store import Store
 from tests.support.sim import start_sim
 from tests.support.waiting import wait_for
@@ -37,12 +38,13 @@ class LiveGateway:
         self.sim: Simulator = start_sim(tmp_path, pty_link=tmp_path / "robot-tty", **sim_options)
         self.link = Link(self.sim.pty, timeout_s=0.2).open()
         self.store = Store(tmp_path / "gateway")
-        self.gateway = Gateway(self.link, self.store, self.store.load(), self.sim)
+        self.simulation = simulated_gateway(self.link, self.store, self.store.load(), self.sim)
+        self.gateway = self.simulation.gateway
         self.gateway.wait_for_firmware(10.0, 0.1)
         self.gateway.start()
         sock = serving.listening_socket("127.0.0.1", 0)  # as cart2d.tools.cli serves it
         self.port: int = sock.getsockname()[1]
-        self.app = create_app(self.gateway)
+        self.app = create_app(self.gateway, simulation=self.simulation.add_routes)
         self.server = serving.server(self.app)
         self._thread = threading.Thread(target=self.server.run, kwargs={"sockets": [sock]}, daemon=True)
         self._thread.start()

@@ -6,9 +6,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from cart2d.gateway import Gateway
 from cart2d.link import Link
-from cart2d.simulator import Simulator
+from cart2d.simulation.simulator import Simulator
+from cart2d.simulation.wiring import simulated_gateway
 from cart2d.store import Store
 from tests.support.ser2net import Ser2net
 from tests.support.sim import start_sim
@@ -22,9 +22,10 @@ class NetRig:
         self.sim: Simulator = start_sim(tmp_path, pty_link=tty, speed="1", **sim_options)
         self.bridge = Ser2net(tmp_path, str(tty), rfc2217=rfc2217)
         self.link = Link(self.bridge.url).open(wait_s=10)
-        self.gateway = Gateway(
+        self.simulation = simulated_gateway(
             self.link, Store(tmp_path / "gateway"), Store(tmp_path / "gateway").load(), self.sim
         )
+        self.gateway = self.simulation.gateway
         self.gateway.wait_for_firmware(10.0, 0.1)
         self.gateway.start()
 

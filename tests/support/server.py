@@ -8,9 +8,9 @@ from typing import Any
 
 from fastapi.testclient import TestClient
 
-from cart2d.gateway import Gateway
 from cart2d.link import Link
 from cart2d.server import create_app
+from cart2d.simulation.wiring import simulated_gateway
 from cart2d.store import Store
 from tests.support.sim import start_sim
 
@@ -34,12 +34,17 @@ class Rig:
         self.sim = start_sim(tmp_path, pty_link=tmp_path / "robot-tty", **sim_options)
         self.link = Link(self.sim.pty, timeout_s=0.2).open()
         self.store = Store(tmp_path / "gateway")
-        self.gateway = Gateway(self.link, self.store, self.store.load(), self.sim)
+        self.simulation = simulated_gateway(self.link, self.store, self.store.load(), self.sim)
+        self.gateway = self.simulation.gateway
         # Opening the port reset the Nano into Optiboot: the firmware answers once it has left it.
         self.gateway.wait_for_firmware(10.0, 0.1)
         self.gateway.start()
         # What the panel sends: its own Host, and every change as JSON (the guards refuse others).
-        self.client = TestClient(create_app(self.gateway, bind_host, token), base_url=BASE_URL, headers=JSON)
+        self.client = TestClient(
+            create_app(self.gateway, bind_host, token, simulation=self.simulation.add_routes),
+            base_url=BASE_URL,
+            headers=JSON,
+        )
 
     def close(self) -> None:
         self.gateway.close()

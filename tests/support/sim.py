@@ -9,7 +9,8 @@ from typing import Any
 import pytest
 
 from cart2d.link import Link
-from cart2d.simulator import SimOptions, Simulator, default_binary, default_firmware
+from cart2d.link.built import default_binary, default_firmware
+from cart2d.simulation.simulator import SimOptions, Simulator
 from tests.support.waiting import wait_for
 
 

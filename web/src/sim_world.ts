@@ -1,5 +1,5 @@
 // The simulated world's boxes (GET /api/sim/world, POST /api/sim/boxes, DELETE /api/sim/boxes/{id},
-// DELETE /api/sim/boxes (all); cart2d/gateway/sim_world.py): in simulation only, drawn on the map as
+// DELETE /api/sim/boxes (all); cart2d/simulation/world.py): in simulation only, drawn on the map as
 // the physical things they are; the map's "Box" mode drops one where clicked, or picks up the one
 // clicked; "Clear boxes" takes them all away. On a real cart the GET answers 404 and the mode, the
 // legend entry and the button stay hidden.

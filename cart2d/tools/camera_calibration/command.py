@@ -84,7 +84,7 @@ def main_camera_calibrate(args: argparse.Namespace, say: Callable[[str], None] =
     try:
         if sim:
             from cart2d.simulation.controls import CameraTimeout
-            from cart2d.simulator import SimulatorError
+            from cart2d.simulation.side_channel import SimulatorError
             from cart2d.tools.camera_calibration.simulated import (
                 HELD_SQUARE_M,
                 calibrate_in_simulator,

@@ -21,13 +21,15 @@ from typing import Any
 import cv2
 import numpy as np
 
+from cart2d.maps.world import World
 from cart2d.params import robot
 from cart2d.perception.calibration import Board, CameraCalibration, GroundBoard
 from cart2d.perception.camera_model import FloatArray, Intrinsics, Mount
 from cart2d.perception.synthetic import true_pixels
 from cart2d.simulation.controls import Board as SimBoard
 from cart2d.simulation.controls import CameraControls
-from cart2d.simulator import SideChannel, SimOptions, Simulator, SimulatorError, World
+from cart2d.simulation.side_channel import SideChannel, SimulatorError
+from cart2d.simulation.simulator import SimOptions, Simulator
 from cart2d.tools.camera_calibration.views import Image, Placement, Pose, board_placements, calibrate
 
 # A board held in the air must stay above the floor, which a camera 0.25 m up looking 25 degrees

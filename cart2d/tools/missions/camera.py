@@ -23,7 +23,8 @@ from cart2d.gateway.camera import CameraFeed
 from cart2d.perception.calibration import calibration_path
 from cart2d.simulation.camera import SimCameraServer
 from cart2d.simulation.lockstep import Lockstep
-from cart2d.simulator import Simulator, SimulatorError
+from cart2d.simulation.side_channel import SimulatorError
+from cart2d.simulation.simulator import Simulator
 
 if TYPE_CHECKING:
     from cart2d.gateway import Gateway

@@ -24,7 +24,8 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from cart2d.gateway import Gateway
 from cart2d.planning import Grid, PlanError, Point
-from cart2d.simulator import Simulator, SimulatorError
+from cart2d.simulation.side_channel import SimulatorError
+from cart2d.simulation.simulator import Simulator
 
 Coordinate = float
 # Real time from this long before an event: the simulator is paced to the wall clock when the

@@ -41,7 +41,9 @@ from cart2d.recording import open_recording
 from cart2d.recording.session import DEFAULT_CAMERA_FPS
 from cart2d.simulation import world_file
 from cart2d.simulation.lockstep import Lockstep
-from cart2d.simulator import SimOptions, Simulator, SimulatorError
+from cart2d.simulation.side_channel import SimulatorError
+from cart2d.simulation.simulator import SimOptions, Simulator
+from cart2d.simulation.wiring import simulated_gateway
 from cart2d.store import FloorPlan, GatewaySettings, MapSettings, Store
 from cart2d.tools.missions import spec as mission_file
 from cart2d.tools.missions.camera import mission_camera, perception_report
@@ -292,7 +294,8 @@ def run_mission(
         settings = GatewaySettings(map=map_settings)
         wall_start = time.monotonic()
         with Simulator(options) as sim, Link(sim.pty) as link, contextlib.ExitStack() as recording:
-            gateway = Gateway(link, store, settings, sim)
+            simulation = simulated_gateway(link, store, settings, sim)
+            gateway = simulation.gateway
             tell: Tell = lambda message: None  # noqa: E731
             if mcap_path is not None:  # closed after gateway.close(): the file holds the whole run
                 session = recording.enter_context(
@@ -300,7 +303,9 @@ def run_mission(
                 )
                 tell = session.publish_event if session is not None else tell
             if spec.world is not None:  # after the gateway has made the simulator's walls follow its map
-                gateway.add_sim_boxes([b.box() for b in spec.world.boxes])  # viewers (the recording) told
+                simulation.world.add_boxes(
+                    [b.box() for b in spec.world.boxes]
+                )  # viewers (the recording) told
             grid = gateway.map_planner.grid
             points = snapped(grid, [grid.node_xy(i, j) for i, j in map_settings.obstacles])
             sim.change_obstacles(add=points, step=grid.step_m)  # virtual: counted, not felt

@@ -14,7 +14,7 @@ from pathlib import Path
 from cart2d.link import CommandRefused, Link, LinkError, firmware
 from cart2d.link.firmware import ResetWatch
 from cart2d.simulation import faults as fault_table
-from cart2d.simulator import SimulatorError
+from cart2d.simulation.side_channel import SimulatorError
 from cart2d.tools import cli_args
 from cart2d.tools.umbmark.arithmetic import Calibration
 from cart2d.tools.umbmark.procedure import (

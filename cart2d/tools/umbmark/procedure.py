@@ -16,7 +16,7 @@ from pathlib import Path
 from cart2d.link import Link, LinkError, firmware
 from cart2d.link.firmware import ControllerRestarted, ResetWatch
 from cart2d.params import setting_id
-from cart2d.simulator import SimOptions, Simulator
+from cart2d.simulation.simulator import SimOptions, Simulator
 from cart2d.tools.umbmark.arithmetic import (
     Axes,
     Calibration,

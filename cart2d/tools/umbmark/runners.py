@@ -19,7 +19,7 @@ from typing import Protocol
 
 from cart2d.link import Link, LinkError, firmware, path_stream
 from cart2d.link.firmware import ResetWatch
-from cart2d.simulator import Simulator
+from cart2d.simulation.simulator import Simulator
 from cart2d.tools.umbmark.arithmetic import Point, parse_position_mm, square_corners
 
 

@@ -5,152 +5,25 @@ serial port and the TCP address of the side channel (JSON lines, see sim/README.
 Simulator watches its process: an exit it did not ask for (a crash, a kill -9) is reported to
 `on_exit`, so that its owner can tell the user and start it again.
 
-The simulated world (sim/README.md, "The world") is physical: walls (a boundary, a map's
-occupied cells) and boxes the cart cannot pass. It is not the planner's map: the map holds what
-the gateway believes, the world what is there.
+The simulated world it is given is cart2d/maps/world.py's; the side channel side_channel.py's.
 """
 
 from __future__ import annotations
 
 import contextlib
-import itertools
 import json
-import os
-import socket
 import subprocess
 import threading
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from cart2d.params import robot
+from cart2d.link.built import default_binary, default_bootloader, default_firmware
+from cart2d.maps.world import Box, World
 from cart2d.simulation.controls import CameraControls
-from cart2d.spec import repo_file
-
-
-class SimulatorError(RuntimeError):
-    pass
-
-
-def default_binary() -> Path:
-    return Path(os.environ.get("CART2D_SIM", repo_file("build", "sim", "cart2d-sim")))
-
-
-def default_firmware() -> Path:
-    return Path(os.environ.get("CART2D_FIRMWARE", repo_file("build", "firmware", "cart2d-nano.elf")))
-
-
-def default_bootloader() -> Path:
-    """Optiboot as `make sim` builds it from Debian's source (sim/CMakeLists.txt)."""
-    built = repo_file("build", "sim", "optiboot", "optiboot_atmega328.hex")
-    return Path(os.environ.get("CART2D_BOOTLOADER", built))
-
-
-@dataclass(frozen=True)
-class Box:
-    """An axis-aligned box standing on the floor: centre and size (m); height and colour are for
-    the camera (the physics is planar). Boxes with an id can be replaced and removed by it."""
-
-    x: float
-    y: float
-    sx: float
-    sy: float
-    height: float = 0.3
-    colour: str = "#b8742f"
-    id: str | None = None
-
-    def message(self) -> dict[str, Any]:
-        out: dict[str, Any] = {
-            "x": self.x,
-            "y": self.y,
-            "sx": self.sx,
-            "sy": self.sy,
-            "height": self.height,
-            "colour": self.colour,
-        }
-        if self.id is not None:
-            out["id"] = self.id
-        return out
-
-
-def run_lengths(cells: Iterable[bool]) -> list[int]:
-    """Runs alternately free and occupied, starting with free (the side channel's "rle")."""
-    array = (
-        np.fromiter(cells, dtype=np.bool_) if not isinstance(cells, np.ndarray) else cells.astype(np.bool_)
-    )
-    array = array.reshape(-1)
-    if array.size == 0:
-        return [0]
-    changes = np.flatnonzero(array[1:] != array[:-1]) + 1
-    runs = np.diff(np.concatenate(([0], changes, [array.size])))
-    out: list[int] = runs.tolist()
-    return [0, *out] if array[0] else out
-
-
-@dataclass(frozen=True)
-class WallGrid:
-    """An occupancy grid whose occupied cells are walls. Cells row-major from the origin, as in
-    ROS's nav_msgs/OccupancyGrid: cell (i, j) is column i (x) of row j (y), row 0 at the lowest
-    y; `origin` is the lower-left corner of cell (0, 0)."""
-
-    origin: tuple[float, float]
-    resolution: float
-    width: int
-    height: int
-    occupied: tuple[bool, ...]
-
-    @classmethod
-    def from_rows(
-        cls, rows: Sequence[Sequence[bool]], origin: tuple[float, float], resolution: float
-    ) -> WallGrid:
-        """From rows of cells, rows[0] the lowest (an image's top row is its highest: reverse it)."""
-        width = len(rows[0]) if rows else 0
-        if any(len(row) != width for row in rows):
-            raise ValueError("every row must have the same number of cells")
-        return cls(origin, resolution, width, len(rows), tuple(bool(c) for row in rows for c in row))
-
-    def message(self) -> dict[str, Any]:
-        return {
-            "origin": list(self.origin),
-            "resolution": self.resolution,
-            "width": self.width,
-            "height": self.height,
-            "rle": run_lengths(self.occupied),
-        }
-
-
-@dataclass(frozen=True)
-class World:
-    """The simulator's physical world: walls from a grid, a boundary (None: around the grid if
-    there is one; False: none; or (x_min, y_min, x_max, y_max) in m) and boxes."""
-
-    boxes: tuple[Box, ...] = ()
-    walls: WallGrid | None = None
-    boundary: tuple[float, float, float, float] | bool | None = None
-
-    def message(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"boxes": [b.message() for b in self.boxes]}
-        if self.walls is not None:
-            out["walls"] = self.walls.message()
-        if isinstance(self.boundary, bool):
-            out["boundary"] = self.boundary
-        elif self.boundary is not None:
-            out["boundary"] = list(self.boundary)
-        return out
-
-
-def arena_world(
-    cols: int, rows: int, step: float, margin: float | None = None, origin: tuple[float, float] = (0.0, 0.0)
-) -> World:
-    """Walls `margin` (robot.toml's [sim] arena_margin_m by default) outside a node grid of
-    cols x rows nodes `step` apart from `origin`: today's arena, for any size."""
-    m = float(robot()["sim"]["arena_margin_m"]) if margin is None else margin
-    x0, y0 = origin
-    return World(boundary=(x0 - m, y0 - m, x0 + (cols - 1) * step + m, y0 + (rows - 1) * step + m))
+from cart2d.simulation.side_channel import SideChannel, SimulatorError
 
 
 @dataclass
@@ -183,100 +56,6 @@ class SimOptions:
     # (the gateway's firmware update) flashes through the pty. None: the bare chip, the firmware
     # at the reset vector (tests of the chip itself; no firmware update is possible then).
     bootloader: Path | None = field(default_factory=default_bootloader)
-
-
-class SideChannel:
-    """A JSON-lines client: requests get acks by id; truth and events are kept as they come."""
-
-    def __init__(self, address: str) -> None:
-        host, port = address.rsplit(":", 1)
-        self._sock = socket.create_connection((host, int(port)), timeout=5.0)
-        self._sock.settimeout(None)
-        self._ids = itertools.count(1)
-        self._cond = threading.Condition()
-        self._acks: dict[int, dict[str, Any]] = {}
-        self.truth: dict[str, Any] | None = None
-        self.events: list[dict[str, Any]] = []
-        self.frame: dict[str, Any] | None = None  # the camera's newest (cart2d/simulation/controls.py)
-        self._listeners: list[Callable[[dict[str, Any]], None]] = []
-        self._closed = False
-        self._reader = threading.Thread(target=self._read, name="sim side channel", daemon=True)
-        self._reader.start()
-
-    def request(self, message: dict[str, Any], timeout_s: float = 10.0) -> dict[str, Any]:
-        ident = next(self._ids)
-        data = (json.dumps({**message, "id": ident}) + "\n").encode()
-        with self._cond:
-            try:
-                self._sock.sendall(data)
-            except OSError as exc:  # the simulator is gone
-                raise SimulatorError(f"the side channel is closed: {exc}") from exc
-            if not self._cond.wait_for(lambda: ident in self._acks or self._closed, timeout_s):
-                raise SimulatorError(f"no ack to {message.get('type')}")
-            if self._closed and ident not in self._acks:
-                raise SimulatorError("side channel closed")
-            ack = self._acks.pop(ident)
-        if not ack.get("ok"):
-            raise SimulatorError(f"{message.get('type')}: {ack.get('error')}")
-        return ack
-
-    def wait_truth(self, predicate: Any, timeout_s: float) -> dict[str, Any]:
-        """Waits until a truth message satisfies predicate(truth); returns it."""
-        with self._cond:
-            if not self._cond.wait_for(lambda: self.truth is not None and predicate(self.truth), timeout_s):
-                raise SimulatorError("condition not reached in time")
-            assert self.truth is not None
-            return self.truth
-
-    def subscribe(self, listener: Callable[[dict[str, Any]], None]) -> None:
-        """Calls listener(message) for every truth message, from the reader thread."""
-        self._listeners.append(listener)
-
-    @property
-    def listeners(self) -> list[Callable[[dict[str, Any]], None]]:
-        return list(self._listeners)
-
-    @property
-    def closed(self) -> bool:
-        return self._closed
-
-    def close(self) -> None:
-        self._sock.close()
-
-    def _read(self) -> None:
-        buf = b""
-        while True:
-            try:
-                chunk = self._sock.recv(65536)
-            except OSError:
-                chunk = b""
-            if not chunk:
-                with self._cond:
-                    self._closed = True
-                    self._cond.notify_all()
-                return
-            buf += chunk
-            *lines, buf = buf.split(b"\n")
-            messages = [json.loads(line) for line in lines]
-            with self._cond:
-                for message in messages:
-                    self._dispatch(message)
-                self._cond.notify_all()
-            for message in messages:
-                if message.get("type") == "truth":
-                    for listener in self._listeners:
-                        listener(message)
-
-    def _dispatch(self, message: dict[str, Any]) -> None:
-        kind = message.get("type")
-        if kind == "ack":
-            self._acks[message.get("id") or 0] = message
-        elif kind == "truth":
-            self.truth = message
-        elif kind == "event":
-            self.events.append(message)
-        elif kind == "frame":
-            self.frame = message
 
 
 ExitListener = Callable[["subprocess.Popen[str]", int], None]

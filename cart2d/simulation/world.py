@@ -2,34 +2,37 @@
 command line's --world, added and removed through the API (the panel's Box mode), and told to
 /ws viewers as "sim_world" so the panel redraws them.
 
-The simulator's options keep them (SimOptions.world, whose walls follow the map: core.py's
-_sync_world keeps the boxes with `with_boxes`), so a restart of the simulator puts them back
-as they were, as it does the faults. The boxes are physical, not the map: the planner does not
-know them until the camera sees them.
+The simulator's options keep them (SimOptions.world, whose walls follow the map: the gateway's
+map edits call `SimWorld.follow_walls`, which keeps the boxes with `with_boxes`), so a restart of
+the simulator puts them back as they were, as it does the faults. The boxes are physical, not
+the map: the planner does not know them until the camera sees them.
 
-`SimWorldMixin` is the part of the Gateway (cart2d/gateway/core.py) that changes them.
+`SimWorld` is the gateway's simulated world (cart2d/gateway/collaborators.py), wired in by
+wiring.py; its routes are routes.py's.
 """
 
 from __future__ import annotations
 
 import itertools
+import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from cart2d.files import read_regular
-from cart2d.gateway.messages import LiveMessage, SimWorldMessage
+from cart2d.gateway.bus import EventBus, ViewerMessage
+from cart2d.gateway.messages import SimWorldMessage
+from cart2d.maps.world import Box, World
 from cart2d.params import footprint_radius_m
+from cart2d.simulation.side_channel import SimulatorError
+from cart2d.simulation.simulator import Simulator
 from cart2d.simulation.world_file import MAX_FILE_BYTES, WorldSpec, parse
-from cart2d.simulator import Box, Simulator, World
 
 BOX_ID_PREFIX = "box-"
 
-
-class NotSimulated(RuntimeError):
-    """The gateway drives a real cart: there is no simulated world."""
+log = logging.getLogger(__name__)
 
 
 def with_boxes(walls: World, held: World | None) -> World:
@@ -74,30 +77,49 @@ def box_view(box: dict[str, Any]) -> dict[str, Any]:
     return {key: box[key] for key in keys if key in box}
 
 
-class SimWorldMixin:
-    """The Gateway's simulated boxes (see the module's docstring)."""
+class SimWorld:
+    """The simulator's boxes and walls (see the module's docstring). Viewers are told of changes
+    on `bus` once tell() has given it (the gateway's, made after this)."""
 
-    # what the Gateway has (core.py)
-    sim: Simulator | None
+    def __init__(self, sim: Simulator) -> None:
+        self.sim = sim
+        self._bus: EventBus | None = None
 
-    def _publish(self, message: LiveMessage) -> None:
-        raise NotImplementedError
+    def tell(self, bus: EventBus) -> None:
+        self._bus = bus
 
-    def _simulated(self) -> Simulator:
-        if self.sim is None:
-            raise NotSimulated("there is no simulator: this gateway drives a real cart")
-        return self.sim
+    # -- what the gateway asks (collaborators.SimulatedWorld) ----------------------------------
+    def follow_walls(self, walls: Callable[[], World]) -> None:
+        """The simulator's walls follow the map (and do so again after a restart), under the
+        simulator's lifecycle lock as its boxes' changes: the map it reads is the latest, whoever
+        sends last."""
+        sim = self.sim
+        with sim.lifecycle:
+            world = with_boxes(walls(), sim.options.world)  # boxes stay
+            sim.options.world = world
+            if sim.running():
+                try:
+                    sim.set_world(world)
+                except SimulatorError as exc:
+                    log.warning("the simulator's walls could not follow the map: %s", exc)
 
-    def sim_world_view(self) -> dict[str, Any]:
+    def boxes_view(self) -> dict[str, Any] | None:
+        try:
+            return self.view()
+        except SimulatorError:
+            return None
+
+    # -- what its routes ask (routes.py) ---------------------------------------------------------
+    def view(self) -> dict[str, Any]:
         """The boxes the simulator holds now (SimulatorError when it does not answer)."""
-        world = self._simulated().world_state()
+        world = self.sim.world_state()
         boxes = [box_view(b) for b in world.get("boxes", []) if not b.get("obstacle", False)]
         return {"version": world.get("version"), "boxes": boxes}
 
-    def add_sim_boxes(self, boxes: Sequence[Box]) -> dict[str, Any]:
+    def add_boxes(self, boxes: Sequence[Box]) -> dict[str, Any]:
         """Adds `boxes` (those without an id get one; an id already there is replaced) now and at
         every restart; ValueError, nothing added, when one would stand under the cart."""
-        sim = self._simulated()
+        sim = self.sim
         with sim.lifecycle:  # a restart meanwhile starts with the boxes as they end up
             truth = sim.truth()
             problems = [under_cart_problem(k, b, (truth["x"], truth["y"])) for k, b in enumerate(boxes)]
@@ -111,9 +133,9 @@ class SimWorldMixin:
             sim.options.world = replace(held, boxes=(*(b for b in held.boxes if b.id not in new_ids), *boxes))
         return self._world_changed([b.id or "" for b in boxes], "added")
 
-    def remove_sim_box(self, ident: str) -> dict[str, Any]:
+    def remove_box(self, ident: str) -> dict[str, Any]:
         """Removes the box `ident` now and for restarts; KeyError when there is none."""
-        sim = self._simulated()
+        sim = self.sim
         with sim.lifecycle:
             if ident not in self._ids_in(sim):
                 raise KeyError(ident)
@@ -122,9 +144,9 @@ class SimWorldMixin:
             sim.options.world = replace(held, boxes=tuple(b for b in held.boxes if b.id != ident))
         return self._world_changed([ident], "removed")
 
-    def clear_sim_boxes(self) -> dict[str, Any]:
+    def clear_boxes(self) -> dict[str, Any]:
         """Removes every box (the map's walls stay), now and for restarts."""
-        sim = self._simulated()
+        sim = self.sim
         with sim.lifecycle:
             gone = sorted(self._ids_in(sim))
             sim.control("boxes", clear=True)
@@ -138,8 +160,9 @@ class SimWorldMixin:
         return {str(b["id"]) for b in boxes if "id" in b and not b.get("obstacle", False)}
 
     def _world_changed(self, ids: list[str], what: str) -> dict[str, Any]:
-        view = self.sim_world_view()
-        self._publish(SimWorldMessage(**view))
+        view = self.view()
+        if self._bus is not None:
+            self._bus.publish(ViewerMessage(SimWorldMessage(**view)))
         return {**view, what: ids}
 
 
