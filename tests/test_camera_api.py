@@ -220,7 +220,11 @@ def test_a_restream_without_frames_for_a_while_ends() -> None:
 def camera_api(feed: CameraFeed) -> TestClient:
     """/api/camera and friends for `feed` alone (no gateway, no simulator)."""
     app = FastAPI()
-    add_camera_routes(app, cast(Gateway, SimpleNamespace(camera=feed, seeing=None)), Depends(lambda: None))
+    add_camera_routes(
+        app,
+        cast(Gateway, SimpleNamespace(camera=feed, calibration_summary=lambda: None)),
+        Depends(lambda: None),
+    )
     return TestClient(app)
 
 

@@ -46,7 +46,7 @@ from cart2d.gateway.look import look_before_driving
 from cart2d.gateway.map_edits import MapMixin
 from cart2d.gateway.perceived import PerceptionMixin
 from cart2d.gateway.restarts import Restarts
-from cart2d.gateway.sim_world import SimWorldMixin
+from cart2d.gateway.sim_world import NotSimulated, SimWorldMixin
 from cart2d.gateway.state import (
     BUSY_POLL_S,
     RESET_POSE_SETTINGS,
@@ -71,6 +71,7 @@ from cart2d.gateway.status_cache import StatusCache
 from cart2d.link import CommandRefused, Link, LinkError, MotionCancelled, firmware, path_stream
 from cart2d.link.flashing import HURRIED_CHECK_S, Flasher
 from cart2d.link.protocol import Reply, Telemetry
+from cart2d.maps.ros import image_bytes
 from cart2d.params import robot, setting_id
 from cart2d.planning import Plan, PlanError, Point, StartBlocked, polyline_length
 from cart2d.planning.smoothing import round_corners
@@ -889,3 +890,34 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
                 return "", True
             except (LinkError, CommandRefused):
                 return "", False
+
+    # -- for the API: what its routes ask without reaching past the front ---------------------
+    def motion_token(self) -> int:
+        """The stop generation of a motion request arriving now (Link.motion_token)."""
+        return self.link.motion_token()
+
+    def start_update(self, hex_file: bytes) -> dict[str, object]:
+        """Flashes `hex_file` (Flasher.start: ValueError for a bad file, RuntimeError when nothing
+        can flash); the update's view."""
+        return self.flasher.start(hex_file).view()
+
+    def update_view(self) -> dict[str, object]:
+        """The firmware update's state and log."""
+        return self.flasher.job.view()
+
+    def calibration_summary(self) -> dict[str, Any] | None:
+        """The camera's calibration as /api/camera shows it; None without one."""
+        seeing = self.seeing
+        return seeing.calibration.summary() if seeing is not None and seeing.calibration else None
+
+    def sim_faults(self, chosen: dict[str, float] | None = None) -> dict[str, float]:
+        """The simulator's faults now, set to `chosen` first if given; NotSimulated on a real cart."""
+        if self.sim is None:
+            raise NotSimulated("there is no simulator")
+        return self.sim.faults() if chosen is None else self.sim.set_faults(chosen)
+
+    def floor_plan_png(self, version: int | None = None) -> bytes | None:
+        """The floor plan as a PNG (map_server's grey levels), None without one. A live map has its
+        current plan only, whatever `version` is asked (the panel's cache key: a replay's matters)."""
+        plan = self.floor_plan()
+        return None if plan is None else image_bytes(plan, ".png")

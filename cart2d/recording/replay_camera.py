@@ -71,6 +71,7 @@ def add_replay_camera_routes(app: FastAPI, player: Player) -> None:
         "/api/camera/frame.jpg",
         summary="the recorded frame at the replay's position, with what perception drew on it",
         responses={200: {"content": {"image/jpeg": {}}}, **camera_errors(404)},
+        response_class=Response,
     )
     def frame() -> Response:
         shown = RecordedCamera(player).shown()
@@ -84,6 +85,7 @@ def add_replay_camera_routes(app: FastAPI, player: Player) -> None:
         "/api/camera/stream",
         summary="the recorded frames as MJPEG, as the replay plays them (the frame shown again while paused)",
         responses={200: {"content": {"multipart/x-mixed-replace": {}}}, **camera_errors(404, 503)},
+        response_class=StreamingResponse,
     )
     async def stream() -> StreamingResponse:
         if not frames:

@@ -13,8 +13,10 @@ from fastapi.params import Depends
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
 from cart2d.gateway import Gateway, backup
+from cart2d.gateway.sim_world import NotSimulated
 from cart2d.link import LinkError
 from cart2d.server.addresses import address_problem
+from cart2d.server.answers import FaultsOut, NetworkSavedOut, SettingsImportedOut, SettingsOut
 from cart2d.server.models import MAX_MAP_BODY_BYTES, errors, inline_refs, read_body
 from cart2d.simulation import faults as fault_table
 from cart2d.simulator import SimulatorError
@@ -27,6 +29,7 @@ from cart2d.store import (
     parse_settings,
 )
 
+SETTINGS_FILE_SCHEMA = inline_refs(SettingsFile.model_json_schema())  # what POST takes back
 NO_SIMULATOR = "there is no simulator: this gateway drives a real cart; faults exist only in simulation"
 
 
@@ -70,7 +73,12 @@ def add_admin_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
         if problem is not None:
             raise HTTPException(422, f"{where}: {problem}")
 
-    @app.get("/api/settings", summary="the gateway's own settings (network, map), without the token")
+    @app.get(
+        "/api/settings",
+        summary="the gateway's own settings (network, map), without the token",
+        response_model=SettingsOut,
+        response_model_exclude_unset=True,
+    )
     def gateway_settings() -> dict[str, Any]:
         return gateway.settings.model_dump(exclude={"token"})
 
@@ -81,6 +89,7 @@ def add_admin_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
         description="Refused (422) for an address this machine does not have; 0.0.0.0 and :: are every "
         "interface, 127.0.0.1 this machine alone.",
         responses=errors(400, 401, 422),
+        response_model=NetworkSavedOut,
     )
     def network(body: NetworkSettings) -> dict[str, Any]:
         check_address(body.host, "host")
@@ -91,6 +100,8 @@ def add_admin_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
         "/api/settings/file",
         summary="download the settings file: JSON of the gateway's network and map, and the firmware's "
         "settings (its tuning) when the firmware answers",
+        response_class=Response,
+        responses={200: {"content": {"application/json": {"schema": SETTINGS_FILE_SCHEMA}}}},
     )
     def export_settings() -> Response:
         data = gateway.settings.model_dump(mode="json", exclude={"token"})
@@ -113,9 +124,10 @@ def add_admin_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
             "x-max-body-bytes": MAX_MAP_BODY_BYTES,  # it may carry a floor plan
             "requestBody": {
                 "required": True,
-                "content": {"application/json": {"schema": inline_refs(SettingsFile.model_json_schema())}},
+                "content": {"application/json": {"schema": SETTINGS_FILE_SCHEMA}},
             },
         },
+        response_model=SettingsImportedOut,
     )
     async def import_settings(request: Request) -> dict[str, Any]:
         body = await read_body(request, MAX_MAP_BODY_BYTES)
@@ -164,22 +176,22 @@ def add_admin_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
         }
 
     # -- the simulator's faults --------------------------------------------------------------------
-    def simulator() -> Any:
-        if gateway.sim is None:
-            raise HTTPException(404, NO_SIMULATOR)
-        return gateway.sim
+    def faults(chosen: dict[str, float] | None = None) -> dict[str, Any]:
+        try:
+            return _faults_view(gateway.sim_faults(chosen))
+        except NotSimulated as exc:
+            raise HTTPException(404, NO_SIMULATOR) from exc
+        except SimulatorError as exc:
+            raise HTTPException(503, f"the simulator does not answer: {exc}") from exc
 
     @app.get(
         "/api/sim/faults",
         summary="the simulator's faults now, and every fault with its range (simulation only)",
         responses=errors(404, 503),
+        response_model=FaultsOut,
     )
     def get_faults() -> dict[str, Any]:
-        sim = simulator()
-        try:
-            return _faults_view(sim.faults())
-        except SimulatorError as exc:
-            raise HTTPException(503, f"the simulator does not answer: {exc}") from exc
+        return faults()
 
     @app.put(
         "/api/sim/faults",
@@ -187,11 +199,7 @@ def add_admin_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
         summary="set the simulator's faults (those left out: off); they last until changed or the "
         "gateway stops (simulation only)",
         responses=errors(400, 401, 404, 422, 503),
+        response_model=FaultsOut,
     )
     def put_faults(body: SimFaultsIn) -> dict[str, Any]:
-        sim = simulator()
-        chosen = {k: float(v) for k, v in body.model_dump().items()}
-        try:
-            return _faults_view(sim.set_faults(chosen))
-        except SimulatorError as exc:
-            raise HTTPException(503, f"the simulator does not answer: {exc}") from exc
+        return faults({k: float(v) for k, v in body.model_dump().items()})

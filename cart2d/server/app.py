@@ -60,6 +60,7 @@ def create_app(
     api_docs.install(app)
 
     app.state.gateway = gateway  # for the routes' dependencies (deps.py)
+    app.state.source = gateway  # what the reading routes answer from (source.py)
     app.state.access = AccessToken(token, needs_token)
     app.state.stopper = Stopper(gateway.stop)
     app.state.viewers = Viewers(gateway)  # for /ws, tests and benchmarks: the viewers and their queues
@@ -123,5 +124,5 @@ def create_app(
 
     guards.install(app, bind_host, allowed_hosts)
     app.add_middleware(ReadsInTurn)  # outside the guards: a waiting read costs nothing (reads.py)
-    app.add_middleware(MotionTokens, link=gateway.link)  # added last: the outermost layer
+    app.add_middleware(MotionTokens, token=gateway.motion_token)  # added last: the outermost layer
     return app
