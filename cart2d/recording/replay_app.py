@@ -22,7 +22,7 @@ from pydantic import Field
 from cart2d.recording.replay import Player
 from cart2d.recording.replay_camera import add_replay_camera_routes
 from cart2d.server import api_docs, guards
-from cart2d.server.answers import ReplayOut, SettingsOut
+from cart2d.server.answers import ProtocolCommandOut, ReplayOut, SettingsOut
 from cart2d.server.live import Viewers
 from cart2d.server.models import Strict, errors, invalid_request
 from cart2d.server.panel import MINIMAL_PAGE, PANEL_DIR, PanelFiles
@@ -138,7 +138,7 @@ def add_replay_routes(app: FastAPI, player: Player, bind_host: str) -> None:
         _control(player, body)
         return player.view()
 
-    @app.get("/api/protocol", summary="no commands in a replay")
+    @app.get("/api/protocol", summary="no commands in a replay", response_model=list[ProtocolCommandOut])
     def protocol() -> list[Any]:
         return []
 

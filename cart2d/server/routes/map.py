@@ -27,7 +27,7 @@ def get_map(source: SourceDep) -> dict[str, Any]:
 @router.get(
     "/api/map/image",
     summary="the floor plan as a PNG: map_server's trinary grey levels, the top row the highest y",
-    responses={**errors(404), 200: {"content": {"image/png": {}}}},
+    responses={**errors(404, 422), 200: {"content": {"image/png": {}}}},
     response_class=Response,
 )
 def map_image(
