@@ -41,6 +41,7 @@ from cart2d.gateway.bus import (
     SimulatorRestarted,
     ViewerMessage,
 )
+from cart2d.gateway.camera import CameraFeed
 from cart2d.gateway.live_map import Replan, RouteAhead, planner_for
 from cart2d.gateway.look import look_before_driving
 from cart2d.gateway.map_edits import MapMixin
@@ -86,6 +87,7 @@ UPDATE_WAIT_S = 150.0  # a stop during a firmware update waits this long at most
 SIM_RESTART_WAIT_S = 20.0  # and during a restart of the simulator
 SIM_START_TRIES = 3
 # Why a pose the firmware kept through a firmware update is not trusted (README, "Restarts").
+NO_CAMERA = "this gateway has no camera: start it with --camera http://HOST (or --camera-stream URL)"
 FLASHED_POSE = "the program that kept it was replaced, and the cart may have been moved while it was flashed"
 
 Listener = Callable[[dict[str, Any]], None]
@@ -921,3 +923,19 @@ class Gateway(MapMixin, PerceptionMixin, SimWorldMixin):  # map_edits.py, percei
         current plan only, whatever `version` is asked (the panel's cache key: a replay's matters)."""
         plan = self.floor_plan()
         return None if plan is None else image_bytes(plan, ".png")
+
+    def camera_view(self) -> dict[str, Any]:
+        """The camera's stream and frames (CameraFeed.status), where it is and its calibration."""
+        camera = self.camera
+        if camera is None:
+            return {"camera": False, "message": NO_CAMERA}
+        return {
+            **camera.status(),
+            "camera": True,
+            "url": camera.base_url,
+            "stream_url": camera.reader.url,
+            "calibration": self.calibration_summary(),
+        }
+
+    def camera_feed(self) -> CameraFeed | None:
+        return self.camera

@@ -5,8 +5,8 @@ panel then offers no driving); play, pause, seek and restart (POST /api/replay).
 changes anything: there is no robot behind it.
 
 The reads are the live gateway's own routes (cart2d/server/routes: status, mission, map, its
-floor plan, perception), answering from a RecordedSource instead of a Gateway; every change is
-refused (409) with a sentence."""
+floor plan, perception, the camera and its re-stream), answering from a RecordedSource instead of
+a Gateway; every change is refused (409) with a sentence."""
 
 from __future__ import annotations
 
@@ -20,9 +20,10 @@ from fastapi.responses import HTMLResponse, JSONResponse
 from pydantic import Field
 
 from cart2d.recording.replay import Player
-from cart2d.recording.replay_camera import add_replay_camera_routes
+from cart2d.recording.replay_camera import RecordedCamera, camera_view, recorded_fps
 from cart2d.server import api_docs, guards
 from cart2d.server.answers import ProtocolCommandOut, ReplayOut, SettingsOut
+from cart2d.server.camera import CameraWatchers
 from cart2d.server.live import Viewers
 from cart2d.server.models import Strict, errors, invalid_request
 from cart2d.server.panel import MINIMAL_PAGE, PANEL_DIR, PanelFiles
@@ -84,6 +85,9 @@ class RecordedSource:
 
     def __init__(self, player: Player) -> None:
         self.player = player
+        self._frames = player.recorded.frames
+        self._fps = round(recorded_fps(player.recorded), 2)
+        self._camera = RecordedCamera(player) if self._frames else None
 
     def status_view(self) -> dict[str, Any]:
         return status_view(self.player)
@@ -111,6 +115,12 @@ class RecordedSource:
 
     def firmware_settings(self) -> list[dict[str, object]]:
         return []  # no firmware in a replay
+
+    def camera_view(self) -> dict[str, Any]:
+        return camera_view(self.player, self._frames, self._fps)
+
+    def camera_feed(self) -> RecordedCamera | None:
+        return self._camera
 
 
 def add_replay_routes(app: FastAPI, player: Player, bind_host: str) -> None:
@@ -174,8 +184,8 @@ def create_replay_app(
     read_only = f"this is a replay of {player.recorded.path.name}: there is no robot, nothing can be changed"
     add_replay_routes(app, player, bind_host)
     # the live gateway's reads, answering from the recording (joined as create_app joins them)
+    app.state.camera_watchers = CameraWatchers()  # the re-stream's viewers (server/camera.py)
     app.router.routes.extend(source_reads(ROUTERS))
-    add_replay_camera_routes(app, player)
 
     @app.api_route(
         "/api/{rest:path}",

@@ -1,4 +1,4 @@
-"""The API's camera routes (added to the app by create_app; perception's are routes/perception.py).
+"""The camera's re-stream to the panels (its routes: routes/camera.py).
 
 The ESP32-CAM streams to one client, the gateway; any number of panels watch the gateway's
 re-stream, /api/camera/stream. Each watcher has its own queue of the newest CAMERA_BACKLOG
@@ -16,15 +16,11 @@ from collections import deque
 from collections.abc import AsyncIterator
 from typing import Any
 
-from fastapi import FastAPI, HTTPException, Response
-from fastapi.params import Depends
-from fastapi.responses import StreamingResponse
+from fastapi import HTTPException
 
-from cart2d.gateway import Gateway
-from cart2d.gateway.camera import CameraFeed, Shown
-from cart2d.server.answers import CameraOut
+from cart2d.gateway.camera import Shown
 from cart2d.server.models import errors
-from cart2d.store import CameraSettings
+from cart2d.server.source import Camera
 
 MAX_CAMERA_VIEWERS = 16
 # A re-stream that has had no frame for this long ends (the camera is away: a dropped Wi-Fi, a
@@ -32,7 +28,6 @@ MAX_CAMERA_VIEWERS = 16
 STREAM_IDLE_S = 3.0
 CAMERA_BACKLOG = 2  # frames a watcher may be behind: the newest matter, not every one
 BOUNDARY = "cart2d-frame"
-NO_CAMERA = "this gateway has no camera: start it with --camera http://HOST (or --camera-stream URL)"
 
 CAMERA_ERRORS = {
     404: "no camera (start the gateway with --camera, or PUT /api/settings/camera), or no frame from it yet",
@@ -66,7 +61,7 @@ class Watcher:
 class Watchers:
     """The panels watching the camera of one feed."""
 
-    def __init__(self, feed: CameraFeed) -> None:
+    def __init__(self, feed: Camera) -> None:
         self.feed = feed
         self.watchers: frozenset[Watcher] = frozenset()  # replaced, never changed in place
         self._lock = threading.Lock()
@@ -112,79 +107,20 @@ class Watchers:
                 self.watchers = self.watchers - {watcher}
 
 
-def add_camera_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
-    watchers: dict[int, Watchers] = {}  # by the feed's id: a feed set after the app was made
-    app.state.camera_watchers = watchers  # for tests and benchmarks, as app.state.viewers
+class CameraWatchers:
+    """The Watchers of each feed an app has served (a feed set after the app was made gets its own),
+    made once a feed: each subscribes to its feed for good."""
 
-    def feed() -> CameraFeed:
-        if gateway.camera is None:
-            raise HTTPException(404, NO_CAMERA)
-        return gateway.camera
+    def __init__(self) -> None:
+        self.by_feed: dict[int, Watchers] = {}  # by the feed's id
+        self._lock = threading.Lock()
 
-    def watchers_of(camera: CameraFeed) -> Watchers:
-        return watchers.setdefault(id(camera), Watchers(camera))
+    def of(self, feed: Camera) -> Watchers:
+        with self._lock:
+            known = self.by_feed.get(id(feed))
+            if known is None or known.feed is not feed:
+                known = self.by_feed[id(feed)] = Watchers(feed)
+            return known
 
-    @app.get(
-        "/api/camera",
-        response_model=CameraOut,
-        response_model_exclude_unset=True,  # without a camera: `camera` false and a `message` only
-        summary="the camera: its stream (connected, fps, reconnects) and its frames (taken in, refused; "
-        "seeing or blind, and why)",
-    )
-    def camera_state() -> dict[str, Any]:
-        camera = gateway.camera
-        if camera is None:
-            return {"camera": False, "message": NO_CAMERA}
-        state = camera.status()
-        return {
-            **state,
-            "camera": True,
-            "url": camera.base_url,
-            "stream_url": camera.reader.url,
-            "viewers": len(watchers_of(camera).watchers),
-            "calibration": gateway.calibration_summary(),
-        }
-
-    @app.get(
-        "/api/camera/frame.jpg",
-        summary="the newest frame, with what perception drew on it",
-        responses={200: {"content": {"image/jpeg": {}}}, **camera_errors(404)},
-        response_class=Response,
-    )
-    def frame() -> Response:
-        shown = feed().shown()
-        if shown is None:
-            raise HTTPException(404, "no frame from the camera yet: GET /api/camera says why")
-        return Response(shown.jpeg, media_type="image/jpeg", headers={"Cache-Control": "no-store"})
-
-    @app.get(
-        "/api/camera/stream",
-        summary="the camera's frames as MJPEG (multipart/x-mixed-replace), for any number of viewers",
-        responses={200: {"content": {"multipart/x-mixed-replace": {}}}, **camera_errors(404, 503)},
-        response_class=StreamingResponse,
-    )
-    async def stream() -> StreamingResponse:
-        parts = await watchers_of(feed()).stream()
-        return StreamingResponse(
-            parts,
-            media_type=f"multipart/x-mixed-replace; boundary={BOUNDARY}",
-            headers={"Cache-Control": "no-store"},
-        )
-
-    @app.put(
-        "/api/settings/camera",
-        dependencies=[guarded],
-        summary="the camera to read: saved, and read from now on (null for both: no camera)",
-        description="`url` is the stock CameraWebServer's base, http://HOST[:PORT] (its stream on PORT + 1); "
-        "`stream_url` an MJPEG stream outright (ESPHome's esp32_camera_web_server), which wins. The command "
-        "line's --camera and --camera-stream apply to their run only.",
-        responses=errors(400, 401, 422),
-        response_model=CameraOut,
-        response_model_exclude_unset=True,
-    )
-    def set_camera(body: CameraSettings) -> dict[str, Any]:
-        try:
-            gateway.set_camera(body)
-        except ValueError as exc:
-            raise HTTPException(422, f"url: {exc}") from exc
-        return camera_state()
+    def values(self) -> list[Watchers]:
+        return list(self.by_feed.values())

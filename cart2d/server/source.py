@@ -4,7 +4,18 @@ a replay too, through the same route module; every other route is the live gatew
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, Protocol
+
+from cart2d.gateway.camera import Shown
+
+
+class Camera(Protocol):
+    """The part of a CameraFeed (cart2d/gateway/camera.py) the re-stream and the newest frame use."""
+
+    def subscribe(self, viewer: Callable[[Shown], None]) -> Callable[[], None]: ...
+
+    def shown(self) -> Shown | None: ...
 
 
 class Source(Protocol):
@@ -26,3 +37,9 @@ class Source(Protocol):
     def perception_view(self) -> dict[str, Any]: ...
 
     def firmware_settings(self) -> list[dict[str, object]]: ...
+
+    def camera_view(self) -> dict[str, Any]:
+        """/api/camera's answer but its `viewers`: `camera` false and a `message` without one."""
+        ...
+
+    def camera_feed(self) -> Camera | None: ...

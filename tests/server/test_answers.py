@@ -90,6 +90,9 @@ def test_the_routes_a_replay_shares_read_a_source_and_nothing_else() -> None:
         ("GET", "/api/map/image"),
         ("GET", "/api/perception"),
         ("GET", "/api/firmware/settings"),
+        ("GET", "/api/camera"),
+        ("GET", "/api/camera/frame.jpg"),
+        ("GET", "/api/camera/stream"),
     }
     for route in source_reads(ROUTERS):
         assert gateway_of not in {d.call for d in route.dependant.dependencies}

@@ -8,9 +8,17 @@ from fastapi.dependencies.models import Dependant
 from fastapi.routing import APIRoute
 
 from cart2d.server.deps import source_of
-from cart2d.server.routes import firmware, live, map, motion, perception, pose, status
+from cart2d.server.routes import camera, firmware, live, map, motion, perception, pose, status
 
-ROUTERS = (status.router, map.router, motion.router, firmware.router, pose.router, perception.router)
+ROUTERS = (
+    status.router,
+    map.router,
+    motion.router,
+    firmware.router,
+    pose.router,
+    perception.router,
+    camera.router,
+)
 LIVE_ROUTER = live.router
 
 
@@ -19,16 +27,21 @@ def _calls(dependant: Dependant) -> set[object]:
     return {call for sub in dependant.dependencies for call in ({sub.call} | _calls(sub))}
 
 
+# What a replay's app has besides its Source (cart2d/recording/replay_app.py)
+REPLAY_HAS = {source_of, camera.camera_watchers_of}
+
+
 def source_reads(routers: Iterable[APIRouter]) -> list[APIRoute]:
-    """The routes that read a Source and need nothing else (no gateway, no stop, no token): a
-    replay answers them too, from its recording (cart2d/recording/replay_app.py)."""
+    """The routes that read a Source and need nothing a replay lacks (no gateway, no stop, no
+    token): a replay answers them too, from its recording (cart2d/recording/replay_app.py)."""
     return [
         route
         for router in routers
         for route in router.routes
         if isinstance(route, APIRoute)
         and set(route.methods or ()) <= {"GET", "HEAD"}
-        and _calls(route.dependant) == {source_of}
+        and source_of in _calls(route.dependant)
+        and _calls(route.dependant) <= REPLAY_HAS
     ]
 
 
