@@ -17,7 +17,12 @@ def test_a_feed_is_watched_once_however_often_the_camera_is_read() -> None:
     # Each read made a Watchers (dict.setdefault's default), which subscribed to the feed for good:
     # a panel polling /api/camera added a subscriber a poll, each called for every frame.
     sinks: list[Callable[..., object]] = []
-    feed = SimpleNamespace(subscribe=lambda sink: sinks.append(sink) or (lambda: None), shown=lambda: None)
+
+    def subscribe(sink: Callable[..., object]) -> Callable[[], None]:
+        sinks.append(sink)
+        return lambda: None
+
+    feed = SimpleNamespace(subscribe=subscribe, shown=lambda: None)
     app = FastAPI()
     app.state.source = SimpleNamespace(camera_feed=lambda: feed, camera_view=lambda: {"camera": True})
     app.state.camera_watchers = CameraWatchers()
