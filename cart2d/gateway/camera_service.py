@@ -34,6 +34,7 @@ from cart2d.store import CameraSettings, GatewaySettings
 
 PERCEIVED_MESSAGE_S = 0.5  # /ws "perceived" at most at 2 Hz
 CAMERA_MESSAGE_S = 0.2  # /ws "camera" at most at 5 Hz
+NO_CAMERA = "this gateway has no camera: start it with --camera http://HOST (or --camera-stream URL)"
 
 Listener = Callable[[dict[str, Any]], None]
 
@@ -243,3 +244,21 @@ class CameraService:
 
     def _publish(self, message: messages.LiveMessage) -> None:
         self.bus.publish(ViewerMessage(message))
+
+    def calibration_summary(self) -> dict[str, Any] | None:
+        """The camera's calibration as /api/camera shows it; None without one."""
+        seeing = self.seeing
+        return seeing.calibration.summary() if seeing is not None and seeing.calibration else None
+
+    def camera_view(self) -> dict[str, Any]:
+        """The camera's stream and frames (CameraFeed.status), where it is and its calibration."""
+        camera = self.camera
+        if camera is None:
+            return {"camera": False, "message": NO_CAMERA}
+        return {
+            **camera.status(),
+            "camera": True,
+            "url": camera.base_url,
+            "stream_url": camera.reader.url,
+            "calibration": self.calibration_summary(),
+        }

@@ -555,3 +555,30 @@ class Gateway:
     def simulated(self) -> bool:
         """Whether the cart is a simulated one (it has a simulated world): for what is shown."""
         return self.world is not None
+
+    # -- for the API: what its routes ask without reaching past the front ---------------------
+    def motion_token(self) -> int:
+        """The stop generation of a motion request arriving now (Link.motion_token)."""
+        return self.link.motion_token()
+
+    def start_update(self, hex_file: bytes) -> dict[str, object]:
+        """Flashes `hex_file` (Flasher.start: ValueError for a bad file, RuntimeError when nothing
+        can flash); the update's view."""
+        return self.flasher.start(hex_file).view()
+
+    def update_view(self) -> dict[str, object]:
+        return self.flasher.job.view()
+
+    def floor_plan_png(self, version: int | None = None) -> bytes | None:
+        """A live map has its current plan only, whatever `version` is asked (the panel's cache
+        key: a replay's matters)."""
+        return self.live_map.floor_plan_png()
+
+    def calibration_summary(self) -> dict[str, Any] | None:
+        return self.camera_service.calibration_summary()
+
+    def camera_view(self) -> dict[str, Any]:
+        return self.camera_service.camera_view()
+
+    def camera_feed(self) -> CameraFeed | None:
+        return self.camera

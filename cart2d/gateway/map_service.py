@@ -27,6 +27,7 @@ from cart2d.gateway.bus import EventBus, MapChanged, ViewerMessage
 from cart2d.gateway.live_map import Layout, arena, layout_for, planner_for
 from cart2d.gateway.perceived import PerceivedLayer
 from cart2d.maps import OccupancyMap
+from cart2d.maps.ros import image_bytes
 from cart2d.params import footprint_radius_m
 from cart2d.planning import Planner, Point
 from cart2d.shown import for_people
@@ -146,6 +147,11 @@ class LiveMap:
     def floor_plan(self) -> OccupancyMap | None:
         plan = self._state.settings.map.floor_plan
         return plan.occupancy() if plan is not None else None
+
+    def floor_plan_png(self) -> bytes | None:
+        """The floor plan as a PNG (map_server's grey levels), None without one."""
+        plan = self.floor_plan()
+        return None if plan is None else image_bytes(plan, ".png")
 
     # -- the user's obstacles --------------------------------------------------------------------
     def set_obstacle(self, x: float, y: float, present: bool) -> dict[str, Any]:

@@ -98,3 +98,17 @@ class Mission:
     generation: int = 0
     replans: list[Any] = field(default_factory=list, repr=False)
     last_replan_s: float = 0.0
+
+
+SimulatorRun = Literal["running", "restarting", "failed"]
+
+
+@dataclass(frozen=True)
+class SimulatorState:
+    """The simulator a gateway drives (cart2d sim; its supervisor, cart2d/simulation/supervisor.py):
+    whether it runs, and its restarts after it exited on its own (a crash, a kill from outside).
+    Here, not in the simulation package, as /api/status and the /ws `simulator` message show it."""
+
+    state: SimulatorRun = "running"
+    restarts: int = 0  # times the supervisor started it again after it exited
+    message: str = ""  # the last exit and restart, in sentences

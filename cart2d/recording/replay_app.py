@@ -2,7 +2,11 @@
 panel fetches besides (the map and its floor plan, the simulated world's boxes, the perceived
 cells, the camera) as they were at the replay's position; a status that says it is a replay (the
 panel then offers no driving); play, pause, seek and restart (POST /api/replay). Nothing else
-changes anything: there is no robot behind it."""
+changes anything: there is no robot behind it.
+
+The reads are the live gateway's own routes (cart2d/server/routes: status, mission, map, its
+floor plan, perception, the camera and its re-stream), answering from a RecordedSource instead of
+a Gateway; every change is refused (409) with a sentence."""
 
 from __future__ import annotations
 
@@ -10,17 +14,20 @@ import json
 from collections.abc import Sequence
 from typing import Annotated, Any, Literal
 
-from fastapi import FastAPI, HTTPException, Request, Response, WebSocket, WebSocketDisconnect
+from fastapi import FastAPI, HTTPException, Request, WebSocket, WebSocketDisconnect
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import HTMLResponse, JSONResponse
 from pydantic import Field
 
 from cart2d.recording.replay import Player
-from cart2d.recording.replay_camera import add_replay_camera_routes
+from cart2d.recording.replay_camera import RecordedCamera, camera_view, recorded_fps
 from cart2d.server import api_docs, guards
+from cart2d.server.answers import ProtocolCommandOut, ReplayOut, SettingsOut
+from cart2d.server.camera import CameraWatchers
 from cart2d.server.live import Viewers
 from cart2d.server.models import Strict, errors, invalid_request
 from cart2d.server.panel import MINIMAL_PAGE, PANEL_DIR, PanelFiles
+from cart2d.server.routes import ROUTERS, source_reads
 
 NOT_SIMULATED = "this recording is of a real cart: there is no simulated world"
 
@@ -72,14 +79,60 @@ def _control(player: Player, body: ReplayIn) -> None:
         player.restart()
 
 
-def add_replay_routes(app: FastAPI, player: Player) -> None:
+class RecordedSource:
+    """The Source of the live routes (cart2d/server/source.py): the recorded state at the replay's
+    position."""
+
+    def __init__(self, player: Player) -> None:
+        self.player = player
+        self._frames = player.recorded.frames
+        self._fps = round(recorded_fps(player.recorded), 2)
+        self._camera = RecordedCamera(player) if self._frames else None
+
+    def status_view(self) -> dict[str, Any]:
+        return status_view(self.player)
+
+    def status_view_unless_busy(self) -> dict[str, Any] | None:
+        return self.status_view()  # the player's lock is held for a copy only
+
+    def mission_view(self) -> dict[str, Any]:
+        return self.player.mission_view()
+
+    def map_view(self) -> dict[str, Any]:
+        view = self.player.read(lambda now: now.map_view)
+        if not view:
+            raise HTTPException(404, "this recording holds no map")
+        return view
+
+    def floor_plan_png(self, version: int | None) -> bytes | None:
+        """The plan of the map's `version` if the recording has it, else the one shown now."""
+        plans = self.player.recorded.floor_plans
+        shown = self.player.read(lambda now: now.map_view.get("version"))
+        return plans.get(version if version in plans else shown or 0)
+
+    def perception_view(self) -> dict[str, Any]:
+        return self.player.read(lambda now: now.perception())
+
+    def firmware_settings(self) -> list[dict[str, object]]:
+        return []  # no firmware in a replay
+
+    def camera_view(self) -> dict[str, Any]:
+        return camera_view(self.player, self._frames, self._fps)
+
+    def camera_feed(self) -> RecordedCamera | None:
+        return self._camera
+
+
+def add_replay_routes(app: FastAPI, player: Player, bind_host: str) -> None:
+    """What a replay has and the gateway not, or answers otherwise: the replay's controls, no
+    commands, where it listens, the recorded world's boxes."""
     recorded = player.recorded
 
-    @app.get("/api/status", summary="the replay's state, in the shape of the gateway's status")
-    def status() -> dict[str, Any]:
-        return status_view(player)
-
-    @app.get("/api/replay", summary="the replay: file, state (waiting, playing, paused, ended), position")
+    @app.get(
+        "/api/replay",
+        summary="the replay: file, state (waiting, playing, paused, ended), position",
+        response_model=ReplayOut,
+    )
     def replay() -> dict[str, Any]:
         return player.view()
 
@@ -89,29 +142,24 @@ def add_replay_routes(app: FastAPI, player: Player) -> None:
         description="A seek sends every viewer on /ws a `replay` message (the position, the cart's trails "
         "up to it) and the state there (map, world, mission, perceived cells, camera, pose).",
         responses=errors(400, 422),
+        response_model=ReplayOut,
     )
     def control(body: ReplayIn) -> dict[str, Any]:
         _control(player, body)
         return player.view()
 
-    @app.get("/api/map", summary="the recorded map at the replay's position")
-    def map_view() -> dict[str, Any]:
-        return player.read(lambda now: now.map_view)
+    @app.get("/api/protocol", summary="no commands in a replay", response_model=list[ProtocolCommandOut])
+    def protocol() -> list[Any]:
+        return []
 
     @app.get(
-        "/api/map/image",
-        summary="the recorded floor plan at the replay's position as a PNG (map_server's grey levels)",
-        responses={**errors(404), 200: {"content": {"image/png": {}}}},
-        response_class=Response,
+        "/api/settings",
+        summary="where the replay listens (the panel's network form, hidden)",
+        response_model=SettingsOut,
+        response_model_exclude_unset=True,
     )
-    def map_image(version: int | None = None) -> Response:
-        shown = player.read(lambda now: now.map_view.get("version"))
-        png = recorded.floor_plans.get(version if version in recorded.floor_plans else shown or 0)
-        if png is None:
-            raise HTTPException(
-                404, "the recorded map has no floor plan at this point: it is a grid of nodes"
-            )
-        return Response(png, media_type="image/png", headers={"Cache-Control": "no-cache"})
+    def settings() -> dict[str, Any]:
+        return {"network": {"host": bind_host, "port": 0}}
 
     @app.get(
         "/api/sim/world",
@@ -123,12 +171,6 @@ def add_replay_routes(app: FastAPI, player: Player) -> None:
             raise HTTPException(404, NOT_SIMULATED)
         return player.read(lambda now: now.sim_world())
 
-    @app.get("/api/perception", summary="the perceived cells at the replay's position")
-    def perception() -> dict[str, Any]:
-        return player.read(lambda now: now.perception())
-
-    add_replay_camera_routes(app, player)
-
 
 def create_replay_app(
     player: Player, bind_host: str = "127.0.0.1", allowed_hosts: Sequence[str] = ()
@@ -136,22 +178,14 @@ def create_replay_app(
     app = FastAPI(title="cart2d replay", version="0.1.0", description=__doc__, docs_url=None, redoc_url=None)
     api_docs.install(app)
     app.add_exception_handler(RequestValidationError, invalid_request)  # type: ignore[arg-type]
-    viewers = Viewers(player)  # a Source: the part of a Gateway the fan-out uses
+    viewers = Viewers(player)  # the part of a Gateway the fan-out uses
     app.state.viewers = viewers
+    app.state.source = RecordedSource(player)  # what the live routes read (server/deps.py)
     read_only = f"this is a replay of {player.recorded.path.name}: there is no robot, nothing can be changed"
-    add_replay_routes(app, player)
-
-    @app.get("/api/protocol", summary="no commands in a replay")
-    def protocol() -> list[Any]:
-        return []
-
-    @app.get("/api/settings", summary="where the replay listens (the panel's network form, hidden)")
-    def settings() -> dict[str, Any]:
-        return {"network": {"host": bind_host, "port": 0}}
-
-    @app.get("/api/firmware/settings", summary="no firmware in a replay")
-    def firmware_settings() -> list[Any]:
-        return []
+    add_replay_routes(app, player, bind_host)
+    # the live gateway's reads, answering from the recording (joined as create_app joins them)
+    app.state.camera_watchers = CameraWatchers()  # the re-stream's viewers (server/camera.py)
+    app.router.routes.extend(source_reads(ROUTERS))
 
     @app.api_route(
         "/api/{rest:path}",

@@ -1,6 +1,6 @@
-"""The replay's camera routes: the recorded frames (with what perception drew on them) at the
-replay's position, in the shape of the gateway's (cart2d/server/camera.py), so that the panel's
-camera card shows them as it shows a live camera. The MJPEG re-stream is the gateway's own
+"""The replay's camera: the recorded frames (with what perception drew on them) at the replay's
+position, in the shape of the gateway's, so that the live camera routes (cart2d/server/routes/
+camera.py) show them as they show a live camera: the MJPEG re-stream is the gateway's own
 (Watchers), fed by the player instead of a camera."""
 
 from __future__ import annotations
@@ -8,13 +8,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from fastapi import FastAPI, HTTPException, Response
-from fastapi.responses import StreamingResponse
-
 from cart2d.gateway.camera import Shown
 from cart2d.recording.recorded import Frame, Recorded
 from cart2d.recording.replay import Player
-from cart2d.server.camera import BOUNDARY, Watchers, camera_errors
 
 NO_FRAMES = "this recording holds no camera frames"
 
@@ -42,55 +38,20 @@ def recorded_fps(recorded: Recorded) -> float:
     return (len(times) - 1) / (times[-1] - times[0]) if len(times) > 1 and times[-1] > times[0] else 0.0
 
 
-def add_replay_camera_routes(app: FastAPI, player: Player) -> None:
-    frames = player.recorded.frames
-    fps = round(recorded_fps(player.recorded), 2)
-    watchers = Watchers(RecordedCamera(player))  # type: ignore[arg-type]  # the part of a feed it uses
-    app.state.camera_watchers = {0: watchers}
-
-    def state() -> dict[str, Any]:
-        position_s, frame_at_s, seen = player.read(lambda now: (player.position_s, now.frame_at_s, now.frame))
-        return {
-            "camera": True,
-            "recorded_frames": frames,
-            "connected": seen is not None,  # from the first frame on: the panel opens the stream then
-            "fps": fps,
-            "age_s": None if seen is None else round(max(position_s - frame_at_s, 0.0), 3),
-            "reconnects": 0,
-            "url": None,
-            "stream_url": "/api/camera/stream",
-            "viewers": len(watchers.watchers),
-            "calibration": None,
-        }
-
-    @app.get("/api/camera", summary="the recorded camera at the replay's position (fps: the recorded rate)")
-    def camera_state() -> dict[str, Any]:
-        return state() if frames else {"camera": False, "message": NO_FRAMES}
-
-    @app.get(
-        "/api/camera/frame.jpg",
-        summary="the recorded frame at the replay's position, with what perception drew on it",
-        responses={200: {"content": {"image/jpeg": {}}}, **camera_errors(404)},
-    )
-    def frame() -> Response:
-        shown = RecordedCamera(player).shown()
-        if shown is None:
-            raise HTTPException(
-                404, NO_FRAMES if not frames else "no camera frame yet at this point of the replay"
-            )
-        return Response(shown.jpeg, media_type="image/jpeg", headers={"Cache-Control": "no-store"})
-
-    @app.get(
-        "/api/camera/stream",
-        summary="the recorded frames as MJPEG, as the replay plays them (the frame shown again while paused)",
-        responses={200: {"content": {"multipart/x-mixed-replace": {}}}, **camera_errors(404, 503)},
-    )
-    async def stream() -> StreamingResponse:
-        if not frames:
-            raise HTTPException(404, NO_FRAMES)
-        parts = await watchers.stream()
-        return StreamingResponse(
-            parts,
-            media_type=f"multipart/x-mixed-replace; boundary={BOUNDARY}",
-            headers={"Cache-Control": "no-store"},
-        )
+def camera_view(player: Player, frames: int, fps: float) -> dict[str, Any]:
+    """/api/camera's answer at the replay's position, in the shape of the gateway's (but viewers);
+    `frames`, `fps`: the recording's (recorded_fps)."""
+    if not frames:
+        return {"camera": False, "message": NO_FRAMES}
+    position_s, frame_at_s, seen = player.read(lambda now: (player.position_s, now.frame_at_s, now.frame))
+    return {
+        "camera": True,
+        "recorded_frames": frames,
+        "connected": seen is not None,  # from the first frame on: the panel opens the stream then
+        "fps": fps,
+        "age_s": None if seen is None else round(max(position_s - frame_at_s, 0.0), 3),
+        "reconnects": 0,
+        "url": None,
+        "stream_url": "/api/camera/stream",
+        "calibration": None,
+    }

@@ -14,6 +14,7 @@ from fastapi.params import Depends
 from cart2d.gateway import Gateway, backup
 from cart2d.link import LinkError
 from cart2d.server.addresses import address_problem
+from cart2d.server.answers import NetworkSavedOut, SettingsImportedOut, SettingsOut
 from cart2d.server.models import MAX_MAP_BODY_BYTES, errors, inline_refs, read_body
 from cart2d.store import (
     GatewaySettings,
@@ -23,6 +24,8 @@ from cart2d.store import (
     parse_settings,
 )
 
+SETTINGS_FILE_SCHEMA = inline_refs(SettingsFile.model_json_schema())  # what POST takes back
+
 
 def add_admin_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
     def check_address(host: str, where: str) -> None:
@@ -30,7 +33,12 @@ def add_admin_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
         if problem is not None:
             raise HTTPException(422, f"{where}: {problem}")
 
-    @app.get("/api/settings", summary="the gateway's own settings (network, map), without the token")
+    @app.get(
+        "/api/settings",
+        summary="the gateway's own settings (network, map), without the token",
+        response_model=SettingsOut,
+        response_model_exclude_unset=True,
+    )
     def gateway_settings() -> dict[str, Any]:
         return gateway.settings.model_dump(exclude={"token"})
 
@@ -41,6 +49,7 @@ def add_admin_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
         description="Refused (422) for an address this machine does not have; 0.0.0.0 and :: are every "
         "interface, 127.0.0.1 this machine alone.",
         responses=errors(400, 401, 422),
+        response_model=NetworkSavedOut,
     )
     def network(body: NetworkSettings) -> dict[str, Any]:
         check_address(body.host, "host")
@@ -51,6 +60,10 @@ def add_admin_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
         "/api/settings/file",
         summary="download the settings file: JSON of the gateway's network and map, and the firmware's "
         "settings (its tuning) when the firmware answers",
+        response_class=Response,
+        # the file POST takes back, whose request body gives its schema: as a response's, its map's
+        # tuples (prefixItems) are refused by OpenAPI validators (schemathesis)
+        responses={200: {"content": {"application/json": {}}}},
     )
     def export_settings() -> Response:
         data = gateway.settings.model_dump(mode="json", exclude={"token"})
@@ -73,9 +86,10 @@ def add_admin_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
             "x-max-body-bytes": MAX_MAP_BODY_BYTES,  # it may carry a floor plan
             "requestBody": {
                 "required": True,
-                "content": {"application/json": {"schema": inline_refs(SettingsFile.model_json_schema())}},
+                "content": {"application/json": {"schema": SETTINGS_FILE_SCHEMA}},
             },
         },
+        response_model=SettingsImportedOut,
     )
     async def import_settings(request: Request) -> dict[str, Any]:
         body = await read_body(request, MAX_MAP_BODY_BYTES)

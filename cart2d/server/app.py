@@ -23,7 +23,7 @@ from cart2d.link import CommandRefused, LinkError, MotionCancelled
 from cart2d.planning import PlanError
 from cart2d.server import api_docs, guards
 from cart2d.server.admin import add_admin_routes
-from cart2d.server.camera import add_camera_routes
+from cart2d.server.camera import CameraWatchers
 from cart2d.server.deps import AccessToken, Guarded
 from cart2d.server.guards import is_loopback
 from cart2d.server.live import Viewers
@@ -66,8 +66,10 @@ def create_app(
     api_docs.install(app)
 
     app.state.gateway = gateway  # for the routes' dependencies (deps.py)
+    app.state.source = gateway  # what the reading routes answer from (source.py)
     app.state.access = AccessToken(token, needs_token)
     app.state.stopper = Stopper(gateway.stop)
+    app.state.camera_watchers = CameraWatchers()  # the camera's re-stream (camera.py); for tests too
     app.state.viewers = Viewers(gateway)  # for /ws, tests and benchmarks: the viewers and their queues
 
     app.add_exception_handler(RequestValidationError, invalid_request)  # type: ignore[arg-type]
@@ -113,7 +115,6 @@ def create_app(
         app.router.routes.extend(router.routes)
     add_admin_routes(app, gateway, Guarded)
     add_map_upload_route(app, gateway, Guarded)
-    add_camera_routes(app, gateway, Guarded)
     (simulation or _not_simulated)(app, Guarded)
 
     app.router.routes.extend(LIVE_ROUTER.routes)
@@ -129,7 +130,7 @@ def create_app(
 
     guards.install(app, bind_host, allowed_hosts)
     app.add_middleware(ReadsInTurn)  # outside the guards: a waiting read costs nothing (reads.py)
-    app.add_middleware(MotionTokens, link=gateway.link)  # added last: the outermost layer
+    app.add_middleware(MotionTokens, token=gateway.motion_token)  # added last: the outermost layer
     return app
 
 

@@ -1,4 +1,4 @@
-"""The API's camera and perception routes (added to the app by create_app).
+"""The camera's re-stream to the panels (its routes: routes/camera.py).
 
 The ESP32-CAM streams to one client, the gateway; any number of panels watch the gateway's
 re-stream, /api/camera/stream. Each watcher has its own queue of the newest CAMERA_BACKLOG
@@ -14,19 +14,13 @@ import contextlib
 import threading
 from collections import deque
 from collections.abc import AsyncIterator
-from typing import Annotated, Any
+from typing import Any
 
-from fastapi import FastAPI, HTTPException, Response
-from fastapi.params import Depends
-from fastapi.responses import StreamingResponse
-from pydantic import Field
-from pydantic import Strict as StrictMark
+from fastapi import HTTPException
 
-from cart2d.gateway import Gateway
-from cart2d.gateway.camera import CameraFeed, Shown
-from cart2d.gateway.perceived import DEFAULT_RESOLUTION_M, OCCUPIED_P, parse_cells
-from cart2d.server.models import Strict, errors
-from cart2d.store import CameraSettings
+from cart2d.gateway.camera import Shown
+from cart2d.server.models import errors
+from cart2d.server.source import Camera
 
 MAX_CAMERA_VIEWERS = 16
 # A re-stream that has had no frame for this long ends (the camera is away: a dropped Wi-Fi, a
@@ -34,15 +28,6 @@ MAX_CAMERA_VIEWERS = 16
 STREAM_IDLE_S = 3.0
 CAMERA_BACKLOG = 2  # frames a watcher may be behind: the newest matter, not every one
 BOUNDARY = "cart2d-frame"
-NO_CAMERA = "this gateway has no camera: start it with --camera http://HOST (or --camera-stream URL)"
-MAX_CELLS_IN = 10_000  # a request's cells (256 KiB of JSON)
-
-
-# [x_m, y_m, p_occupied]: a JSON array read as a tuple (lax), of numbers taken as they are (strict)
-Metres = Annotated[float, StrictMark(), Field(allow_inf_nan=False, gt=-1048576.0, lt=1048576.0)]
-Occupied = Annotated[float, StrictMark(), Field(ge=OCCUPIED_P, le=1.0, allow_inf_nan=False)]
-PerceivedCellIn = Annotated[tuple[Metres, Metres, Occupied], StrictMark(False)]
-
 
 CAMERA_ERRORS = {
     404: "no camera (start the gateway with --camera, or PUT /api/settings/camera), or no frame from it yet",
@@ -57,20 +42,6 @@ def camera_errors(*codes: int) -> dict[int | str, dict[str, Any]]:
         if code in out:
             out[code] = {**out[code], "description": words}
     return out
-
-
-class PerceptionIn(Strict):
-    enabled: bool | None = Field(None, description="perception on (its cells block the planner) or off")
-    cells: list[PerceivedCellIn] | None = Field(
-        None,
-        max_length=MAX_CELLS_IN,
-        description="replace the perceived cells with these [x_m, y_m, p_occupied] (p 0.5 to 1): for "
-        "perception running outside the gateway, and for tests",
-    )
-    resolution_m: float | None = Field(
-        None, ge=0.005, le=1.0, allow_inf_nan=False, description=f"cell size (default {DEFAULT_RESOLUTION_M})"
-    )
-    why: str = Field("perception saw obstacles", max_length=200, description="the reason a replan gives")
 
 
 class Watcher:
@@ -90,7 +61,7 @@ class Watcher:
 class Watchers:
     """The panels watching the camera of one feed."""
 
-    def __init__(self, feed: CameraFeed) -> None:
+    def __init__(self, feed: Camera) -> None:
         self.feed = feed
         self.watchers: frozenset[Watcher] = frozenset()  # replaced, never changed in place
         self._lock = threading.Lock()
@@ -136,108 +107,20 @@ class Watchers:
                 self.watchers = self.watchers - {watcher}
 
 
-def add_camera_routes(app: FastAPI, gateway: Gateway, guarded: Depends) -> None:
-    watchers: dict[int, Watchers] = {}  # by the feed's id: a feed set after the app was made
-    app.state.camera_watchers = watchers  # for tests and benchmarks, as app.state.viewers
+class CameraWatchers:
+    """The Watchers of each feed an app has served (a feed set after the app was made gets its own),
+    made once a feed: each subscribes to its feed for good."""
 
-    def feed() -> CameraFeed:
-        if gateway.camera is None:
-            raise HTTPException(404, NO_CAMERA)
-        return gateway.camera
+    def __init__(self) -> None:
+        self.by_feed: dict[int, Watchers] = {}  # by the feed's id
+        self._lock = threading.Lock()
 
-    def watchers_of(camera: CameraFeed) -> Watchers:
-        return watchers.setdefault(id(camera), Watchers(camera))
+    def of(self, feed: Camera) -> Watchers:
+        with self._lock:
+            known = self.by_feed.get(id(feed))
+            if known is None or known.feed is not feed:
+                known = self.by_feed[id(feed)] = Watchers(feed)
+            return known
 
-    @app.get(
-        "/api/camera",
-        summary="the camera: its stream (connected, fps, reconnects) and its frames (taken in, refused; "
-        "seeing or blind, and why)",
-    )
-    def camera_state() -> dict[str, Any]:
-        camera = gateway.camera
-        if camera is None:
-            return {"camera": False, "message": NO_CAMERA}
-        state = camera.status()
-        return {
-            **state,
-            "camera": True,
-            "url": camera.base_url,
-            "stream_url": camera.reader.url,
-            "viewers": len(watchers_of(camera).watchers),
-            "calibration": gateway.seeing.calibration.summary()
-            if gateway.seeing and gateway.seeing.calibration
-            else None,
-        }
-
-    @app.get(
-        "/api/camera/frame.jpg",
-        summary="the newest frame, with what perception drew on it",
-        responses={200: {"content": {"image/jpeg": {}}}, **camera_errors(404)},
-    )
-    def frame() -> Response:
-        shown = feed().shown()
-        if shown is None:
-            raise HTTPException(404, "no frame from the camera yet: GET /api/camera says why")
-        return Response(shown.jpeg, media_type="image/jpeg", headers={"Cache-Control": "no-store"})
-
-    @app.get(
-        "/api/camera/stream",
-        summary="the camera's frames as MJPEG (multipart/x-mixed-replace), for any number of viewers",
-        responses={200: {"content": {"multipart/x-mixed-replace": {}}}, **camera_errors(404, 503)},
-    )
-    async def stream() -> StreamingResponse:
-        parts = await watchers_of(feed()).stream()
-        return StreamingResponse(
-            parts,
-            media_type=f"multipart/x-mixed-replace; boundary={BOUNDARY}",
-            headers={"Cache-Control": "no-store"},
-        )
-
-    @app.put(
-        "/api/settings/camera",
-        dependencies=[guarded],
-        summary="the camera to read: saved, and read from now on (null for both: no camera)",
-        description="`url` is the stock CameraWebServer's base, http://HOST[:PORT] (its stream on PORT + 1); "
-        "`stream_url` an MJPEG stream outright (ESPHome's esp32_camera_web_server), which wins. The command "
-        "line's --camera and --camera-stream apply to their run only.",
-        responses=errors(400, 401, 422),
-    )
-    def set_camera(body: CameraSettings) -> dict[str, Any]:
-        try:
-            gateway.set_camera(body)
-        except ValueError as exc:
-            raise HTTPException(422, f"url: {exc}") from exc
-        return camera_state()
-
-    @app.get("/api/perception", summary="the perceived cells [x, y, p_occupied] and whether perception is on")
-    def perception() -> dict[str, Any]:
-        return gateway.perception_view()
-
-    @app.put(
-        "/api/perception",
-        dependencies=[guarded],
-        summary="turn perception on or off; or replace the perceived cells",
-        description="Turning it off clears the perceived cells. New cells replan a mission whose path they "
-        "block, as an obstacle the user puts does.",
-        responses=errors(400, 401, 422),
-    )
-    def set_perception(body: PerceptionIn) -> dict[str, Any]:
-        try:
-            if body.cells is not None:
-                parse_cells(body.cells)  # all checked before anything changes
-            if body.enabled is not None:
-                gateway.set_perception_enabled(body.enabled)
-            if body.cells is not None:
-                gateway.set_perceived(body.cells, body.why, body.resolution_m)
-        except ValueError as exc:
-            raise HTTPException(422, str(exc)) from exc
-        return gateway.perception_view()
-
-    @app.post(
-        "/api/perception/clear",
-        dependencies=[guarded],
-        summary="forget the perceived cells (the user's obstacles stay)",
-        responses=errors(401),
-    )
-    def clear_perception() -> dict[str, Any]:
-        return gateway.clear_perceived("the perceived cells were cleared by the user")
+    def values(self) -> list[Watchers]:
+        return list(self.by_feed.values())

@@ -1,5 +1,8 @@
-"""What the route modules depend on, wired in one place: create_app puts the gateway, the access
-token's check and the stop's threads in `app.state`, and these dependencies hand them to routes.
+"""What the route modules depend on, wired in one place: create_app puts the gateway (as the
+gateway, and as the Source the reading routes answer from), the access token's check and the
+stop's threads in `app.state`, and these dependencies hand them to routes. A replay's app
+(cart2d/recording/replay_app.py) puts only a Source there and takes only the routes that need
+nothing more.
 
 They are `async def` on purpose: FastAPI runs a plain `def` dependency in the shared thread pool,
 which a hundred waiting reads fill (issue 22); these only read app.state."""
@@ -13,6 +16,7 @@ from fastapi import Depends, HTTPException, Request
 
 from cart2d.gateway import Gateway
 from cart2d.server.motion import Stopper, motion_token
+from cart2d.server.source import Source
 
 
 class AccessToken:
@@ -36,6 +40,11 @@ async def gateway_of(request: Request) -> Gateway:
     return gateway
 
 
+async def source_of(request: Request) -> Source:
+    source: Source = request.app.state.source
+    return source
+
+
 async def stopper_of(request: Request) -> Stopper:
     stopper: Stopper = request.app.state.stopper
     return stopper
@@ -52,6 +61,7 @@ async def require_token(request: Request) -> None:
 
 
 GatewayDep = Annotated[Gateway, Depends(gateway_of)]
+SourceDep = Annotated[Source, Depends(source_of)]
 StopperDep = Annotated[Stopper, Depends(stopper_of)]
 Guarded = Depends(require_token)
 Motion = Depends(motion_token)  # the stop generation at the request's arrival (server/motion.py)

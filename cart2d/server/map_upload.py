@@ -22,6 +22,7 @@ from starlette.datastructures import UploadFile
 
 from cart2d.gateway import Gateway
 from cart2d.maps import MapError, OccupancyMap, Thresholds, map_from_image, map_from_ros
+from cart2d.server.answers import MapLoadedOut
 from cart2d.server.guards import media_type
 from cart2d.server.models import (
     MAX_MAP_BODY_BYTES,
@@ -67,6 +68,7 @@ def add_map_upload_route(app: FastAPI, gateway: Gateway, guarded: Depends) -> No
         "(GET /api/map) and `pose_warning`: null, or a sentence when the cart's pose is off the new map's "
         "free floor (inside a wall, in unknown space, off the plan), with what to do.",
         responses=errors(400, 401, 422),
+        response_model=MapLoadedOut,
         openapi_extra={
             "x-max-body-bytes": MAX_MAP_BODY_BYTES,
             "requestBody": {

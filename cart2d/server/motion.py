@@ -19,21 +19,19 @@ from concurrent.futures import ThreadPoolExecutor
 from starlette.requests import Request
 from starlette.types import ASGIApp, Receive, Scope, Send
 
-from cart2d.link import Link
-
 SCOPE_KEY = "cart2d.motion_token"
 
 
 class MotionTokens:
     """Pure ASGI middleware (no task of its own, nothing awaited before the note is taken)."""
 
-    def __init__(self, app: ASGIApp, link: Link) -> None:
+    def __init__(self, app: ASGIApp, token: Callable[[], int]) -> None:
         self.app = app
-        self.link = link
+        self.token = token  # Gateway.motion_token
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] == "http":
-            scope[SCOPE_KEY] = self.link.motion_token()
+            scope[SCOPE_KEY] = self.token()
         await self.app(scope, receive, send)
 
 

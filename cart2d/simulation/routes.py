@@ -12,6 +12,7 @@ from fastapi import FastAPI, HTTPException
 from fastapi.params import Depends
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
+from cart2d.server.answers import FaultsOut
 from cart2d.server.models import errors
 from cart2d.shown import quoted
 from cart2d.simulation import faults as fault_table
@@ -142,6 +143,7 @@ def add_sim_faults_routes(app: FastAPI, sim: Simulator, guarded: Depends) -> Non
         "/api/sim/faults",
         summary="the simulator's faults now, and every fault with its range (simulation only)",
         responses=errors(404, 503),
+        response_model=FaultsOut,
     )
     def get_faults() -> dict[str, Any]:
         try:
@@ -155,6 +157,7 @@ def add_sim_faults_routes(app: FastAPI, sim: Simulator, guarded: Depends) -> Non
         summary="set the simulator's faults (those left out: off); they last until changed or the "
         "gateway stops (simulation only)",
         responses=errors(400, 401, 404, 422, 503),
+        response_model=FaultsOut,
     )
     def put_faults(body: SimFaultsIn) -> dict[str, Any]:
         chosen = {k: float(v) for k, v in body.model_dump().items()}

@@ -14,13 +14,14 @@ import signal
 import subprocess
 import threading
 import time
-from dataclasses import asdict, dataclass
-from typing import Any, Literal
+from dataclasses import asdict
+from typing import Any
 
 from cart2d.gateway import Gateway
 from cart2d.gateway.bus import SimulatorExited, SimulatorRestarted, ViewerMessage
 from cart2d.gateway.core import UPDATE_WAIT_S
 from cart2d.gateway.messages import SimulatorMessage
+from cart2d.gateway.state import SimulatorRun, SimulatorState
 from cart2d.link import CommandRefused, LinkError
 from cart2d.simulation.side_channel import SimulatorError
 from cart2d.simulation.simulator import Simulator
@@ -29,18 +30,6 @@ log = logging.getLogger(__name__)
 
 SIM_START_TRIES = 3
 RETRY_PAUSE_S = 0.5  # between two attempts to start it
-
-SimulatorRun = Literal["running", "restarting", "failed"]
-
-
-@dataclass(frozen=True)
-class SimulatorState:
-    """The simulator the gateway drives (cart2d sim): whether it runs, and its restarts after
-    it exited on its own (a crash, a kill from outside)."""
-
-    state: SimulatorRun = "running"
-    restarts: int = 0  # times the supervisor started it again after it exited
-    message: str = ""  # the last exit and restart, in sentences
 
 
 def exit_words(returncode: int) -> str:

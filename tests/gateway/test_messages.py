@@ -18,8 +18,8 @@ from pydantic import ValidationError
 from cart2d.gateway import Gateway
 from cart2d.gateway.bus import ViewerMessage
 from cart2d.gateway.messages import LIVE_MESSAGE, SimulatorMessage, wire
+from cart2d.gateway.state import SimulatorRun, SimulatorState
 from cart2d.maps.world import Box
-from cart2d.simulation.supervisor import SimulatorRun, SimulatorState
 from cart2d.store import Store
 from tests.gateway.fake_firmware import FakeFirmware
 from tests.support.waiting import wait_for

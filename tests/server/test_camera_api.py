@@ -15,14 +15,15 @@ from typing import Any, cast
 import cv2
 import numpy as np
 import pytest
-from fastapi import Depends, FastAPI
+from fastapi import FastAPI
 from fastapi.testclient import TestClient
 
-from cart2d.gateway import Gateway
 from cart2d.gateway.camera import CameraFeed, Overlay, frame_problem, stream_url_for
+from cart2d.gateway.camera_service import CameraService
 from cart2d.perception.mjpeg import MAX_PART_BYTES, Frame, MjpegReader
 from cart2d.server import create_app, serving
-from cart2d.server.camera import CAMERA_BACKLOG, add_camera_routes
+from cart2d.server.camera import CAMERA_BACKLOG, CameraWatchers
+from cart2d.server.routes import camera as camera_routes
 from tests.support.mjpeg_server import MjpegServer, declaring, jpeg_of
 from tests.support.server import Rig
 from tests.support.waiting import wait_for
@@ -204,10 +205,7 @@ def test_a_restream_without_frames_for_a_while_ends() -> None:
         feed = CameraFeed(stalled.url, stale_after_s=60.0).start()
         try:
             wait_for(lambda: feed.shown() is not None, 10.0)
-            app = FastAPI()
-            holder = SimpleNamespace(camera=feed)
-            add_camera_routes(app, cast(Gateway, holder), Depends(lambda: None))
-            with TestClient(app) as client:
+            with camera_api(feed) as client:
                 answer = client.get("/api/camera/stream")
             assert answer.status_code == 200
             assert answer.headers["content-type"] == "multipart/x-mixed-replace; boundary=cart2d-frame"
@@ -218,9 +216,15 @@ def test_a_restream_without_frames_for_a_while_ends() -> None:
 
 
 def camera_api(feed: CameraFeed) -> TestClient:
-    """/api/camera and friends for `feed` alone (no gateway, no simulator)."""
+    """/api/camera and friends for `feed` alone (no gateway, no simulator): the Gateway's own
+    camera_view (the camera service's), over a stand-in that has only the feed."""
+    holder = cast(CameraService, SimpleNamespace(camera=feed, calibration_summary=lambda: None))
     app = FastAPI()
-    add_camera_routes(app, cast(Gateway, SimpleNamespace(camera=feed, seeing=None)), Depends(lambda: None))
+    app.state.source = SimpleNamespace(
+        camera_feed=lambda: feed, camera_view=lambda: CameraService.camera_view(holder)
+    )
+    app.state.camera_watchers = CameraWatchers()
+    app.router.routes.extend(camera_routes.router.routes)
     return TestClient(app)
 
 

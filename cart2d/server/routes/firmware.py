@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from fastapi import APIRouter, HTTPException, Request
 
-from cart2d.server.deps import GatewayDep, Guarded
+from cart2d.server.answers import Done, FirmwareSettingOut, SettingValueOut, UpdateOut
+from cart2d.server.deps import GatewayDep, Guarded, SourceDep
 from cart2d.server.models import SettingIn, errors, read_body
 
 router = APIRouter(responses=errors(413))  # as the app's own routes (create_app)
@@ -14,9 +15,10 @@ router = APIRouter(responses=errors(413))  # as the app's own routes (create_app
     "/api/firmware/settings",
     summary="every firmware setting: id, name, unit, range, value",
     responses=errors(409, 503),
+    response_model=list[FirmwareSettingOut],
 )
-def firmware_settings(gateway: GatewayDep) -> list[dict[str, object]]:
-    return gateway.firmware_settings()
+def firmware_settings(source: SourceDep) -> list[dict[str, object]]:
+    return source.firmware_settings()  # none in a replay
 
 
 @router.put(
@@ -25,8 +27,8 @@ def firmware_settings(gateway: GatewayDep) -> list[dict[str, object]]:
     summary="change one firmware setting",
     responses=errors(400, 401, 409, 422, 503),
 )
-def set_setting(body: SettingIn, gateway: GatewayDep) -> dict[str, float]:
-    return {"value": gateway.write_setting(body.id, body.value)}
+def set_setting(body: SettingIn, gateway: GatewayDep) -> SettingValueOut:
+    return SettingValueOut(value=gateway.write_setting(body.id, body.value))
 
 
 @router.post(
@@ -35,9 +37,9 @@ def set_setting(body: SettingIn, gateway: GatewayDep) -> dict[str, float]:
     summary="firmware settings to EEPROM",
     responses=errors(401, 409, 503),
 )
-def save(gateway: GatewayDep) -> dict[str, str]:
+def save(gateway: GatewayDep) -> Done:
     gateway.save_settings()
-    return {"result": "saving"}
+    return Done(result="saving")
 
 
 @router.post(
@@ -46,9 +48,9 @@ def save(gateway: GatewayDep) -> dict[str, str]:
     summary="firmware settings from EEPROM",
     responses=errors(401, 409, 503),
 )
-def load(gateway: GatewayDep) -> dict[str, str]:
+def load(gateway: GatewayDep) -> Done:
     gateway.load_settings()
-    return {"result": "loaded"}
+    return Done(result="loaded")
 
 
 @router.post(
@@ -66,17 +68,18 @@ def load(gateway: GatewayDep) -> dict[str, str]:
             "content": {"application/octet-stream": {"schema": {"type": "string", "format": "binary"}}},
         }
     },
+    response_model=UpdateOut,
 )
 async def update_firmware(request: Request, gateway: GatewayDep) -> dict[str, object]:
     body = await read_body(request)
     try:
-        return gateway.flasher.start(body).view()
+        return gateway.start_update(body)
     except ValueError as exc:
         raise HTTPException(422, str(exc)) from exc
     except RuntimeError as exc:
         raise HTTPException(409, str(exc)) from exc
 
 
-@router.get("/api/firmware/update", summary="the firmware update's state and log")
+@router.get("/api/firmware/update", summary="the firmware update's state and log", response_model=UpdateOut)
 def update_state(gateway: GatewayDep) -> dict[str, object]:
-    return gateway.flasher.job.view()
+    return gateway.update_view()

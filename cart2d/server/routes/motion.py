@@ -7,6 +7,7 @@ from typing import Any
 
 from fastapi import APIRouter
 
+from cart2d.server.answers import CommandOut, Done, PlanOut
 from cart2d.server.deps import GatewayDep, Guarded, Motion, StopperDep
 from cart2d.server.models import CommandIn, DriveIn, PointIn, errors
 from cart2d.spec import load_spec
@@ -19,6 +20,7 @@ router = APIRouter(responses=errors(413))  # as the app's own routes (create_app
     dependencies=[Guarded],
     summary="any protocol command and its reply",
     responses=errors(400, 401, 422, 503),
+    response_model=CommandOut,
 )
 def command(body: CommandIn, gateway: GatewayDep, token: int | None = Motion) -> dict[str, Any]:
     entry = load_spec().commands[f"COMMAND_{body.name}"]
@@ -39,6 +41,7 @@ def command(body: CommandIn, gateway: GatewayDep, token: int | None = Motion) ->
     "restarted, see /api/status `pose_trust`), until the pose is set, the reset routine has run or "
     "the firmware's pose is accepted (POST /api/pose, /api/pose/reset-routine, /api/pose/accept).",
     responses=errors(400, 401, 409, 422, 503),
+    response_model=PlanOut,
 )
 def goto(body: PointIn, gateway: GatewayDep, token: int | None = Motion) -> dict[str, Any]:
     return gateway.plan_view(gateway.go_to(body.x, body.y, token))
@@ -52,9 +55,9 @@ def goto(body: PointIn, gateway: GatewayDep, token: int | None = Motion) -> dict
     "request on the link.",
     responses=errors(409, 503),
 )
-async def stop(stopper: StopperDep) -> dict[str, str]:
+async def stop(stopper: StopperDep) -> Done:
     await stopper()
-    return {"result": "stopped"}
+    return Done(result="stopped")
 
 
 @router.post(
@@ -63,6 +66,6 @@ async def stop(stopper: StopperDep) -> dict[str, str]:
     summary="manual driving; repeat within 0.5 s or it stops",
     responses=errors(400, 401, 409, 422, 503),
 )
-def drive(body: DriveIn, gateway: GatewayDep, token: int | None = Motion) -> dict[str, str]:
+def drive(body: DriveIn, gateway: GatewayDep, token: int | None = Motion) -> Done:
     gateway.drive(body.v, body.omega, token)
-    return {"result": "driving"}
+    return Done(result="driving")

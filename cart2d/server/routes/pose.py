@@ -8,6 +8,7 @@ from typing import Any
 
 from fastapi import APIRouter
 
+from cart2d.server.answers import PoseAcceptedOut, PoseSetOut, RoutineStartedOut, SoftResetOut
 from cart2d.server.deps import GatewayDep, Guarded, Motion
 from cart2d.server.models import PoseIn, errors
 
@@ -22,6 +23,7 @@ router = APIRouter(responses=errors(413))  # as the app's own routes (create_app
     "or after 5 s without (`result` resetting). The restart is reported as the gateway's doing; "
     "the pose stays trusted only if the firmware kept it (flag POSE_RESTORED).",
     responses=errors(401, 409, 503),
+    response_model=SoftResetOut,
 )
 def reset(gateway: GatewayDep) -> dict[str, Any]:
     report = gateway.soft_reset()
@@ -33,6 +35,7 @@ def reset(gateway: GatewayDep) -> dict[str, Any]:
     dependencies=[Guarded],
     summary="set the odometry pose (SET_POSE): where the cart really is; the pose is trusted again",
     responses=errors(400, 401, 409, 422, 503),
+    response_model=PoseSetOut,
 )
 def set_pose(body: PoseIn, gateway: GatewayDep) -> dict[str, Any]:
     pose = gateway.set_pose(body.x, body.y, body.theta)
@@ -44,6 +47,7 @@ def set_pose(body: PoseIn, gateway: GatewayDep) -> dict[str, Any]:
     dependencies=[Guarded],
     summary="trust the pose the firmware has (after a restart: kept from RAM, or from (0, 0, 0))",
     responses=errors(401, 409, 503),
+    response_model=PoseAcceptedOut,
 )
 def accept_pose(gateway: GatewayDep) -> dict[str, Any]:
     pose, words = gateway.accept_pose()
@@ -59,6 +63,7 @@ def accept_pose(gateway: GatewayDep) -> dict[str, Any]:
     description="Follow it in /api/status `routine` (running / done / failed, with words) or on /ws "
     "(messages of type routine and pose_trust). Any mission in progress ends.",
     responses=errors(401, 409, 503),
+    response_model=RoutineStartedOut,
 )
 def reset_routine(gateway: GatewayDep, token: int | None = Motion) -> dict[str, Any]:
     gateway.start_reset_routine(token)
