@@ -5,6 +5,9 @@ and abort(), the one way every fault ends a mission and the reset routine), the 
 (routine.py), the STATUS monitor (monitor.py), restarts and the pose's trust (restarts.py).
 close() is the one shutdown path: the services subscribed to its Closing event.
 
+Over ~500 lines for a reason: it has no logic of its own but one short delegation for each thing
+the server, the tools and the tests ask of the services (a stable API over services that move).
+
 The live map (map_service.py) and the camera (camera_service.py) own their state and locks.
 Besides its link the gateway may be given a source of ground truth, a simulated world, a reset
 button and a bootloader port (collaborators.py): the simulation package wires them in, and its
@@ -45,11 +48,9 @@ from cart2d.gateway.routine import ResetRoutine
 from cart2d.gateway.seeing import Seeing
 from cart2d.gateway.state import (
     Mission,
-    PoseOutsideArena,
     PoseTrust,
     ResetReport,
     Routine,
-    pose_text,
 )
 from cart2d.gateway.status_cache import StatusCache
 from cart2d.link import CommandRefused, Link, LinkError, firmware, path_stream
@@ -435,41 +436,14 @@ class Gateway:
     def write_setting(self, ident: int, value: float) -> float:
         return firmware.write_setting(self.link, ident, value)
 
-    # -- the pose after a restart --------------------------------------------------------------
+    # -- the pose after a restart (restarts.py) --------------------------------------------------
     def set_pose(self, x: float, y: float, theta: float) -> dict[str, float]:
-        """SET_POSE from the user, who knows where the cart is: the pose is trusted again."""
-        arena = self.map_view()["arena"]
-        if not (arena["x_min"] <= x <= arena["x_max"] and arena["y_min"] <= y <= arena["y_max"]):
-            raise PoseOutsideArena(
-                f"the pose ({x:.3f}, {y:.3f}) lies beyond the arena's walls (x from {arena['x_min']:g} "
-                f"to {arena['x_max']:g} m, y from {arena['y_min']:g} to {arena['y_max']:g} m)"
-            )
-        self.link.call("SET_POSE", x, y, theta)
-        pose = self._pose()
-        self._trust(f"the pose was set to {pose_text(*pose)}")
-        return dict(zip(("x", "y", "theta"), pose, strict=True))
+        """SET_POSE from the user, within the arena's walls: the pose is trusted again."""
+        return self.restarts.set_pose(x, y, theta, self.map_view()["arena"])
 
     def accept_pose(self) -> tuple[dict[str, float], str]:
         """Trusts the pose the firmware has; returns it and what it is, in words."""
-        status = self.read_status()
-        pose = self._pose()
-        where = pose_text(*pose)
-        with self._lock:
-            trusted = self.pose_trust.trusted
-        if trusted:
-            words = f"the pose was trusted already: {where}"
-        elif status.has("POSE_RESTORED"):
-            words = (
-                f"accepted the pose the firmware restored from RAM, {where}: the pose at the reset, "
-                "blind to any motion during it"
-            )
-        else:
-            words = (
-                f"accepted the pose the firmware has, {where}: it restarted at (0, 0, 0) and has "
-                "counted the motion since"
-            )
-        self._trust(words)
-        return dict(zip(("x", "y", "theta"), pose, strict=True)), words
+        return self.restarts.accept_pose()
 
     def start_reset_routine(self, token: int | None = None) -> None:
         """RESET_ROUTINE: the cart squares up against the wall in front; the pose is trusted
@@ -486,9 +460,6 @@ class Gateway:
         x, y, theta = self.link.call("POSE")
         self.status_cache.pose_read((x, y, theta))
         return x, y, theta
-
-    def _trust(self, how: str) -> None:
-        self.restarts.trust(how)
 
     # -- restarts ----------------------------------------------------------------------------
     def read_status(self, restarted_for_sure: bool = False) -> firmware.Status:

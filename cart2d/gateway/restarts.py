@@ -21,7 +21,7 @@ from dataclasses import asdict
 
 from cart2d.gateway.bus import EventBus, PoseCorrected, Restarted, ViewerMessage
 from cart2d.gateway.messages import PoseTrustMessage, ResetMessage
-from cart2d.gateway.state import WAYS_OUT, PoseTrust, ResetReport, pose_text
+from cart2d.gateway.state import WAYS_OUT, PoseOutsideArena, PoseTrust, ResetReport, pose_text
 from cart2d.gateway.status_cache import StatusCache
 from cart2d.link import CommandRefused, Link, LinkError, firmware
 
@@ -121,6 +121,39 @@ class Restarts:
                     self.read_status(certain and self.resets_noticed == noticed)  # while it is expected
             with self._lock:
                 self._expected_reset = ""
+
+    def set_pose(self, x: float, y: float, theta: float, arena: dict[str, float]) -> dict[str, float]:
+        """SET_POSE from the user, who knows where the cart is (within `arena`, the map's walls):
+        the pose is trusted again; PoseOutsideArena sends nothing."""
+        if not (arena["x_min"] <= x <= arena["x_max"] and arena["y_min"] <= y <= arena["y_max"]):
+            raise PoseOutsideArena(
+                f"the pose ({x:.3f}, {y:.3f}) lies beyond the arena's walls (x from {arena['x_min']:g} "
+                f"to {arena['x_max']:g} m, y from {arena['y_min']:g} to {arena['y_max']:g} m)"
+            )
+        self.link.call("SET_POSE", x, y, theta)
+        pose = self._read_pose()
+        self.trust(f"the pose was set to {pose_text(*pose)}")
+        return dict(zip(("x", "y", "theta"), pose, strict=True))
+
+    def accept_pose(self) -> tuple[dict[str, float], str]:
+        """Trusts the pose the firmware has; returns it and what it is, in words."""
+        status = self.read_status()
+        pose = self._read_pose()
+        where = pose_text(*pose)
+        if self.pose_trust.trusted:
+            words = f"the pose was trusted already: {where}"
+        elif status.has("POSE_RESTORED"):
+            words = (
+                f"accepted the pose the firmware restored from RAM, {where}: the pose at the reset, "
+                "blind to any motion during it"
+            )
+        else:
+            words = (
+                f"accepted the pose the firmware has, {where}: it restarted at (0, 0, 0) and has "
+                "counted the motion since"
+            )
+        self.trust(words)
+        return dict(zip(("x", "y", "theta"), pose, strict=True)), words
 
     def trust(self, how: str) -> None:
         """The pose is right again (`how`, in words: set, accepted, squared up)."""

@@ -25,6 +25,10 @@ starts a new stop generation; a motion command belongs to the generation it was 
 STOP came after it, however long it waited; one asked for while a STOP is on its way belongs to
 none. So no motion asked for before a STOP's answer follows that STOP. Telemetry listeners run
 in a thread of their own (they never hold up the replies the reader decodes).
+
+Over ~500 lines for a reason: the request queue, the stop's priority and generations, the
+retransmission and the reader share one lock and one port, and their invariant (no motion
+after a STOP's answer) is read in one place.
 """
 
 from __future__ import annotations
