@@ -233,7 +233,7 @@ void Dispatcher::status(Results& results) const {
   const uint16_t counts[] = {cart_.mode(),          cart_.flags(),          cart_.path().index(),
                              cart_.path().count(),  health_.loop_overruns,  health_.cpu_load_pct,
                              health_.cpu_max_pct,   health_.rx_errors,      settings_source_,
-                             store_.busy()};
+                             eeprom_busy()};
   for (uint16_t n : counts) results.add(n);
   results.add(health_.ticks * kTickPeriod_s);
   results.add(last_error_);

@@ -78,6 +78,9 @@ class Dispatcher {
   uint8_t last_error_ = 0;  // reason of the last refused request
   bool reboot_requested_ = false;
   bool saving_ = false;  // a SAVE is being written
+  // Busy until the tick after the record landed has made the EEPROM the settings' source: STATUS
+  // never shows a SAVE done with the settings still from defaults.
+  bool eeprom_busy() const { return saving_ || store_.busy(); }
 };
 
 }  // namespace core

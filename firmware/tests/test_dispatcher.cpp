@@ -235,6 +235,23 @@ TEST_F(Dispatcher, ASaveThatHasLandedMakesTheEepromTheSettingsSource) {
   EXPECT_FALSE(static_cast<int>(fw.cart.flags()) & proto::FLAG_SETTINGS_DEFAULTED);  // telemetry's flags too
 }
 
+// Between the record landing and the next tick the store is idle but the source not yet the
+// EEPROM: STATUS says busy then, so a host polling for the end of a SAVE never reads "done,
+// settings from defaults".
+TEST_F(Dispatcher, StatusShowsTheEepromBusyUntilItIsTheSettingsSource) {
+  Firmware fw;
+  EXPECT_EQ(proto::CONTROL_OK, call(fw, proto::COMMAND_SAVE).status);
+  int polls = 0;
+  while (fw.store.busy() && polls < 1000) fw.store.poll(), ++polls;  // the main loop's, between ticks
+  Reply status = call(fw, proto::COMMAND_STATUS);
+  EXPECT_EQ(1.0f, status.results.at(8));  // defaults still: the tick that takes the EEPROM is due
+  EXPECT_EQ(1.0f, status.results.at(9));  // so busy
+  fw.tick();
+  status = call(fw, proto::COMMAND_STATUS);
+  EXPECT_EQ(0.0f, status.results.at(8));
+  EXPECT_EQ(0.0f, status.results.at(9));
+}
+
 TEST_F(Dispatcher, CorruptEepromGivesDefaults) {
   {
     Firmware fw;

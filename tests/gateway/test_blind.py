@@ -179,8 +179,11 @@ def test_the_camera_dying_mid_mission_stops_the_cart_with_the_reason(
     rig.gateway.go_to(3.6, 0.8)  # 3.4 m straight ahead: 7 s and more at 0.5 m/s
     wait_for(lambda: rig.sim.truth()["x"] > 0.8, 60.0)
     assert rig.gateway.mission_view()["state"] == "driving"
-    camera.stop()  # the camera dies: its stream closes, and nothing listens on its port any more
+    # Where and when the camera dies, read before stopping it: the stop takes wall time (its
+    # servers' threads end), and the simulator runs on meanwhile: on a busy machine, long enough
+    # for the watch to have stopped the cart before a read after the stop.
     died = rig.sim.truth()
+    camera.stop()  # the camera dies: its stream closes, and nothing listens on its port any more
     mission = rig.wait_end()
     assert mission["state"] == "failed"
     blind = re.match(r"the camera went blind: no frame taken in for (\d+\.\d) s \(.+\)$", mission["reason"])

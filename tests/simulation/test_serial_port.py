@@ -6,40 +6,57 @@ message (sim/README.md)."""
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 
 from cart2d.link import Link, LinkTimeout
+from cart2d.params import robot
 from cart2d.simulation.side_channel import SimulatorError
 from cart2d.simulation.simulator import Simulator
 from tests.support.sim import events, run_for, start_sim
 from tests.support.waiting import wait_for
 
 
-def uptimes_across_a_reopen(sim: Simulator) -> tuple[float, float, float]:
+@dataclass(frozen=True)
+class Reopen:
     """HEARTBEAT's uptime 1.2 s after the port opened (over 1 s whatever the boot took: the DTR
-    reset's 65 ms time-out and the start-up), then right after closing and reopening it, and the
-    simulated time from the first answer to the second."""
+    reset's 65 ms time-out and the start-up), then right after closing and reopening it; and, in
+    simulated time, when the first answer had come (read after it), when the port reopened and
+    when the second answer had come. The simulator runs on (`speed max`) while the host reads
+    an answer and asks for the time: those times bound an answer from above, never date it."""
+
+    before: float
+    after: float
+    first_answered_by: float
+    reopened_at: float
+    second_answered_by: float
+
+
+def uptimes_across_a_reopen(sim: Simulator) -> Reopen:
     with Link(sim.pty, timeout_s=0.2) as link:
         run_for(sim, 1.2)
         before = link.call("HEARTBEAT")[0]
-        t_before = sim.truth()["t"]
+        first_answered_by = sim.truth()["t"]
     with Link(sim.pty, timeout_s=0.2) as link:
         after = link.call("HEARTBEAT")[0]
-        t_after = sim.truth()["t"]
-    return before, after, t_after - t_before
+        second_answered_by = sim.truth()["t"]
+    reopened_at = [e["t"] for e in events(sim, "host_open") if e["opens"] == 2]
+    assert reopened_at, events(sim, "host_open")  # sent before the answer that followed it
+    return Reopen(before, after, first_answered_by, reopened_at[0], second_answered_by)
 
 
 def test_opening_the_port_resets_the_mcu(tmp_path: Path) -> None:
     sim = start_sim(tmp_path)
     try:
         sim.control("stats")  # the side channel is served: no event can pass it by
-        before, after, between = uptimes_across_a_reopen(sim)
-        assert before >= 1.0
-        # The MCU restarted after the first answer. (A request written the moment the port
-        # opens reaches an MCU still booting and is lost, as on a Nano; the link resends it.)
-        assert after < between
+        reopen = uptimes_across_a_reopen(sim)
+        assert reopen.before >= 1.0
+        # The MCU restarted when the port reopened: its uptime is shorter than the time since.
+        # (A request written the moment the port opens reaches an MCU still booting and is lost,
+        # as on a Nano; the link resends it.)
+        assert reopen.after < reopen.second_answered_by - reopen.reopened_at
         opens = events(sim, "host_open")
         assert [e["opens"] for e in opens] == [1, 2]
         assert all(e["reset"] for e in opens)
@@ -53,9 +70,12 @@ def test_no_auto_reset_keeps_the_mcu_running_across_opens(tmp_path: Path) -> Non
     sim = start_sim(tmp_path, auto_reset=False)
     try:
         sim.control("stats")  # the side channel is served: no event can pass it by
-        before, after, between = uptimes_across_a_reopen(sim)
-        # Its uptime went on: with a reset it would be below `between` (before is over 1 s).
-        assert after >= before + between - 0.1
+        reopen = uptimes_across_a_reopen(sim)
+        # Its uptime went on at least from the first answer to the reopening (the first answered
+        # before first_answered_by, the second after reopened_at): with a reset it would be below
+        # `before` (over 1 s). Uptime counts whole control ticks: one tick of slack.
+        tick_s = 1.0 / robot()["control"]["tick_hz"]
+        assert reopen.after - reopen.before >= reopen.reopened_at - reopen.first_answered_by - tick_s
         assert [e["reset"] for e in events(sim, "host_open")] == [False, False]
     finally:
         sim.stop()
