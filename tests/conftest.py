@@ -1,4 +1,5 @@
-"""Fixtures for tests that run the real firmware in the simulator (the helpers behind them are in
+"""Fixtures for tests that run the real firmware in the simulator, and a Gateway on the fake
+firmware (cart, gateway) for logic that needs no physics (the helpers behind them are in
 tests/support/)."""
 
 from __future__ import annotations
@@ -8,8 +9,11 @@ from pathlib import Path
 
 import pytest
 
+from cart2d.gateway import Gateway
 from cart2d.link import Link
 from cart2d.simulation.simulator import Simulator
+from cart2d.store import Store
+from tests.support.fake_firmware import FakeFirmware
 from tests.support.server import Rig
 from tests.support.sim import start_sim
 
@@ -33,3 +37,19 @@ def rig(tmp_path: Path) -> Iterator[Rig]:
     r = Rig(tmp_path)
     yield r
     r.close()
+
+
+@pytest.fixture
+def cart() -> FakeFirmware:
+    firmware = FakeFirmware()
+    firmware.pose = [0.2, 0.8, 0.0]
+    return firmware
+
+
+@pytest.fixture
+def gateway(cart: FakeFirmware, tmp_path: Path) -> Iterator[Gateway]:
+    store = Store(tmp_path)
+    gateway = Gateway(cart, store, store.load())
+    gateway.read_status()  # the baseline a restart is told from, as start() reads it
+    yield gateway
+    gateway.close()

@@ -19,7 +19,7 @@ from cart2d.gateway.camera_service import CameraService
 from cart2d.gateway.map_service import LiveMap
 from cart2d.gateway.seeing import Seeing
 from cart2d.store import Store
-from tests.gateway.fake_firmware import FakeFirmware
+from tests.support.fake_firmware import FakeFirmware
 from tests.support.waiting import wait_for
 
 ACROSS = [(1.0, 0.6 + 0.05 * k, 0.9) for k in range(9)]  # a wall of 5 cm cells across y = 0.8

@@ -10,7 +10,7 @@ from typing import Any
 from cart2d.gateway import Gateway
 from cart2d.maps.world import World
 from cart2d.store import Store
-from tests.gateway.fake_firmware import FakeFirmware
+from tests.support.fake_firmware import FakeFirmware
 
 
 class FakeTruth:

@@ -14,7 +14,7 @@ from cart2d.gateway.live_map import planner_for
 from cart2d.gateway.look import LOOK_SIDE_RAD, MAX_LOOKS, TURN_TOLERANCE_RAD, look_before_driving
 from cart2d.link import MotionCancelled
 from cart2d.store import MapSettings
-from tests.gateway.fake_firmware import FakeFirmware
+from tests.support.fake_firmware import FakeFirmware
 
 REFRESH_TURN_S = 0.04  # a VELOCITY turns the fake cart for this long (look.REFRESH_S)
 

@@ -7,9 +7,7 @@ from __future__ import annotations
 
 import json
 import typing
-from collections.abc import Iterator
 from dataclasses import asdict
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -20,8 +18,7 @@ from cart2d.gateway.bus import ViewerMessage
 from cart2d.gateway.messages import LIVE_MESSAGE, SimulatorMessage, wire
 from cart2d.gateway.state import SimulatorRun, SimulatorState
 from cart2d.maps.world import Box
-from cart2d.store import Store
-from tests.gateway.fake_firmware import FakeFirmware
+from tests.support.fake_firmware import FakeFirmware
 from tests.support.waiting import wait_for
 
 ACROSS = [(1.0, 0.6), (1.0, 0.8), (1.0, 1.0)]  # three nodes across the straight route at y = 0.8
@@ -34,22 +31,6 @@ def sent(events: list[ViewerMessage]) -> set[str]:
         assert LIVE_MESSAGE.validate_json(text) == event.message, text
         assert json.loads(text) == event.wire
     return {event.message.type for event in events}
-
-
-@pytest.fixture
-def cart() -> FakeFirmware:
-    firmware = FakeFirmware()
-    firmware.pose = [0.2, 0.8, 0.0]
-    return firmware
-
-
-@pytest.fixture
-def gateway(cart: FakeFirmware, tmp_path: Path) -> Iterator[Gateway]:
-    store = Store(tmp_path)
-    gateway = Gateway(cart, store, store.load())
-    gateway.read_status()  # the baseline a restart is told from, as start() reads it
-    yield gateway
-    gateway.close()
 
 
 def test_what_a_gateway_sends_on_a_fake_firmware_is_of_the_union(

@@ -3,34 +3,14 @@ no thread of its own (the monitor is not started; a test reads STATUS where the 
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from pathlib import Path
-
 import pytest
 
 from cart2d.gateway import Gateway, PoseUntrusted
 from cart2d.gateway.bus import Event, MapChanged, MissionEnded, MissionStarted, PoseCorrected, Restarted
 from cart2d.link import MotionCancelled
-from cart2d.store import Store
-from tests.gateway.fake_firmware import FakeFirmware
+from tests.support.fake_firmware import FakeFirmware
 
 ACROSS = [(1.0, 0.6), (1.0, 0.8), (1.0, 1.0)]  # three nodes across the straight route at y = 0.8
-
-
-@pytest.fixture
-def cart() -> FakeFirmware:
-    firmware = FakeFirmware()
-    firmware.pose = [0.2, 0.8, 0.0]
-    return firmware
-
-
-@pytest.fixture
-def gateway(cart: FakeFirmware, tmp_path: Path) -> Iterator[Gateway]:
-    store = Store(tmp_path)
-    gateway = Gateway(cart, store, store.load())
-    gateway.read_status()  # the baseline a restart is told from, as start() reads it
-    yield gateway
-    gateway.close()
 
 
 @pytest.fixture

@@ -8,7 +8,7 @@ import pytest
 from cart2d.gateway.bus import Event, EventBus, PoseCorrected, Restarted, ViewerMessage
 from cart2d.gateway.restarts import Restarts
 from cart2d.gateway.status_cache import StatusCache
-from tests.gateway.fake_firmware import FakeFirmware
+from tests.support.fake_firmware import FakeFirmware
 
 
 class Rig:

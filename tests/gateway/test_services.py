@@ -20,7 +20,7 @@ from cart2d.gateway.status_cache import StatusCache
 from cart2d.planning import Planner
 from cart2d.spec import load_spec
 from cart2d.store import MapSettings
-from tests.gateway.fake_firmware import FakeFirmware
+from tests.support.fake_firmware import FakeFirmware
 from tests.support.waiting import wait_for
 
 ACROSS = [(1.0, 0.6), (1.0, 0.8), (1.0, 1.0)]  # three nodes across the straight route at y = 0.8

@@ -5,7 +5,6 @@ port. The end-to-end run with a real simulator killed is tests/test_server.py's.
 from __future__ import annotations
 
 import threading
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -16,8 +15,7 @@ from cart2d.gateway.bus import Event, SimulatorExited, SimulatorRestarted, Viewe
 from cart2d.simulation import supervisor as supervisor_module
 from cart2d.simulation.side_channel import SimulatorError
 from cart2d.simulation.supervisor import Supervisor, exit_words
-from cart2d.store import Store
-from tests.gateway.fake_firmware import FakeFirmware
+from tests.support.fake_firmware import FakeFirmware
 
 
 class FakeOptions:
@@ -50,22 +48,6 @@ class FakeSim:
             raise SimulatorError("cart2d-sim exited (1) before it was ready")
         self.process = object()
         self.cart.restart()  # a new MCU: a new boot
-
-
-@pytest.fixture
-def cart() -> FakeFirmware:
-    firmware = FakeFirmware()
-    firmware.pose = [0.2, 0.8, 0.0]
-    return firmware
-
-
-@pytest.fixture
-def gateway(cart: FakeFirmware, tmp_path: Path) -> Iterator[Gateway]:
-    store = Store(tmp_path)
-    gateway = Gateway(cart, store, store.load())
-    gateway.read_status()  # the baseline a restart is told from
-    yield gateway
-    gateway.close()
 
 
 @pytest.fixture(autouse=True)
