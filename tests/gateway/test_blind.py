@@ -16,6 +16,7 @@ from cart2d.gateway import Gateway
 from cart2d.gateway.blind import BlindWatch
 from cart2d.gateway.camera import CameraFeed
 from cart2d.simulation.camera import SimCameraServer
+from cart2d.simulation.lockstep import Lockstep
 from cart2d.tools.missions.camera import free_port_pair
 from tests.support.gateway import WIDE, GatewayRig
 from tests.support.sim import run_for
@@ -155,16 +156,23 @@ def test_a_clock_that_went_back_or_another_camera_starts_the_count_again() -> No
 
 @pytest.fixture
 def seeing_rig(tmp_path: Path) -> Iterator[tuple[GatewayRig, SimCameraServer]]:
-    """The WIDE grid in real time, with the simulated camera and perception on (as `cart2d sim`)."""
+    """The WIDE grid in real time, with the simulated camera and perception on (as `cart2d sim`),
+    in lockstep with perception as missions run (cart2d/simulation/lockstep.py): on a busy machine
+    perception falling 0.5 s of wall time behind would otherwise be taken for a blind camera
+    before the test kills it."""
     rig = GatewayRig(tmp_path, WIDE, speed="1")
     server = SimCameraServer(lambda: rig.sim.control_address, free_port_pair()).start()
+    step: Lockstep | None = None
     try:
         feed = CameraFeed.of(server.url, None)
         assert feed is not None
         rig.gateway.use_camera(feed.start())
+        step = Lockstep(rig.sim, feed).start()
         wait_for(lambda: feed.taken >= 3, 60.0)
         yield rig, server
     finally:
+        if step is not None:
+            step.close()
         rig.gateway.use_camera(None)
         server.stop()
         rig.close()
