@@ -75,7 +75,7 @@ python-checks: python-env
 	$(VENV)/bin/lint-imports
 
 python-tests: python-env firmware sim panel
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q --durations=15
 
 # The control panel: npm ci (exact versions from web/package-lock.json; browsers are never
 # downloaded: the tests use Debian's /usr/bin/chromium), a type check and the Vite build.
