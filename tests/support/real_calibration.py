@@ -69,6 +69,13 @@ def wave(image: Image, amplitude_px: float, seed: int) -> Image:
     return np.asarray(warped, dtype=np.uint8)
 
 
+def as_esp32_cam_sends(image: Image) -> Image:
+    """The picture at QVGA (320 x 240), through a JPEG of quality 80, as the ESP32-CAM sends it."""
+    small = cv2.resize(image, (320, 240), interpolation=cv2.INTER_AREA)
+    jpeg = cv2.imencode(".jpg", small, [cv2.IMWRITE_JPEG_QUALITY, 80])[1]
+    return np.asarray(cv2.imdecode(jpeg, cv2.IMREAD_COLOR), dtype=np.uint8)
+
+
 def copy_views(target: Path) -> Path:
     """The real views (only the pictures) in `target`."""
     target.mkdir(parents=True, exist_ok=True)
