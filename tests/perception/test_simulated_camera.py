@@ -58,6 +58,10 @@ def test_every_placed_view_is_found_and_fits(calibrated: Calibrated) -> None:
     result, said = calibrated
     assert sum("board found" in line for line in said) == SIM_VIEWS, said
     assert result.views == SIM_VIEWS
+    # the real camera's checks: each view's own error said, none dropped, the picture covered
+    assert sum("px RMS, worst corner" in line for line in said) == SIM_VIEWS, said
+    assert not any(line.startswith("DROPPED") for line in said)
+    assert "the board has been in every part of the picture" in said[SIM_VIEWS - 1]
     assert result.rms_px is not None and result.rms_px < 0.5
     # the floor board's corners back on the floor where the board lies: a wrong corner order or
     # board pose convention would put them a square or more (30 mm) off
