@@ -110,8 +110,9 @@ def fit_dropping_outliers(
         )
         kept = [(name, corners) for name, corners in kept if name != worst.name]
         if len(kept) < MIN_VIEWS:
+            how_many = "1 view" if len(dropped) == 1 else f"{len(dropped)} views"
             raise ValueError(
-                f"{len(dropped)} views dropped for misplaced corners ({', '.join(d.name for d in dropped)}): "
+                f"{how_many} dropped for misplaced corners ({', '.join(d.name for d in dropped)}): "
                 f"{len(kept)} are left, at least {MIN_VIEWS} are needed; take more views"
             )
 

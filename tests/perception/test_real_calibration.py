@@ -112,6 +112,15 @@ def test_a_view_with_a_misplaced_corner_is_dropped_by_name(found: Found) -> None
     assert checked.lens.intrinsics.fx == pytest.approx(reference["fx"], rel=0.005)
 
 
+def test_too_few_views_left_after_the_drops_is_an_error_naming_them(found: Found) -> None:
+    views = list(found.items())[:5]
+    name, corners = views[1]
+    moved = corners.copy()
+    moved[30] += (6.0, 0.0)  # one corner a sixth of a square aside
+    with pytest.raises(ValueError, match=rf"1 view dropped for misplaced corners \({name}\): 4 are left"):
+        fit_dropping_outliers([views[0], (name, moved), *views[2:]], BOARD, 640, 480)
+
+
 def test_a_fit_above_the_limit_is_refused_with_a_sentence(found: Found) -> None:
     # every corner 1.5 px off at random: no view stands out, the fit is poor as a whole
     rng = np.random.default_rng(3)
