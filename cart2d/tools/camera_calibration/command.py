@@ -20,16 +20,21 @@ from cart2d.perception.camera_model import Mount
 from cart2d.tools.camera_calibration.views import SIM_VIEWS, calibrate, camera_views, synthetic_views
 
 
-def _board(text: str) -> tuple[int, int]:
+def _board(text: str) -> tuple[int, int, float | None]:
+    """COLSxROWS or COLSxROWS@SQUARE_M: inner corners, and the square's side in metres."""
+    corners, _, square = text.lower().partition("@")
     try:
-        cols, rows = (int(n) for n in text.lower().split("x"))
+        cols, rows = (int(n) for n in corners.split("x"))
+        square_m = float(square) if square else None
     except ValueError:
         cols = rows = 0
+        square_m = None
     if not (3 <= cols <= 30 and 3 <= rows <= 30 and cols != rows):
         raise argparse.ArgumentTypeError(
-            f"{text!r}: give the inner corners as COLSxROWS, such as 9x6 (not square)"
+            f"{text!r}: give the inner corners as COLSxROWS, such as 9x6 (not square), "
+            "and the square's side after an @ if you like: 9x6@0.025"
         )
-    return cols, rows
+    return cols, rows, square_m
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -39,12 +44,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--sim", action="store_true", help="the simulated camera (a simulator of its own places the board)"
     )
     where.add_argument("--synthetic", action="store_true", help="a dry run on rendered views of a known lens")
+    where.add_argument(
+        "--images",
+        type=Path,
+        metavar="DIR",
+        help="no cart: the lens from a folder of pictures of the board (saved only with --out)",
+    )
     parser.add_argument(
         "--sim-address",
         metavar="HOST:PORT",
         help="with --sim: a running `cart2d sim`'s side channel (it prints it), not a simulator of its own",
     )
-    parser.add_argument("--board", type=_board, default=(9, 6), help="inner corners, COLSxROWS (default 9x6)")
+    parser.add_argument(
+        "--board",
+        type=_board,
+        default=(9, 6, None),
+        help="inner corners, COLSxROWS, and the square's side: COLSxROWS@SQUARE_M (default 9x6@0.03)",
+    )
     parser.add_argument(
         "--square-m",
         type=float,
@@ -68,7 +84,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main_camera_calibrate(args: argparse.Namespace, say: Callable[[str], None] = print) -> int:
     sim = bool(args.sim)
     views_wanted = args.views if args.views is not None else (SIM_VIEWS if sim else 12)
-    square_m = args.square_m if args.square_m is not None else 0.03
+    given_square_m = args.square_m if args.square_m is not None else args.board[2]
+    square_m = given_square_m if given_square_m is not None else 0.03
+    if args.square_m is not None and args.board[2] is not None and args.square_m != args.board[2]:
+        print(
+            "cart2d camera calibrate: the square's side given twice (--board ...@, --square-m)",
+            file=sys.stderr,
+        )
+        return 2
     if args.sim_address and not sim:
         print("cart2d camera calibrate: --sim-address goes with --sim", file=sys.stderr)
         return 2
@@ -81,6 +104,8 @@ def main_camera_calibrate(args: argparse.Namespace, say: Callable[[str], None] =
     mount = Mount.from_robot()
     board = Board(args.board[0], args.board[1], square_m)
     ground = GroundBoard(board, args.floor_x_m, args.floor_y_m)
+    if args.images is not None:
+        return _calibrate_folder(args.images, board, mount, args.out, say)
     try:
         if sim:
             from cart2d.simulation.controls import CameraTimeout
@@ -92,7 +117,7 @@ def main_camera_calibrate(args: argparse.Namespace, say: Callable[[str], None] =
                 describe_truth,
             )
 
-            held = board if args.square_m is not None else Board(board.cols, board.rows, HELD_SQUARE_M)
+            held = board if given_square_m is not None else Board(board.cols, board.rows, HELD_SQUARE_M)
             try:
                 if args.sim_address:
                     result = calibrate_running_simulator(
@@ -122,4 +147,27 @@ def main_camera_calibrate(args: argparse.Namespace, say: Callable[[str], None] =
         print(f"cart2d camera calibrate: {path} could not be read back", file=sys.stderr)
         return 1
     say(f"saved to {path}; the gateway loads it at start")
+    return 0
+
+
+def _calibrate_folder(
+    directory: Path, board: Board, mount: Mount, out: Path | None, say: Callable[[str], None]
+) -> int:
+    from cart2d.tools.camera_calibration.folder import calibrate_folder, pictures, with_nominal_ground
+
+    try:
+        pictures(directory)
+    except ValueError as exc:
+        print(f"cart2d camera calibrate: {exc}", file=sys.stderr)
+        return 2
+    try:
+        checked = calibrate_folder(directory, board, say)
+    except (ValueError, OSError) as exc:
+        print(f"cart2d camera calibrate: {exc}", file=sys.stderr)
+        return 1
+    if out is None:
+        say("nothing saved (no --out): pictures from another camera are not the cart's calibration")
+        return 0
+    path = save_calibration(with_nominal_ground(checked, mount), out)
+    say(f"saved to {path}: the lens, and the floor where config/robot.toml [camera] mounts it")
     return 0

@@ -30,7 +30,8 @@ from cart2d.simulation.controls import Board as SimBoard
 from cart2d.simulation.controls import CameraControls
 from cart2d.simulation.side_channel import SideChannel, SimulatorError
 from cart2d.simulation.simulator import SimOptions, Simulator
-from cart2d.tools.camera_calibration.views import Image, Placement, Pose, board_placements, calibrate
+from cart2d.tools.camera_calibration.lens import Image
+from cart2d.tools.camera_calibration.views import Placement, Pose, board_placements, calibrate
 
 # A board held in the air must stay above the floor, which a camera 0.25 m up looking 25 degrees
 # down sees from about 0.35 m on: the held board is smaller than the floor board (9 x 6 corners

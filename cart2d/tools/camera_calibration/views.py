@@ -18,20 +18,17 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-import numpy.typing as npt
 
 from cart2d.perception.calibration import (
-    MIN_VIEWS,
     Board,
     CameraCalibration,
     GroundBoard,
-    calibrate_lens,
     find_corners,
     fit_ground,
 )
 from cart2d.perception.camera_model import FloatArray, Intrinsics, Mount
+from cart2d.tools.camera_calibration.lens import Image, lens_from_views
 
-Image = npt.NDArray[np.uint8]
 Pose = tuple[float, float, float]  # the cart's x, y (m) and heading (rad) in the world
 Placement = tuple[FloatArray, FloatArray]  # (R, t): world point = R @ board point + t
 # The synthetic lens: the stock lens a few per cent off its data sheet, with the barrel distortion
@@ -302,24 +299,11 @@ def calibrate(
     mount: Mount,
     say: Callable[[str], None] = print,
 ) -> CameraCalibration:
-    """The lens from every view the board is found in, then the ground homography. ValueError
-    when there are too few views or the floor board is not seen."""
-    corners = []
-    size: tuple[int, int] | None = None
-    for k, image in enumerate(views):
-        size = (image.shape[1], image.shape[0])
-        found = find_corners(image, board)
-        say(f"view {k + 1}: {'board found' if found is not None else 'board NOT found, view skipped'}")
-        if found is not None:
-            corners.append(found)
-    if size is None or len(corners) < MIN_VIEWS:
-        raise ValueError(f"the board was found in {len(corners)} views: at least {MIN_VIEWS} are needed")
-    lens = calibrate_lens(corners, board, *size)
-    say(
-        f"lens: fx {lens.intrinsics.fx:.1f} fy {lens.intrinsics.fy:.1f} cx {lens.intrinsics.cx:.1f} "
-        f"cy {lens.intrinsics.cy:.1f} px, k1 {lens.intrinsics.dist[0]:.3f} k2 {lens.intrinsics.dist[1]:.3f}; "
-        f"RMS reprojection error {lens.rms_px:.3f} px over {lens.views} views"
-    )
+    """The lens from every view the board is found in (lens.lens_from_views: its checks and
+    report), then the ground homography. ValueError when there are too few views, the lens fit is
+    refused or the floor board is not seen."""
+    checked = lens_from_views(((f"view {k + 1}", image) for k, image in enumerate(views)), board, say)
+    lens = checked.lens
     image = floor_view() if callable(floor_view) else floor_view
     found = find_corners(image, ground.board)
     if found is None:
