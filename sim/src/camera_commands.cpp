@@ -36,7 +36,7 @@ void Simulator::camera_step(uint64_t end_cycle) {
     return;
   }
   std::vector<CameraFrame> ready;
-  camera_->step(end_cycle, rig_.world(), rig_.cart().pose(), &ready);
+  camera_->step(end_cycle, rig_.world(), rig_.cart().pose(), &ready, rig_.cart().body().twist());
   for (const CameraFrame& f : ready) {
     const std::string line = json::Object()
                                  .add("type", "frame")

@@ -68,6 +68,10 @@ std::string parse_box(const json::Value& v, size_t index, Box* b) {
   if (std::string e = optional_colour(v, "colour", &b->colour_rgb); !e.empty()) return where + e;
   if (const json::Value* id = v.find("id"))
     if (std::string e = id_of(*id, &b->id); !e.empty()) return where + e;
+  if (const json::Value* m = v.find("material")) {
+    if (!m->is_string() || m->string != "wall") return where + "material must be \"wall\" (the look's wall paint) or absent";
+    b->wall_paint = true;
+  }
   return "";
 }
 
@@ -145,6 +149,8 @@ std::string parse_world(const json::Value& msg, WorldChange* c) {
   } else if (!boundary->is_bool()) {
     return "boundary must be true, false or [x_min, y_min, x_max, y_max] (m)";
   }
+  if (const json::Value* look = msg.find("look"))
+    if (std::string e = parse_look(*look, &c->look); !e.empty()) return e;
   return parse_box_list(msg, "boxes", &c->add_boxes);
 }
 
@@ -278,6 +284,7 @@ void apply_world_change(const WorldChange& c, World* world) {
   }
   if (c.what == WorldChange::What::kWorld) {
     world->clear_physical();
+    world->set_look(c.look);
     if (c.has_grid)
       world->add_wall_grid(c.grid_origin_x_m, c.grid_origin_y_m, c.grid_resolution_m, c.grid, c.wall_height_m,
                            c.wall_colour);
