@@ -32,8 +32,10 @@ void motion_blur(const CameraModel& model, const Pose& pose, const Twist& twist,
   const double mid = pose.theta_rad - twist.omega_radps * shutter_s / 2;
   const Pose open{pose.x_m - twist.v_mps * shutter_s * std::cos(mid), pose.y_m - twist.v_mps * shutter_s * std::sin(mid),
                   pose.theta_rad - twist.omega_radps * shutter_s};
-  const Vec3 o = model.centre(pose);
+  const Vec3 o = model.centre(pose), o0 = model.centre(open);
   const double c = std::cos(pose.theta_rad), s = std::sin(pose.theta_rad);
+  const double c0 = std::cos(open.theta_rad), s0 = std::sin(open.theta_rad);
+  const double cp = std::cos(model.mount().pitch_rad), sp = std::sin(model.mount().pitch_rad);
   const std::vector<Vec3>& rays = model.rays_base();
   const std::vector<Rgb> src = *image;
   for (int v = 0; v < h; ++v) {
@@ -41,16 +43,22 @@ void motion_blur(const CameraModel& model, const Pose& pose, const Twist& twist,
       const size_t i = static_cast<size_t>(v) * static_cast<size_t>(w) + static_cast<size_t>(u);
       const Vec3& r = rays[i];
       const double t = depth[i];
-      const Vec3 p{o.x + t * (c * r.x - s * r.y), o.y + t * (s * r.x + c * r.y), o.z + t * r.z};
+      // The point now, then in the camera's frame at the shutter's opening (CameraModel::to_camera,
+      // with the trigonometry done once).
+      const double dx = o.x + t * (c * r.x - s * r.y) - o0.x, dy = o.y + t * (s * r.x + c * r.y) - o0.y;
+      const double dz = o.z + t * r.z - o0.z;
+      const double bx = c0 * dx + s0 * dy, by = -s0 * dx + c0 * dy;
+      const double zc = cp * bx - sp * dz;
+      if (zc <= 1e-9) continue;
       double u0 = 0.0, v0 = 0.0;
-      if (!model.project(open, p, &u0, &v0)) continue;
+      model.distort(-by / zc, (-sp * bx - cp * dz) / zc, &u0, &v0);
       const double du = u0 - u, dv = v0 - v, len = std::hypot(du, dv);
       if (len < 0.5) continue;
       const int n = std::min(kMaxBlurSamples, 1 + static_cast<int>(std::ceil(len)));
       int sr = 0, sg = 0, sb = 0, count = 0;
       for (int k = 0; k < n; ++k) {
         const double f = static_cast<double>(k) / (n - 1);
-        const int su = static_cast<int>(std::lround(u + du * f)), sv = static_cast<int>(std::lround(v + dv * f));
+        const int su = static_cast<int>(std::floor(u + du * f + 0.5)), sv = static_cast<int>(std::floor(v + dv * f + 0.5));
         if (su < 0 || su >= w || sv < 0 || sv >= h) continue;
         const Rgb& q = src[static_cast<size_t>(sv) * static_cast<size_t>(w) + static_cast<size_t>(su)];
         sr += q.r, sg += q.g, sb += q.b, ++count;
@@ -71,6 +79,9 @@ void expose(const std::vector<Rgb>& clean, const CameraModel& model, const Camer
   const bool noisy = noise_sigma > 0.0;
   const double scale = noise_sigma * std::sqrt(3.0) / 65536.0;
   const double read_sigma = noise_sigma * std::sqrt(std::max(gain, 1.0));
+  // The OV2640's noise by signal level (shot noise grows with the signal, read noise with the gain).
+  double sigma_at[256];
+  for (int x = 0; x < 256; ++x) sigma_at[x] = std::sqrt(read_sigma * read_sigma + kShotPerLevel * x);
   for (int v = 0; v < h; ++v) {
     const double row = look.sensor_noise ? kRowSigma * std::sqrt(std::max(gain, 1.0)) * normal(rng) : 0.0;
     for (int u = 0; u < w; ++u) {
@@ -84,7 +95,7 @@ void expose(const std::vector<Rgb>& clean, const CameraModel& model, const Camer
       for (int k = 0; k < 3; ++k) {
         double x = ch[k] * g;
         if (look.sensor_noise) {
-          const double sigma = std::sqrt(read_sigma * read_sigma + kShotPerLevel * std::max(x, 0.0)) * (k == 1 ? 1.0 : kChromaNoise);
+          const double sigma = sigma_at[static_cast<int>(std::clamp(x, 0.0, 255.0))] * (k == 1 ? 1.0 : kChromaNoise);
           x += sigma * normal(rng) + row;
         } else if (noisy) {
           x += centred_sum(rng) * scale;

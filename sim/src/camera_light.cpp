@@ -12,6 +12,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr int kCartSides = 8;  // the cart's body as an octagon
 constexpr double kMinSoftM = 0.004;
+constexpr double kWrap = 0.6;
 
 double cross(double ox, double oy, double ax, double ay, double bx, double by) {
   return (ax - ox) * (by - oy) - (ay - oy) * (bx - ox);
@@ -78,6 +79,13 @@ void Lighting::add_caster(size_t light, const double* foot_xy, size_t corners, d
     s.x0 = std::min(s.x0, s.hull[i]), s.x1 = std::max(s.x1, s.hull[i]);
     s.y0 = std::min(s.y0, s.hull[i + 1]), s.y1 = std::max(s.y1, s.hull[i + 1]);
   }
+  const size_t n = s.hull.size();
+  for (size_t i = 0; i < n; i += 2) {
+    const double ax = s.hull[i], ay = s.hull[i + 1], ex = s.hull[(i + 2) % n] - ax, ey = s.hull[(i + 3) % n] - ay;
+    const double len = std::hypot(ex, ey);
+    if (len < 1e-12) continue;
+    s.edges.insert(s.edges.end(), {ax, ay, ey / len, -ex / len});
+  }
   const double pad = s.soft_m / 2;
   s.x0 -= pad, s.y0 -= pad, s.x1 += pad, s.y1 += pad;
   shadows_[light].push_back(std::move(s));
@@ -97,13 +105,8 @@ double Lighting::floor(double x_m, double y_m, uint32_t* shadow_bits) const {
       if (x_m < s.x0 || x_m > s.x1 || y_m < s.y0 || y_m > s.y1) continue;
       // Signed distance to a convex polygon (< 0 inside): the largest over its edges' lines.
       double sd = -1e30;
-      const size_t n = s.hull.size();
-      for (size_t i = 0; i < n; i += 2) {
-        const double ax = s.hull[i], ay = s.hull[i + 1], bx = s.hull[(i + 2) % n], by = s.hull[(i + 3) % n];
-        const double ex = bx - ax, ey = by - ay, len = std::hypot(ex, ey);
-        if (len < 1e-12) continue;
-        sd = std::max(sd, ((x_m - ax) * ey - (y_m - ay) * ex) / len);
-      }
+      for (size_t i = 0; i < s.edges.size(); i += 4)
+        sd = std::max(sd, (x_m - s.edges[i]) * s.edges[i + 2] + (y_m - s.edges[i + 1]) * s.edges[i + 3]);
       covered = std::max(covered, std::clamp(0.5 - sd / s.soft_m, 0.0, 1.0));
     }
     if (covered > 0.5) *shadow_bits |= 1u << l;
@@ -120,7 +123,9 @@ double Lighting::surface(const Vec3& p, const Vec3& n) const {
   for (const LightLook& L : look_.lights) {
     const double dx = L.x_m - p.x, dy = L.y_m - p.y, dz = L.z_m - p.z;
     const double d2 = dx * dx + dy * dy + dz * dz, d = std::sqrt(d2);
-    const double lambert = std::max(0.0, (n.x * dx + n.y * dy + n.z * dz) / d);
+    // Wrapped Lambert: light the room's other surfaces bounce reaches faces turned partly away
+    // (a wall under a ceiling lamp is not half as bright as the floor).
+    const double lambert = std::max(0.0, ((n.x * dx + n.y * dy + n.z * dz) / d + kWrap) / (1.0 + kWrap));
     light += L.power * lambert * (L.z_m * L.z_m) / d2;
   }
   return light * uneven(p.x, p.y);
@@ -134,9 +139,10 @@ double Lighting::highlight(const Vec3& p, const Vec3& d, double gloss) const {
   for (const LightLook& L : look_.lights) {
     const double lx = L.x_m - p.x, ly = L.y_m - p.y, lz = L.z_m - p.z;
     const double ln = std::sqrt(lx * lx + ly * ly + lz * lz);
-    const double c = (d.x * lx + d.y * ly - d.z * lz) / ln;
-    const double angle = std::acos(std::clamp(c, -1.0, 1.0));
-    add += L.power * std::exp(-(angle * angle) / (2 * spread * spread)) * 3.0;
+    // 1 − cos a ≈ a² / 2 for the small angles that count: a Gaussian in the angle.
+    const double one_minus_cos = 1.0 - (d.x * lx + d.y * ly - d.z * lz) / ln;
+    if (one_minus_cos > 12.0 * spread * spread) continue;  // beyond ~5 spreads: nothing
+    add += L.power * std::exp(-one_minus_cos / (spread * spread)) * 3.0;
   }
   return add * gloss;
 }

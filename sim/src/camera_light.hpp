@@ -33,7 +33,8 @@ class Lighting {
   struct Shadow {
     double x0, y0, x1, y1;  // bounds, widened by half the soft edge
     double soft_m;
-    std::vector<double> hull;  // x, y pairs, counter-clockwise
+    std::vector<double> hull;   // x, y pairs, counter-clockwise
+    std::vector<double> edges;  // per edge: a point (x, y) and the outward unit normal (nx, ny)
   };
   double uneven(double x_m, double y_m) const;
   void add_caster(size_t light, const double* foot_xy, size_t corners, double height_m);

@@ -128,7 +128,7 @@ constexpr uint32_t kSurfaceShadow = 1u << 29;
 constexpr uint32_t kSurfaceSkirting = 1u << 28;
 
 Rgb to_rgb(const Colour& c) {
-  auto channel = [](double v) { return static_cast<uint8_t>(std::clamp(std::lround(v), 0L, 255L)); };
+  auto channel = [](double v) { return static_cast<uint8_t>(std::clamp(v, 0.0, 255.0) + 0.5); };
   return {channel(c.r), channel(c.g), channel(c.b)};
 }
 
@@ -276,39 +276,84 @@ Hit trace(const Scene& sc, const Vec3& r, int u, int v) {
 
 }  // namespace
 
-// The pixel rectangle a box (between heights z0 and z1) may cover: its twelve edges sampled (the
-// lens bows straight edges, so corners alone are not enough) and projected, widened by two
-// pixels; the whole image if any of it is behind or beside the lens plane.
+// The pixel rectangle a box (between heights z0 and z1) may cover: each face clipped to the view's
+// frustum (Sutherland–Hodgman, in the camera's frame: a wall beside and behind the lens keeps only
+// what is in view), its edges sampled (the lens bows straight edges, so corners alone are not
+// enough) and projected, widened by two pixels; empty (u0 > u1) if nothing of it is in view.
 namespace {
+
+// The frustum's half-widths on the z = 1 plane: the image's corners undistorted, a little wider.
+void frustum(const CameraModel& model, double* half_x, double* half_y) {
+  const int w = model.intrinsics().width_px, h = model.intrinsics().height_px;
+  *half_x = *half_y = 0.0;
+  for (double u : {-0.5, w - 0.5})
+    for (double v : {-0.5, h - 0.5}) {
+      double x = 0.0, y = 0.0;
+      model.undistort(u, v, &x, &y);
+      *half_x = std::max(*half_x, std::fabs(x) * 1.05);
+      *half_y = std::max(*half_y, std::fabs(y) * 1.05);
+    }
+}
+
+// Clips a polygon (camera frame) to the frustum's five planes.
+std::vector<Vec3> clip_to_view(std::vector<Vec3> poly, double hx, double hy) {
+  constexpr double kNear = 0.01;
+  auto side = [hx, hy](int plane, const Vec3& p) {
+    switch (plane) {
+      case 0: return p.z - kNear;
+      case 1: return hx * p.z - p.x;
+      case 2: return hx * p.z + p.x;
+      case 3: return hy * p.z - p.y;
+      default: return hy * p.z + p.y;
+    }
+  };
+  for (int plane = 0; plane < 5 && !poly.empty(); ++plane) {
+    std::vector<Vec3> out;
+    for (size_t i = 0; i < poly.size(); ++i) {
+      const Vec3& a = poly[i];
+      const Vec3& b = poly[(i + 1) % poly.size()];
+      const double fa = side(plane, a), fb = side(plane, b);
+      if (fa >= 0) out.push_back(a);
+      if ((fa >= 0) != (fb >= 0)) {
+        const double t = fa / (fa - fb);
+        out.push_back({a.x + t * (b.x - a.x), a.y + t * (b.y - a.y), a.z + t * (b.z - a.z)});
+      }
+    }
+    poly.swap(out);
+  }
+  return poly;
+}
 
 void pixel_bounds(const CameraModel& model_, const Pose& pose, const Slab& slab, double z0, double z1, int* u0, int* u1,
                   int* v0, int* v1) {
   const int w = model_.intrinsics().width_px, h = model_.intrinsics().height_px;
-  const double xs[2] = {slab.x0, slab.x1}, ys[2] = {slab.y0, slab.y1}, zs[2] = {z0, z1};
+  double hx = 0.0, hy = 0.0;
+  frustum(model_, &hx, &hy);
+  Vec3 corner[8];
+  for (int k = 0; k < 8; ++k)
+    corner[k] = model_.to_camera(pose, {k & 1 ? slab.x1 : slab.x0, k & 2 ? slab.y1 : slab.y0, k & 4 ? z1 : z0});
+  static const int kFaces[6][4] = {{0, 1, 3, 2}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 3, 7, 5}};
   double u_min = 1e30, u_max = -1e30, v_min = 1e30, v_max = -1e30;
   constexpr int kSamples = 8;
-  for (int axis = 0; axis < 3; ++axis) {
-    for (int a = 0; a < 2; ++a) {
-      for (int b = 0; b < 2; ++b) {
-        for (int k = 0; k <= kSamples; ++k) {
-          const double f = static_cast<double>(k) / kSamples;
-          Vec3 p;
-          if (axis == 0) p = {xs[0] + f * (xs[1] - xs[0]), ys[a], zs[b]};
-          else if (axis == 1) p = {xs[a], ys[0] + f * (ys[1] - ys[0]), zs[b]};
-          else p = {xs[a], ys[b], zs[0] + f * (zs[1] - zs[0])};
-          const Vec3 cam = model_.to_camera(pose, p);
-          // Far off-axis points distort wildly: beyond ~60° the box may be anywhere.
-          if (cam.z <= 0.5 * std::sqrt(cam.x * cam.x + cam.y * cam.y)) {
-            *u0 = 0, *u1 = w - 1, *v0 = 0, *v1 = h - 1;
-            return;
-          }
-          double u = 0.0, v = 0.0;
-          model_.distort(cam.x / cam.z, cam.y / cam.z, &u, &v);
-          u_min = std::min(u_min, u), u_max = std::max(u_max, u);
-          v_min = std::min(v_min, v), v_max = std::max(v_max, v);
-        }
+  for (const auto& face : kFaces) {
+    const std::vector<Vec3> poly =
+        clip_to_view({corner[face[0]], corner[face[1]], corner[face[2]], corner[face[3]]}, hx, hy);
+    for (size_t i = 0; i < poly.size(); ++i) {
+      const Vec3& a = poly[i];
+      const Vec3& b = poly[(i + 1) % poly.size()];
+      for (int k = 0; k < kSamples; ++k) {
+        const double f = static_cast<double>(k) / kSamples;
+        const Vec3 p{a.x + f * (b.x - a.x), a.y + f * (b.y - a.y), a.z + f * (b.z - a.z)};
+        double u = 0.0, v = 0.0;
+        model_.distort(p.x / p.z, p.y / p.z, &u, &v);
+        u_min = std::min(u_min, u), u_max = std::max(u_max, u);
+        v_min = std::min(v_min, v), v_max = std::max(v_max, v);
       }
     }
+  }
+  if (u_min > u_max) {
+    *u0 = *v0 = 1, *u1 = *v1 = 0;
+    return;
   }
   *u0 = std::max(0, static_cast<int>(std::floor(u_min)) - 2);
   *u1 = std::min(w - 1, static_cast<int>(std::ceil(u_max)) + 2);

@@ -149,8 +149,6 @@ std::string parse_world(const json::Value& msg, WorldChange* c) {
   } else if (!boundary->is_bool()) {
     return "boundary must be true, false or [x_min, y_min, x_max, y_max] (m)";
   }
-  if (const json::Value* look = msg.find("look"))
-    if (std::string e = parse_look(*look, &c->look); !e.empty()) return e;
   return parse_box_list(msg, "boxes", &c->add_boxes);
 }
 
@@ -284,7 +282,6 @@ void apply_world_change(const WorldChange& c, World* world) {
   }
   if (c.what == WorldChange::What::kWorld) {
     world->clear_physical();
-    world->set_look(c.look);
     if (c.has_grid)
       world->add_wall_grid(c.grid_origin_x_m, c.grid_origin_y_m, c.grid_resolution_m, c.grid, c.wall_height_m,
                            c.wall_colour);

@@ -26,7 +26,6 @@ struct WorldChange {
   uint32_t wall_colour = World::kWallColour;
   bool has_boundary = false;
   double boundary[4] = {0.0, 0.0, 0.0, 0.0};  // x0, y0, x1, y1
-  Look look;  // the world's "look" (look.hpp); absent: today's
 
   // kWorld and kBoxes.
   bool clear_boxes = false;
