@@ -28,6 +28,7 @@ class Box:
     height: float = 0.3
     colour: str = "#b8742f"
     id: str | None = None
+    material: str | None = None  # "wall": drawn in the look's wall paint (sim/README.md, "The look")
 
     def message(self) -> dict[str, Any]:
         out: dict[str, Any] = {
@@ -40,6 +41,8 @@ class Box:
         }
         if self.id is not None:
             out["id"] = self.id
+        if self.material is not None:
+            out["material"] = self.material
         return out
 
 

@@ -41,6 +41,9 @@ class SimOptions:
     # The physical world, set before the firmware runs (it replaces the square arena of `grid`);
     # `start` is then checked against it.
     world: World | None = None
+    # How the world looks to the camera (sim/README.md, "The look"; a world file's "look"), set
+    # before the firmware runs and again at every restart. None: today's look.
+    look: dict[str, Any] | None = None
     quiet: bool = False  # only warnings and errors from the simulator on stderr
     # The host's end of the serial line (sim/README.md, "UART model"): the adapter's baud rate,
     # the USB delay each way in simulated ms (to the MCU, to the host), the FTDI latency timer
@@ -130,10 +133,12 @@ class Simulator(CameraControls):
             for listener in self._truth_listeners:
                 self.side.subscribe(listener)
             threading.Thread(target=self._watch_exit, args=(process,), name="sim exit", daemon=True).start()
-            if o.world is not None or o.faults:
+            if o.world is not None or o.faults or o.look is not None:
                 try:
                     if o.faults:
                         self.control("faults", clear=True, **o.faults)
+                    if o.look is not None:
+                        self.control("look", look=o.look)
                     if o.world is not None:
                         self.set_world(o.world)
                         if o.start is not None:
@@ -192,6 +197,12 @@ class Simulator(CameraControls):
     def set_world(self, world: World, at_s: float | None = None) -> dict[str, Any]:
         """Replaces the physical world, now or at simulated time at_s; returns the ack."""
         return self.control("world", **world.message(), **_at(at_s))
+
+    def set_look(self, look: dict[str, Any] | None) -> None:
+        """How the world looks to the camera (None: today's look), now and at every restart."""
+        with self.lifecycle:
+            self.control("look", look=look)
+            self.options.look = look
 
     def add_boxes(self, boxes: Sequence[Box], at_s: float | None = None) -> dict[str, Any]:
         return self.control("boxes", add=[b.message() for b in boxes], **_at(at_s))

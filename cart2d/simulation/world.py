@@ -170,20 +170,30 @@ def world_file_boxes(path: Path, start: tuple[float, float] = (0.0, 0.0)) -> tup
     """The boxes of a world file (`cart2d sim --world`: a mission's "world", {"boxes": [...]}),
     each with an id, or one sentence per problem: unreadable, not JSON, a bad box, a box under the
     cart at its start."""
+    boxes, _, problems = world_file(path, start)
+    return boxes, problems
+
+
+def world_file(
+    path: Path, start: tuple[float, float] = (0.0, 0.0)
+) -> tuple[list[Box], dict[str, Any] | None, list[str]]:
+    """A world file's boxes (as world_file_boxes) and its "look" (None if it has none; the
+    simulator checks it), or one sentence per problem."""
     try:
         data = read_regular(path, MAX_FILE_BYTES)
     except ValueError:  # a NUL in the name
-        return [], [f"the world file {path!r} cannot be read: its name holds a NUL"]
+        return [], None, [f"the world file {path!r} cannot be read: its name holds a NUL"]
     except FileNotFoundError:
-        return [], [f"there is no world file {path}"]
+        return [], None, [f"there is no world file {path}"]
     except IsADirectoryError:
-        return [], [f"{path} is a folder, not a world file"]
+        return [], None, [f"{path} is a folder, not a world file"]
     except OSError as exc:
-        return [], [f"the world file {path} cannot be read: {exc.strerror or exc}"]
+        return [], None, [f"the world file {path} cannot be read: {exc.strerror or exc}"]
     spec, problems = parse(data, WorldSpec, f"the world file {path}")
     if spec is None:
         said = [p.replace("(a mission has:", "(a world has:") for p in problems]
-        return [], [p if p.startswith("the world file") else f"{path}: {p}" for p in said]
+        return [], None, [p if p.startswith("the world file") else f"{path}: {p}" for p in said]
     boxes = named([b.box() for b in spec.boxes], set())
     under = [under_cart_problem(k, b, start) for k, b in enumerate(boxes)]
-    return boxes, [f"{path}: {p.replace(' true ', ' start ')}" for p in under if p is not None]
+    look = spec.look.message() if spec.look is not None else None
+    return boxes, look, [f"{path}: {p.replace(' true ', ' start ')}" for p in under if p is not None]

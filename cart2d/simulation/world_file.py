@@ -6,13 +6,14 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any, TypeVar
+from typing import Any, Literal, TypeVar
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from cart2d.maps.world import Box
 from cart2d.params import footprint_radius_m
 from cart2d.shown import clipped, quoted
+from cart2d.simulation.look import LookSpec
 
 Model = TypeVar("Model", bound=BaseModel)
 MAX_COORDINATE_M = 1e5  # what the simulator takes (sim/src/world_change.cpp, kMaxCoordinateM)
@@ -81,9 +82,10 @@ class BoxSpec(BaseModel):
     height: float = Field(0.3, gt=0.0, le=10.0, allow_inf_nan=False)
     colour: str = Field("#b8742f", pattern=r"^#[0-9a-fA-F]{6}$")
     id: str | None = Field(None, min_length=1, max_length=100)
+    material: Literal["wall"] | None = Field(None, description="wall: the look's wall paint and skirting")
 
     def box(self) -> Box:
-        return Box(self.x, self.y, self.sx, self.sy, self.height, self.colour, self.id)
+        return Box(self.x, self.y, self.sx, self.sy, self.height, self.colour, self.id, self.material)
 
 
 class WorldSpec(BaseModel):
@@ -92,6 +94,9 @@ class WorldSpec(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
     boxes: list[BoxSpec] = Field(default_factory=list, max_length=10_000)
+    # How the world looks to the camera (issue 24): floor material, wall paint, lamps, the camera's
+    # effects (cart2d/simulation/look.py; sim/README.md, "The look").
+    look: LookSpec | None = Field(None, description="materials, lights, camera effects")
 
 
 def world_problems(start: tuple[float, float, float], world: WorldSpec | None) -> list[str]:

@@ -23,7 +23,7 @@ from cart2d.simulation.camera import SimCameraServer
 from cart2d.simulation.side_channel import SimulatorError
 from cart2d.simulation.simulator import SimOptions, Simulator
 from cart2d.simulation.wiring import simulated_gateway
-from cart2d.simulation.world import with_boxes, world_file_boxes
+from cart2d.simulation.world import with_boxes, world_file
 from cart2d.store import Store
 from cart2d.tools import cli_args
 from cart2d.tools import recording_args as recording_cli
@@ -161,7 +161,7 @@ def _fault_options(options: list[str]) -> tuple[dict[str, float], list[str]]:
 def cmd_sim(args: argparse.Namespace) -> int:
     faults, problems = _fault_options(args.fault)
     problems += [p for p in [recording_cli.record_problem(args)] if p]
-    boxes, world_problems = world_file_boxes(args.world) if args.world else ([], [])
+    boxes, look, world_problems = world_file(args.world) if args.world else ([], None, [])
     problems += world_problems
     for problem in problems:
         print(f"cart2d sim: {problem}", file=sys.stderr)
@@ -187,6 +187,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
             bootloader=None if args.no_bootloader else default_bootloader(),
             # the map's walls and the --world boxes, placed again at every restart (simulation/world.py)
             world=with_boxes(world_for(where.settings.map), World(tuple(boxes))) if boxes else None,
+            look=look,  # the world file's materials and lights (sim/README.md, "The look")
         )
         try:
             sim = Simulator(options).start()

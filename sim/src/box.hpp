@@ -24,6 +24,7 @@ struct Box {
   double hx_m = 0.0, hy_m = 0.0;  // half the size along x and y (> 0)
   double height_m = 0.0;          // for the camera (issue 14); the physics is planar
   uint32_t colour_rgb = 0;        // 0xRRGGBB, for the camera
+  bool wall_paint = false;        // drawn in the look's wall paint, skirting and all (a room's inner walls)
   BoxKind kind = BoxKind::kBox;
   std::string id;                 // the caller's name for it ("" if none)
   bool obstacle_twin = false;     // made physical from a virtual obstacle (removed with it)

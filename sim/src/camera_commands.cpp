@@ -1,6 +1,7 @@
-// The side channel's camera messages: `camera` (frames on or off for this client, settings) and
-// `target` (place or remove the checkerboard); frames go out as {"type":"frame",...} lines once
-// their latency has passed in simulated time (sim/README.md, "The camera").
+// The side channel's camera messages: `camera` (frames on or off for this client, settings),
+// `target` (place or remove the checkerboard) and `look` (the world's look: materials, lights, the
+// camera's effects); frames go out as {"type":"frame",...} lines once their latency has passed in
+// simulated time (sim/README.md, "The camera").
 #include "log.hpp"
 #include "simulator.hpp"
 
@@ -27,6 +28,18 @@ std::string Simulator::cmd_target(const json::Value& msg) {
   return camera_->set_target(*board);
 }
 
+// {"type":"look","look":{...} or null}: how the world looks to the camera (look.hpp), all or nothing;
+// null or {} is today's look. The physics does not change.
+std::string Simulator::cmd_look(const json::Value& msg) {
+  const json::Value* look = msg.find("look");
+  if (!look) return "look needs \"look\": an object {floor, walls, lights, ...} or null";
+  Look next;
+  if (!look->is_null())
+    if (std::string error = parse_look(*look, &next); !error.empty()) return error;
+  rig_.world().set_look(next);
+  return "";
+}
+
 void Simulator::camera_step(uint64_t end_cycle) {
   if (!camera_->on()) return;
   bool any = false;
@@ -36,7 +49,7 @@ void Simulator::camera_step(uint64_t end_cycle) {
     return;
   }
   std::vector<CameraFrame> ready;
-  camera_->step(end_cycle, rig_.world(), rig_.cart().pose(), &ready);
+  camera_->step(end_cycle, rig_.world(), rig_.cart().pose(), &ready, rig_.cart().body().twist());
   for (const CameraFrame& f : ready) {
     const std::string line = json::Object()
                                  .add("type", "frame")

@@ -2,6 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
+
+#include "camera_effects.hpp"
+#include "camera_light.hpp"
+#include "camera_materials.hpp"
 
 #include "robot_params.hpp"  // params::sim::camera
 #include "rng.hpp"
@@ -25,8 +30,11 @@ constexpr double kShadeTop = 1.0, kShadeFaceX = 0.8, kShadeFaceY = 0.9;
 struct Slab {
   double x0, x1, y0, y1, h;
   uint32_t colour;
-  Rgb top, face_x, face_y;  // the colour as lit on each face
+  Rgb top, face_x, face_y;  // the colour as lit on each face (today's fixed light)
   int u0 = 0, u1 = 0, v0 = 0, v1 = 0;  // the pixels it may cover (rays elsewhere skip it)
+  int ru0 = 1, ru1 = 0, rv0 = 1, rv1 = 0;  // ...and its reflection in a glossy floor (none: empty)
+  bool painted = false;  // in the look's wall paint, with its skirting
+  uint32_t paint = 0;    // its colour under the look's lights
 };
 
 // Ray O + t·d against an axis-aligned box on the floor (Kay & Kajiya slabs). Returns the entry
@@ -90,7 +98,8 @@ Vec3 Checkerboard::corner(double i, double j) const {
 
 namespace {
 
-// What one frame's rays are cast against: the lens, the heading, the boxes in view, the board.
+// What one frame's rays are cast against: the lens, the heading, the boxes in view, the board,
+// the extra items, and the look with its lights.
 struct Scene {
   Vec3 o;
   double c = 1.0, s = 0.0;
@@ -99,16 +108,119 @@ struct Scene {
   Vec3 bx, by, bn, b0;
   Rgb background = rgb_of(CameraRenderer::kBackgroundColour);
   Rgb dark = rgb_of(CameraRenderer::kBoardDark), light = rgb_of(CameraRenderer::kBoardLight);
+  const std::vector<const SceneItem*>* items = nullptr;
+  const Look* look = nullptr;
+  std::unique_ptr<Lighting> lighting;  // with lights only
+  double pixel_rad = 1.0 / 300.0;       // the angle one pixel spans (texture filtering)
 };
 
-// A ray's colour and the surface it met (floor 0, background 1, box 2 + index·4 + face,
-// board 1 << 30 | square): pixels whose surfaces differ are on an edge.
+// A ray's colour and the surface it met (floor 0, or 1 << 29 | the lamps whose shadow covers it;
+// background 1; box 2 + index·4 + face, | 1 << 28 on its skirting; board 1 << 30 | square; an
+// item's own ids): pixels whose surfaces differ are on an edge.
 struct Hit {
   Rgb colour;
   uint32_t surface = 0;
+  double t = CameraRenderer::kMaxRangeM;
 };
 
 constexpr uint32_t kSurfaceBoard = 1u << 30;
+constexpr uint32_t kSurfaceShadow = 1u << 29;
+constexpr uint32_t kSurfaceSkirting = 1u << 28;
+
+Rgb to_rgb(const Colour& c) {
+  auto channel = [](double v) { return static_cast<uint8_t>(std::clamp(v, 0.0, 255.0) + 0.5); };
+  return {channel(c.r), channel(c.g), channel(c.b)};
+}
+
+Colour scaled(const Colour& c, double k) { return {c.r * k, c.g * k, c.b * k}; }
+
+// The nearest box along o + t·d with t < *best among those whose pixel bounds (the reflected
+// ones if `mirrored`) hold (u, v); its index and entered face, or -1.
+long nearest_slab(const Scene& sc, const Vec3& o, const Vec3& d, int u, int v, bool mirrored, double* best,
+                  uint32_t* face) {
+  long found = -1;
+  for (size_t k = 0; k < sc.slabs.size(); ++k) {
+    const Slab& box = sc.slabs[k];
+    if (mirrored ? (u < box.ru0 || u > box.ru1 || v < box.rv0 || v > box.rv1)
+                 : (u < box.u0 || u > box.u1 || v < box.v0 || v > box.v1))
+      continue;
+    double t = 0.0, shade = 1.0;
+    if (hit_slab(o, d, box, &t, &shade) && t < *best) {
+      *best = t;
+      found = static_cast<long>(k);
+      *face = shade == kShadeTop ? 0 : shade == kShadeFaceX ? 1 : 2;
+    }
+  }
+  return found;
+}
+
+// A box's face as lit: today's fixed shades, or its paint under the look's lamps.
+Rgb box_colour(const Scene& sc, const Slab& sl, uint32_t face, const Vec3& p, const Vec3& d, bool* skirting) {
+  const Look& look = *sc.look;
+  *skirting = sl.painted && face != 0 && p.z < look.walls.skirting_m;
+  if (!sl.painted && !look.lit()) return face == 0 ? sl.top : face == 1 ? sl.face_x : sl.face_y;
+  Colour albedo = colour_of(*skirting ? look.walls.skirting_colour : sl.paint);
+  if (!look.lit()) {
+    const double shade = face == 0 ? kShadeTop : face == 1 ? kShadeFaceX : kShadeFaceY;
+    return to_rgb(scaled(albedo, shade));
+  }
+  const Vec3 n = face == 0 ? Vec3{0, 0, 1} : face == 1 ? Vec3{d.x > 0 ? -1.0 : 1.0, 0, 0} : Vec3{0, d.y > 0 ? -1.0 : 1.0, 0};
+  return to_rgb(scaled(albedo, sc.lighting->surface(p, n)));
+}
+
+// What a glossy floor at p mirrors along the view ray d: the boxes and walls (their reflection
+// lies below them in the picture), else the ceiling; and the lamps' images.
+Colour reflection(const Scene& sc, const Vec3& p, const Vec3& d, int u, int v) {
+  const Vec3 r{d.x, d.y, -d.z};
+  const Vec3 o{p.x + r.x * 1e-6, p.y + r.y * 1e-6, 1e-6};
+  double best = CameraRenderer::kMaxRangeM;
+  uint32_t face = 0;
+  Colour out = colour_of(sc.look->ceiling);
+  const long k = nearest_slab(sc, o, r, u, v, true, &best, &face);
+  if (k >= 0) {
+    const Vec3 q{o.x + best * r.x, o.y + best * r.y, o.z + best * r.z};
+    bool skirting = false;
+    const Rgb c = box_colour(sc, sc.slabs[static_cast<size_t>(k)], face, q, r, &skirting);
+    out = {static_cast<double>(c.r), static_cast<double>(c.g), static_cast<double>(c.b)};
+  }
+  if (sc.lighting) {
+    const double glow = 255.0 * sc.lighting->highlight(p, d, sc.look->floor.gloss);
+    out = {out.r + glow, out.g + glow, out.b + glow};
+  }
+  return out;
+}
+
+Hit floor_hit(const Scene& sc, const Vec3& d, double t, int u, int v) {
+  const Look& look = *sc.look;
+  const Vec3 p{sc.o.x + t * d.x, sc.o.y + t * d.y, 0.0};
+  Colour c;
+  if (look.floor.material == FloorLook::Material::kDefault) {
+    const int level = static_cast<int>(CameraRenderer::kFloorColour & 0xff) + floor_texture(p.x, p.y);
+    if (!look.lit() && look.floor.gloss <= 0.0) {
+      const auto g = static_cast<uint8_t>(level);
+      return {{g, g, g}, 0, t};
+    }
+    c = {static_cast<double>(level), static_cast<double>(level), static_cast<double>(level)};
+  } else {
+    // A pixel's footprint on the floor: longer as the ray grazes it (the geometric mean of its two sides).
+    const double footprint = t * sc.pixel_rad / std::sqrt(std::max(std::fabs(d.z), 0.02));
+    c = floor_albedo(look.floor, p.x, p.y, footprint);
+  }
+  uint32_t surface = 0;
+  if (sc.lighting) {
+    uint32_t bits = 0;
+    c = scaled(c, sc.lighting->floor(p.x, p.y, &bits));
+    if (bits) surface = kSurfaceShadow | bits;
+  }
+  if (look.floor.gloss > 0.0) {
+    // More mirror-like as the view grazes the floor (Schlick's Fresnel term, shape only).
+    const double k = 1.0 - std::fabs(d.z);
+    const double g = look.floor.gloss * (0.35 + 0.65 * k * k * k * k * k);
+    const Colour r = reflection(sc, p, d, u, v);
+    c = {c.r * (1 - g) + r.r * g, c.g * (1 - g) + r.g * g, c.b * (1 - g) + r.b * g};
+  }
+  return {to_rgb(c), surface, t};
+}
 
 Hit trace(const Scene& sc, const Vec3& r, int u, int v) {
   const Vec3 d{sc.c * r.x - sc.s * r.y, sc.s * r.x + sc.c * r.y, r.z};
@@ -117,21 +229,14 @@ Hit trace(const Scene& sc, const Vec3& r, int u, int v) {
   Hit hit{sc.background, 1};
   if (d.z < -1e-12) {
     best = -o.z / d.z;
-    const int level = static_cast<int>(CameraRenderer::kFloorColour & 0xff) +
-                      floor_texture(o.x + best * d.x, o.y + best * d.y);
-    const auto g = static_cast<uint8_t>(level);
-    hit = {{g, g, g}, 0};
+    hit = floor_hit(sc, d, best, u, v);
   }
-  for (size_t k = 0; k < sc.slabs.size(); ++k) {
-    const Slab& box = sc.slabs[k];
-    if (u < box.u0 || u > box.u1 || v < box.v0 || v > box.v1) continue;
-    double t = 0.0, shade = 1.0;
-    if (hit_slab(o, d, sc.slabs[k], &t, &shade) && t < best) {
-      best = t;
-      const Slab& sl = sc.slabs[k];
-      const uint32_t face = shade == kShadeTop ? 0 : shade == kShadeFaceX ? 1 : 2;
-      hit = {face == 0 ? sl.top : face == 1 ? sl.face_x : sl.face_y, 2 + static_cast<uint32_t>(k) * 4 + face};
-    }
+  uint32_t face = 0;
+  if (const long k = nearest_slab(sc, o, d, u, v, false, &best, &face); k >= 0) {
+    const Vec3 p{o.x + best * d.x, o.y + best * d.y, o.z + best * d.z};
+    bool skirting = false;
+    const Rgb c = box_colour(sc, sc.slabs[static_cast<size_t>(k)], face, p, d, &skirting);
+    hit = {c, (2 + static_cast<uint32_t>(k) * 4 + face) | (skirting ? kSurfaceSkirting : 0u), best};
   }
   if (sc.board) {
     const Vec3 &bn = sc.bn, &b0 = sc.b0;
@@ -149,9 +254,20 @@ Hit trace(const Scene& sc, const Vec3& r, int u, int v) {
           const auto ia = static_cast<int64_t>(std::floor(a)), ib = static_cast<int64_t>(std::floor(b));
           const bool dark = squares && (ia + ib) % 2 == 0;
           const uint32_t square = squares ? static_cast<uint32_t>((ia + 1) * (rows + 1) + (ib + 1)) : 0xffff;
-          hit = {dark ? sc.dark : sc.light,
-                 kSurfaceBoard | (dark ? square : 0xffff)};
+          hit = {dark ? sc.dark : sc.light, kSurfaceBoard | (dark ? square : 0xffff), t};
+          best = t;
         }
+      }
+    }
+  }
+  if (sc.items) {
+    for (const SceneItem* item : *sc.items) {
+      double t = 0.0;
+      Rgb colour;
+      uint32_t surface = 0;
+      if (item->hit(o, d, std::min(best, CameraRenderer::kMaxRangeM), &t, &colour, &surface)) {
+        best = t;
+        hit = {colour, surface, t};
       }
     }
   }
@@ -160,70 +276,139 @@ Hit trace(const Scene& sc, const Vec3& r, int u, int v) {
 
 }  // namespace
 
-// The pixel rectangle a box may cover: its twelve edges sampled (the lens bows straight edges,
-// so corners alone are not enough) and projected, widened by two pixels; the whole image if any
-// of it is behind or beside the lens plane.
+// The pixel rectangle a box (between heights z0 and z1) may cover: each face clipped to the view's
+// frustum (Sutherland–Hodgman, in the camera's frame: a wall beside and behind the lens keeps only
+// what is in view), its edges sampled (the lens bows straight edges, so corners alone are not
+// enough) and projected, widened by two pixels; empty (u0 > u1) if nothing of it is in view.
 namespace {
 
-void pixel_bounds(const CameraModel& model_, const Pose& pose, Slab* slab) {
+// The frustum's half-widths on the z = 1 plane: the image's corners undistorted, a little wider.
+void frustum(const CameraModel& model, double* half_x, double* half_y) {
+  const int w = model.intrinsics().width_px, h = model.intrinsics().height_px;
+  *half_x = *half_y = 0.0;
+  for (double u : {-0.5, w - 0.5})
+    for (double v : {-0.5, h - 0.5}) {
+      double x = 0.0, y = 0.0;
+      model.undistort(u, v, &x, &y);
+      *half_x = std::max(*half_x, std::fabs(x) * 1.05);
+      *half_y = std::max(*half_y, std::fabs(y) * 1.05);
+    }
+}
+
+// Clips a polygon (camera frame) to the frustum's five planes.
+std::vector<Vec3> clip_to_view(std::vector<Vec3> poly, double hx, double hy) {
+  constexpr double kNear = 0.01;
+  auto side = [hx, hy](int plane, const Vec3& p) {
+    switch (plane) {
+      case 0: return p.z - kNear;
+      case 1: return hx * p.z - p.x;
+      case 2: return hx * p.z + p.x;
+      case 3: return hy * p.z - p.y;
+      default: return hy * p.z + p.y;
+    }
+  };
+  for (int plane = 0; plane < 5 && !poly.empty(); ++plane) {
+    std::vector<Vec3> out;
+    for (size_t i = 0; i < poly.size(); ++i) {
+      const Vec3& a = poly[i];
+      const Vec3& b = poly[(i + 1) % poly.size()];
+      const double fa = side(plane, a), fb = side(plane, b);
+      if (fa >= 0) out.push_back(a);
+      if ((fa >= 0) != (fb >= 0)) {
+        const double t = fa / (fa - fb);
+        out.push_back({a.x + t * (b.x - a.x), a.y + t * (b.y - a.y), a.z + t * (b.z - a.z)});
+      }
+    }
+    poly.swap(out);
+  }
+  return poly;
+}
+
+void pixel_bounds(const CameraModel& model_, const Pose& pose, const Slab& slab, double z0, double z1, int* u0, int* u1,
+                  int* v0, int* v1) {
   const int w = model_.intrinsics().width_px, h = model_.intrinsics().height_px;
-  const double xs[2] = {slab->x0, slab->x1}, ys[2] = {slab->y0, slab->y1}, zs[2] = {0.0, slab->h};
+  double hx = 0.0, hy = 0.0;
+  frustum(model_, &hx, &hy);
+  Vec3 corner[8];
+  for (int k = 0; k < 8; ++k)
+    corner[k] = model_.to_camera(pose, {k & 1 ? slab.x1 : slab.x0, k & 2 ? slab.y1 : slab.y0, k & 4 ? z1 : z0});
+  static const int kFaces[6][4] = {{0, 1, 3, 2}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 3, 7, 5}};
   double u_min = 1e30, u_max = -1e30, v_min = 1e30, v_max = -1e30;
   constexpr int kSamples = 8;
-  for (int axis = 0; axis < 3; ++axis) {
-    for (int a = 0; a < 2; ++a) {
-      for (int b = 0; b < 2; ++b) {
-        for (int k = 0; k <= kSamples; ++k) {
-          const double f = static_cast<double>(k) / kSamples;
-          Vec3 p;
-          if (axis == 0) p = {xs[0] + f * (xs[1] - xs[0]), ys[a], zs[b]};
-          else if (axis == 1) p = {xs[a], ys[0] + f * (ys[1] - ys[0]), zs[b]};
-          else p = {xs[a], ys[b], zs[0] + f * (zs[1] - zs[0])};
-          const Vec3 cam = model_.to_camera(pose, p);
-          // Far off-axis points distort wildly: beyond ~60° the box may be anywhere.
-          if (cam.z <= 0.5 * std::sqrt(cam.x * cam.x + cam.y * cam.y)) {
-            slab->u0 = 0, slab->u1 = w - 1, slab->v0 = 0, slab->v1 = h - 1;
-            return;
-          }
-          double u = 0.0, v = 0.0;
-          model_.distort(cam.x / cam.z, cam.y / cam.z, &u, &v);
-          u_min = std::min(u_min, u), u_max = std::max(u_max, u);
-          v_min = std::min(v_min, v), v_max = std::max(v_max, v);
-        }
+  for (const auto& face : kFaces) {
+    const std::vector<Vec3> poly =
+        clip_to_view({corner[face[0]], corner[face[1]], corner[face[2]], corner[face[3]]}, hx, hy);
+    for (size_t i = 0; i < poly.size(); ++i) {
+      const Vec3& a = poly[i];
+      const Vec3& b = poly[(i + 1) % poly.size()];
+      for (int k = 0; k < kSamples; ++k) {
+        const double f = static_cast<double>(k) / kSamples;
+        const Vec3 p{a.x + f * (b.x - a.x), a.y + f * (b.y - a.y), a.z + f * (b.z - a.z)};
+        double u = 0.0, v = 0.0;
+        model_.distort(p.x / p.z, p.y / p.z, &u, &v);
+        u_min = std::min(u_min, u), u_max = std::max(u_max, u);
+        v_min = std::min(v_min, v), v_max = std::max(v_max, v);
       }
     }
   }
-  slab->u0 = std::max(0, static_cast<int>(std::floor(u_min)) - 2);
-  slab->u1 = std::min(w - 1, static_cast<int>(std::ceil(u_max)) + 2);
-  slab->v0 = std::max(0, static_cast<int>(std::floor(v_min)) - 2);
-  slab->v1 = std::min(h - 1, static_cast<int>(std::ceil(v_max)) + 2);
+  if (u_min > u_max) {
+    *u0 = *v0 = 1, *u1 = *v1 = 0;
+    return;
+  }
+  *u0 = std::max(0, static_cast<int>(std::floor(u_min)) - 2);
+  *u1 = std::min(w - 1, static_cast<int>(std::ceil(u_max)) + 2);
+  *v0 = std::max(0, static_cast<int>(std::floor(v_min)) - 2);
+  *v1 = std::min(h - 1, static_cast<int>(std::ceil(v_max)) + 2);
 }
 
 }  // namespace
 
 void CameraRenderer::render_clean(const World& world, const Pose& pose, const Checkerboard* board,
                                   std::vector<Rgb>* out) const {
+  FrameScene scene;
+  scene.world = &world;
+  scene.pose = pose;
+  scene.board = board;
+  render_clean(scene, out);
+}
+
+void CameraRenderer::render_clean(const FrameScene& frame, std::vector<Rgb>* out, std::vector<float>* depth) const {
+  const World& world = *frame.world;
+  const Pose& pose = frame.pose;
   Scene sc;
   sc.o = model_.centre(pose);
   sc.c = std::cos(pose.theta_rad);
   sc.s = std::sin(pose.theta_rad);
+  sc.look = &world.look();
+  sc.items = frame.items.empty() ? nullptr : &frame.items;
+  sc.pixel_rad = 1.0 / model_.intrinsics().fx;
+  const bool glossy = sc.look->floor.gloss > 0.0;
+  if (sc.look->lit())
+    sc.lighting = std::make_unique<Lighting>(*sc.look, world.boxes(), pose, params::body::footprint_radius_m);
   const Vec3& o = sc.o;
   const double c = sc.c, s = sc.s;
-  // Boxes in front of the lens and within range (a map's wall grid can hold many).
+  // Boxes in front of the lens and within range (a map's wall grid can hold many); with a glossy
+  // floor also those whose reflection may be in view.
   for (const Box& b : world.boxes()) {
     const double x0 = b.cx_m - b.hx_m, x1 = b.cx_m + b.hx_m, y0 = b.cy_m - b.hy_m, y1 = b.cy_m + b.hy_m;
     const double ahead = std::max({(x0 - o.x) * c + (y0 - o.y) * s, (x1 - o.x) * c + (y0 - o.y) * s,
                                    (x0 - o.x) * c + (y1 - o.y) * s, (x1 - o.x) * c + (y1 - o.y) * s});
     if (ahead <= 0.0 || box_distance(b, o.x, o.y).dist_m > kMaxRangeM || b.height_m <= 0.0) continue;
+    const bool painted = b.wall_paint || (b.kind == BoxKind::kWall && sc.look->walls.painted);
+    const uint32_t paint = painted ? sc.look->walls.colour : b.colour_rgb;
     Slab slab{x0, x1, y0, y1, b.height_m, b.colour_rgb, rgb_of(b.colour_rgb, kShadeTop),
               rgb_of(b.colour_rgb, kShadeFaceX), rgb_of(b.colour_rgb, kShadeFaceY)};
-    pixel_bounds(model_, pose, &slab);
-    if (slab.u0 <= slab.u1 && slab.v0 <= slab.v1) sc.slabs.push_back(slab);
+    slab.painted = painted;
+    slab.paint = paint;
+    pixel_bounds(model_, pose, slab, 0.0, slab.h, &slab.u0, &slab.u1, &slab.v0, &slab.v1);
+    if (glossy) pixel_bounds(model_, pose, slab, -slab.h, 0.0, &slab.ru0, &slab.ru1, &slab.rv0, &slab.rv1);
+    if ((slab.u0 <= slab.u1 && slab.v0 <= slab.v1) || (glossy && slab.ru0 <= slab.ru1 && slab.rv0 <= slab.rv1))
+      sc.slabs.push_back(slab);
   }
-  if (board) {
-    sc.board = board;
-    board->axes(&sc.bx, &sc.by, &sc.bn);
-    sc.b0 = board->corner(0, 0);
+  if (frame.board) {
+    sc.board = frame.board;
+    frame.board->axes(&sc.bx, &sc.by, &sc.bn);
+    sc.b0 = frame.board->corner(0, 0);
   }
 
   const std::vector<Vec3>& rays = model_.rays_base();
@@ -231,14 +416,16 @@ void CameraRenderer::render_clean(const World& world, const Pose& pose, const Ch
   const int w = model_.intrinsics().width_px, h = model_.intrinsics().height_px;
   std::vector<uint32_t> surface(rays.size());
   out->resize(rays.size());
+  if (depth) depth->resize(rays.size());
   for (size_t i = 0; i < rays.size(); ++i) {
     const Hit hit = trace(sc, rays[i], static_cast<int>(i % static_cast<size_t>(w)), static_cast<int>(i / static_cast<size_t>(w)));
     (*out)[i] = hit.colour;
     surface[i] = hit.surface;
+    if (depth) (*depth)[i] = static_cast<float>(std::min(hit.t, kMaxRangeM));
   }
-  // Anti-aliasing where surfaces meet (a box's outline, the board's squares): those pixels are
-  // the mean of four rays, as a sensor pixel integrates its area; edges then land at sub-pixel
-  // places (what corner detection and calibration rely on). Elsewhere one ray is enough.
+  // Anti-aliasing where surfaces meet (a box's outline, the board's squares, a shadow's edge):
+  // those pixels are the mean of four rays, as a sensor pixel integrates its area; edges then land
+  // at sub-pixel places (what corner detection and calibration rely on). Elsewhere one ray is enough.
   std::vector<uint8_t> edge(rays.size(), 0);
   for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
@@ -263,26 +450,23 @@ void CameraRenderer::render_clean(const World& world, const Pose& pose, const Ch
 
 void CameraRenderer::render(const World& world, const Pose& pose, const Checkerboard* board, double exposure,
                             double noise_sigma, uint64_t seed, uint64_t frame, std::vector<uint8_t>* rgb) const {
+  FrameScene scene;
+  scene.world = &world;
+  scene.pose = pose;
+  scene.board = board;
+  render(scene, exposure, noise_sigma, seed, frame, rgb);
+}
+
+void CameraRenderer::render(const FrameScene& scene, double gain, double noise_sigma, uint64_t seed, uint64_t frame,
+                            std::vector<uint8_t>* rgb) const {
+  const CameraLook& look = scene.world->look().camera;
+  const bool blur = look.shutter_ms > 0.0 && (scene.twist.v_mps != 0.0 || scene.twist.omega_radps != 0.0);
   std::vector<Rgb> clean;
-  render_clean(world, pose, board, &clean);
-  rgb->resize(clean.size() * 3);
-  // Normal noise from four 16-bit uniforms of one draw (their sum has variance 4/12, hence the
-  // √3): close to Gaussian within ±3.5σ, and a fraction of the cost of Box–Muller per sample.
+  std::vector<float> depth;
+  render_clean(scene, &clean, blur ? &depth : nullptr);
+  if (blur) motion_blur(model_, scene.pose, scene.twist, look.shutter_ms / 1000.0, depth, &clean);
   Rng rng(seed, static_cast<uint64_t>(params::sim::camera::seed_stream) + frame);
-  const double scale = noise_sigma * std::sqrt(3.0) / 65536.0;
-  const bool noisy = noise_sigma > 0.0;
-  for (size_t i = 0; i < clean.size(); ++i) {
-    const uint8_t ch[3] = {clean[i].r, clean[i].g, clean[i].b};
-    for (int k = 0; k < 3; ++k) {
-      double v = ch[k] * exposure;
-      if (noisy) {
-        const uint64_t w = rng.next();
-        const double sum = static_cast<double>((w & 0xffff) + ((w >> 16) & 0xffff) + ((w >> 32) & 0xffff) + (w >> 48));
-        v += (sum - 2.0 * 65535.0) * scale;
-      }
-      (*rgb)[3 * i + static_cast<size_t>(k)] = static_cast<uint8_t>(std::clamp(v, 0.0, 255.0) + 0.5);
-    }
-  }
+  expose(clean, model_, look, gain, noise_sigma, &rng, rgb);
 }
 
 }  // namespace cart2d

@@ -1,8 +1,10 @@
 #include "sim_camera.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
+#include "camera_effects.hpp"
 #include "log.hpp"
 #include "robot_params.hpp"  // params::camera, params::sim::camera
 
@@ -135,9 +137,24 @@ void SimCamera::set_on(bool on, uint64_t now_cycle) {
   on_ = on;
 }
 
-bool SimCamera::capture(uint64_t k, const World& world, const Pose& pose, CameraFrame* frame, std::string* error) {
+void SimCamera::remove_item(const SceneItem* item) {
+  items_.erase(std::remove(items_.begin(), items_.end(), item), items_.end());
+}
+
+bool SimCamera::capture(uint64_t k, const World& world, const Pose& pose, CameraFrame* frame, std::string* error,
+                        const Twist& twist) {
   auto t0 = std::chrono::steady_clock::now();
-  renderer_->render(world, pose, board(), settings_.exposure, settings_.noise_sigma, seed_, k, &rgb_);
+  FrameScene scene;
+  scene.world = &world;
+  scene.pose = pose;
+  scene.twist = twist;
+  scene.board = board();
+  scene.items = items_;
+  const CameraLook& look = world.look().camera;
+  if (!look.auto_exposure) ae_gain_ = 1.0;
+  renderer_->render(scene, settings_.exposure * ae_gain_, settings_.noise_sigma, seed_, k, &rgb_);
+  // The auto-exposure meters this frame for the next: it lags a change of view by a few frames.
+  if (look.auto_exposure) ae_gain_ = next_auto_exposure(look, ae_gain_, mean_level(rgb_));
   last_render_ms_ = elapsed_ms(t0);
   t0 = std::chrono::steady_clock::now();
   frame->seq = k;
@@ -150,14 +167,15 @@ bool SimCamera::capture(uint64_t k, const World& world, const Pose& pose, Camera
   return true;
 }
 
-void SimCamera::step(uint64_t end_cycle, const World& world, const Pose& pose, std::vector<CameraFrame>* ready) {
+void SimCamera::step(uint64_t end_cycle, const World& world, const Pose& pose, std::vector<CameraFrame>* ready,
+                     const Twist& twist) {
   if (!on_) return;
   // Frames whose capture time fell within this step: all see the pose at its end (a step is
   // 0.25 ms, far shorter than a frame period, so at most one is normally due).
   while (clock_.capture_cycle(next_k_) <= end_cycle) {
     CameraFrame frame;
     std::string error;
-    if (capture(next_k_, world, pose, &frame, &error)) in_flight_.push_back(std::move(frame));
+    if (capture(next_k_, world, pose, &frame, &error, twist)) in_flight_.push_back(std::move(frame));
     else LOG_WARN("camera frame %llu not encoded: %s", static_cast<unsigned long long>(next_k_), error.c_str());
     ++next_k_;
   }

@@ -51,10 +51,20 @@ class SimCamera {
   // Capturing from the first frame at or after `now_cycle` (turned on), or not (frames in flight dropped).
   void set_on(bool on, uint64_t now_cycle);
   bool on() const { return on_; }
-  // Captures every frame due by end_cycle at this pose and moves those available by then to *ready.
-  void step(uint64_t end_cycle, const World& world, const Pose& pose, std::vector<CameraFrame>* ready);
+  // Captures every frame due by end_cycle at this pose (moving with this twist: motion blur) and
+  // moves those available by then to *ready.
+  void step(uint64_t end_cycle, const World& world, const Pose& pose, std::vector<CameraFrame>* ready,
+            const Twist& twist = {});
   // A frame at this pose now, without the schedule (tests, the benchmark).
-  bool capture(uint64_t k, const World& world, const Pose& pose, CameraFrame* frame, std::string* error);
+  bool capture(uint64_t k, const World& world, const Pose& pose, CameraFrame* frame, std::string* error,
+               const Twist& twist = {});
+
+  // Things drawn in every frame beside the world (camera_render.hpp's SceneItem; not owned: each
+  // must outlive its place here).
+  void add_item(const SceneItem* item) { items_.push_back(item); }
+  void remove_item(const SceneItem* item);
+  // The auto-exposure's gain now (1 while the world's look has none); it moves a step per frame.
+  double auto_exposure_gain() const { return ae_gain_; }
 
   // Wall-clock cost of the last frame (not part of what a frame shows).
   double last_render_ms() const { return last_render_ms_; }
@@ -76,6 +86,8 @@ class SimCamera {
   uint64_t next_k_ = 0;
   std::deque<CameraFrame> in_flight_;
   std::vector<uint8_t> rgb_;
+  std::vector<const SceneItem*> items_;
+  double ae_gain_ = 1.0;
   double last_render_ms_ = 0.0, last_encode_ms_ = 0.0;
   uint64_t frames_ = 0;
 };

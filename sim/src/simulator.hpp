@@ -72,6 +72,7 @@ class Simulator {
 
   // camera_commands.cpp
   std::string cmd_camera(int client, const json::Value& msg, std::string* extra);
+  std::string cmd_look(const json::Value& msg);
   std::string cmd_target(const json::Value& msg);
   void camera_step(uint64_t end_cycle);
 

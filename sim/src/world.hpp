@@ -22,6 +22,7 @@
 #include "body.hpp"  // Pose
 #include "box.hpp"
 #include "box_grid.hpp"
+#include "look.hpp"
 #include "occupancy.hpp"
 #include "robot_params.hpp"  // params::body, params::sim
 
@@ -106,6 +107,10 @@ class World {
   size_t count(BoxKind kind) const;
   uint64_t version() const { return version_; }
 
+  // How it looks to the camera (look.hpp); the physics never reads it.
+  void set_look(const Look& look) { look_ = look; }
+  const Look& look() const { return look_; }
+
   // Contact probes of every feature within `margin` of a solid rectangle near the pose.
   void probes(const Pose& pose, const RobotGeometry& geom, std::vector<ContactProbe>* out,
               double margin_m = kProbeMarginM) const;
@@ -152,6 +157,7 @@ class World {
   std::vector<Box> boxes_;
   std::vector<uint32_t> deferred_;
   std::vector<Obstacle> obstacles_;
+  Look look_;
   uint64_t version_ = 0;
   uint64_t next_serial_ = 1;
   mutable BoxGrid box_grid_, obstacle_grid_;

@@ -68,6 +68,10 @@ std::string parse_box(const json::Value& v, size_t index, Box* b) {
   if (std::string e = optional_colour(v, "colour", &b->colour_rgb); !e.empty()) return where + e;
   if (const json::Value* id = v.find("id"))
     if (std::string e = id_of(*id, &b->id); !e.empty()) return where + e;
+  if (const json::Value* m = v.find("material")) {
+    if (!m->is_string() || m->string != "wall") return where + "material must be \"wall\" (the look's wall paint) or absent";
+    b->wall_paint = true;
+  }
   return "";
 }
 

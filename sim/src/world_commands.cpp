@@ -75,6 +75,7 @@ std::string Simulator::world_json() const {
     if (b.kind == BoxKind::kBox) o.add("id", b.id);
     o.add("x", b.cx_m).add("y", b.cy_m).add("sx", 2 * b.hx_m).add("sy", 2 * b.hy_m).add("height", b.height_m);
     o.add("colour", colour_text(b.colour_rgb));
+    if (b.wall_paint) o.add("material", "wall");
     if (b.kind == BoxKind::kBox) o.add("obstacle", b.obstacle_twin);
     o.add("solid", b.solid);
     std::string& list = b.kind == BoxKind::kWall ? walls : boxes;

@@ -140,7 +140,7 @@ def test_a_real_cart_has_no_simulated_world(tmp_path: Path) -> None:
         (None, "there is no world file"),
         ("{", "is not JSON: Expecting property name"),
         ('{"boxes": [{"x": 1, "y": 1, "sx": 0, "sy": 0.2}]}', "boxes[0].sx: input should be greater than 0"),
-        ('{"crates": []}', "unknown key 'crates' (a world has: boxes)"),
+        ('{"crates": []}', "unknown key 'crates' (a world has: boxes, look)"),
         ('{"boxes": [{"x": 0.1, "y": 0, "sx": 0.1, "sy": 0.1}]}', "boxes[0] at (0.1, 0) would stand under"),
     ],
 )

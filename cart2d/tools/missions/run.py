@@ -302,6 +302,8 @@ def run_mission(
                     open_recording(gateway, mcap_path, overwrite=True, camera_fps=camera_fps)
                 )
                 tell = session.publish_event if session is not None else tell
+            if spec.world is not None and spec.world.look is not None:
+                sim.set_look(spec.world.look.message())
             if spec.world is not None:  # after the gateway has made the simulator's walls follow its map
                 simulation.world.add_boxes(
                     [b.box() for b in spec.world.boxes]
