@@ -89,6 +89,7 @@ class Driver:
         self._wake = threading.Condition()
         self._closed = False
         self._cancelled_token: int | None = None
+        self._sending = False
         self.sent = 0
         self.skipped = 0  # commands of a stream a stop cancelled, not sent
         self.cancelled = 0  # commands the link refused for a stop after their stream began
@@ -97,6 +98,12 @@ class Driver:
     def start(self) -> Driver:
         self._thread.start()
         return self
+
+    @property
+    def busy(self) -> bool:
+        """A command waits or is being sent."""
+        with self._wake:
+            return self._newest is not None or self._sending
 
     def offer(self, command: DriveCommand) -> None:
         with self._wake:
@@ -117,11 +124,14 @@ class Driver:
                 if self._closed:
                     return
                 command, self._newest = self._newest, None
+                self._sending = True
             assert command is not None
             if command.token == self._cancelled_token:
                 self.skipped += 1  # the rest of a stream a stop cancelled
-                continue
-            self._send(command)
+            else:
+                self._send(command)
+            with self._wake:
+                self._sending = False
 
     def _send(self, command: DriveCommand) -> None:
         try:
