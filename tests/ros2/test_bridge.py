@@ -4,6 +4,7 @@ and initialpose from DDS writers through the gateway; namespaces apart; bad samp
 
 from __future__ import annotations
 
+import logging
 import math
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
@@ -210,3 +211,28 @@ def test_options_prefix_frames_but_the_map() -> None:
         "rt/cart1/odom",
         "rq/cart1/stopRequest",
     )
+
+
+def test_a_late_joiner_gets_the_map_and_later_its_changes(
+    bridge: Bridge, gateway: Gateway, peer: Peer
+) -> None:
+    reader = peer.reader("rt/map", t.OccupancyGrid, qos.TOOLS["nav2 map"])
+    first = samples(reader, lambda got: len(got) >= 1)[-1]
+    assert first.info.width == 46  # the 2.3 m arena at 0.05 m
+    gateway.set_obstacle(1.0, 1.0, True)
+    changed = samples(reader, lambda got: len(got) >= 1)[-1]
+    assert sum(1 for v in bytes(changed.data) if v == 100) > sum(1 for v in bytes(first.data) if v == 100)
+
+
+def test_the_camera_is_a_scan_and_the_log_is_rosout(bridge: Bridge, peer: Peer) -> None:
+    scan = peer.reader("rt/scan", t.LaserScan, qos.TOOLS["nav2 sensor data"])
+    rosout = peer.reader("rt/rosout", t.Log, qos.rosout())
+    matched(scan)
+    matched(rosout)
+    bridge.on_message(telemetry(x=0.5, y=0.5, theta=0.0))
+    bridge.on_message({"type": "camera", "t": 1.0, "fov": [[1.5, 0.0], [1.5, 1.0]], "hits": [[1.0, 0.5]]})
+    got = samples(scan, lambda got: len(got) >= 1)[-1]
+    assert min(got.ranges) == pytest.approx(0.5)
+    logging.getLogger("cart2d.gateway").warning("a line for rosout")
+    lines = samples(rosout, lambda got: any(s.msg == "a line for rosout" for s in got))
+    assert any(s.level == 30 and s.name == "cart2d.gateway" for s in lines)
