@@ -21,10 +21,12 @@ from cart2d.maps.occupancy import OccupancyMap
 from cart2d.perception.camera_model import Intrinsics
 from cart2d.ros2 import convert, grids, qos, sensors
 from cart2d.ros2 import types as t
+from cart2d.ros2.action import ActionGateway, NavigateToPose
 from cart2d.ros2.frames import stamp, static_transforms
 from cart2d.ros2.inbound import CommandsGateway, Inbound
 from cart2d.ros2.names import Ros2Options
 from cart2d.ros2.node import RosNode
+from cart2d.ros2.services import ServiceGateway, TriggerServices
 from cart2d.ros2.urdf import robot_description
 
 log = logging.getLogger(__name__)
@@ -34,7 +36,7 @@ QUEUE_LENGTH = 2048  # ~40 s of telemetry (25 Hz) and truth (50 Hz) with a stall
 _STOP = object()
 
 
-class GatewayLike(CommandsGateway, Protocol):
+class GatewayLike(CommandsGateway, ServiceGateway, ActionGateway, Protocol):
     """What the bridge needs of a Gateway (cart2d/gateway/core.py)."""
 
     def subscribe(self, listener: Callable[[dict[str, Any]], None]) -> Callable[[], None]: ...
@@ -102,6 +104,8 @@ class Bridge:
         self.node = RosNode(options)
         self.writers = Writers(self.node)
         self.inbound = Inbound(self.node, gateway, command_clock)  # the clock of cmd_vel's silences
+        self.services = TriggerServices(self.inbound, gateway)
+        self.action = NavigateToPose(self.inbound, gateway, clock)
         self.published = 0
         self.dropped = 0
         self._queue: queue.Queue[Any] = queue.Queue(QUEUE_LENGTH)
@@ -174,6 +178,7 @@ class Bridge:
         self.published += 1
 
     def _publish_message(self, now: t.Time, message: dict[str, Any]) -> None:
+        self.action.on_message(message)
         kind = message.get("type")
         w = self.writers
         if kind == "telemetry":

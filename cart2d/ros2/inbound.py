@@ -151,7 +151,7 @@ class Inbound:
     def _on_twist_stamped(self, message: t.TwistStamped) -> None:
         self._on_twist(message.twist)
 
-    def _planar(self, topic: str, header: t.Header, pose: t.Pose) -> tuple[float, float, float] | None:
+    def planar(self, topic: str, header: t.Header, pose: t.Pose) -> tuple[float, float, float] | None:
         """(x, y, yaw) of a pose in the map (or odom: the same frame today), else None, logged."""
         o = self.node.options
         if header.frame_id not in (o.frame("map"), o.frame("odom"), ""):
@@ -164,14 +164,14 @@ class Inbound:
         return p.x, p.y, yaw_of(q)
 
     def _on_goal(self, goal: t.PoseStamped) -> None:
-        where = self._planar("goal_pose", goal.header, goal.pose)
+        where = self.planar("goal_pose", goal.header, goal.pose)
         if where is not None:
             x, y, _ = where
             token = self.gateway.motion_token()  # a stop after this click cancels it
             self.tasks.offer(f"goal_pose ({x:.2f}, {y:.2f})", lambda: self.gateway.go_to(x, y, token))
 
     def _on_pose(self, message: t.PoseWithCovarianceStamped) -> None:
-        where = self._planar("initialpose", message.header, message.pose.pose)
+        where = self.planar("initialpose", message.header, message.pose.pose)
         if where is not None:
             x, y, theta = where
             self.tasks.offer(f"initialpose ({x:.2f}, {y:.2f})", lambda: self._set_pose(x, y, theta))

@@ -4,6 +4,7 @@ wins over a stream of cmd_vel that goes on."""
 
 from __future__ import annotations
 
+import math
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -13,10 +14,11 @@ import pytest
 
 from cart2d.ros2 import qos
 from cart2d.ros2 import types as t
+from cart2d.ros2.action import SUCCEEDED
 from cart2d.ros2.bridge import Bridge
 from cart2d.store import GatewaySettings
 from tests.support.gateway import GatewayRig
-from tests.support.ros2 import Peer, matched, options
+from tests.support.ros2 import ACTION, GUID, Peer, call, matched, options, samples, send_goal
 from tests.support.sim import high_rate_truth, run_for
 from tests.support.waiting import wait_for
 
@@ -96,6 +98,32 @@ def test_a_stop_on_the_api_wins_over_a_stream_of_cmd_vel(rig: GatewayRig) -> Non
         held = [s for s in truth if s["t"] >= stopped_at + DECELERATION_S]
         assert held and not any(moving(s) for s in held)
         assert bridge.inbound.driver.cancelled + bridge.inbound.driver.skipped >= 1
+    finally:
+        bridge.close()
+        peer.close()
+
+
+def test_navigate_to_pose_goes_round_an_obstacle_with_feedback(rig: GatewayRig) -> None:
+    bridge = Bridge(rig.gateway, options()).start()
+    peer = Peer()
+    try:
+        start = rig.gateway.mission_view()  # idle, at the simulator's start pose
+        x0, y0 = float(rig.sim.truth()["x"]), float(rig.sim.truth()["y"])
+        goal = (x0 + 0.8, y0)
+        rig.gateway.set_obstacle(x0 + 0.4, y0, True)  # on the straight line
+        feedback = peer.reader(f"rt/{ACTION}/feedback", t.NavigateToPoseFeedbackMessage, qos.stream())
+        matched(feedback)
+        goal_id = bytes(range(60, 76))
+        assert start["state"] == "idle" and send_goal(peer, goal_id, *goal, seq=1).accepted
+        request = t.NavigateToPoseGetResultRequest(GUID, 2, t.UUID(goal_id))
+        result = call(peer, f"{ACTION}/get_result", request, t.NavigateToPoseGetResultResponse)
+        assert result.status == SUCCEEDED, result.result.error_msg
+        plan = rig.gateway.mission_view()["plan"]
+        assert len(plan["waypoints"]) >= 2  # not straight through the obstacle
+        distances = [f.feedback.distance_remaining for f in samples(feedback, lambda got: len(got) >= 2)]
+        assert distances[0] > distances[-1]
+        truth = rig.sim.truth()
+        assert math.dist((truth["x"], truth["y"]), goal) < 0.05
     finally:
         bridge.close()
         peer.close()

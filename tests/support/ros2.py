@@ -14,10 +14,14 @@ from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
+from cart2d.ros2 import qos
+from cart2d.ros2 import types as t
 from cart2d.ros2.names import Ros2Options
 from cart2d.ros2.node import participant
 
 DOMAIN = 40 + os.getpid() % 10  # one domain a test process: no cross-talk with another's runs
+GUID = 0x1122334455667788  # a client's request writer, as rmw_cyclonedds puts it in the header
+ACTION = "navigate_to_pose/_action"
 
 
 def options(namespace: str = "") -> Ros2Options:
@@ -69,3 +73,26 @@ def matched(writer_or_reader: DataWriter[Any] | DataReader[Any], wall_timeout_s:
         if time.monotonic() > deadline:
             raise AssertionError(f"{writer_or_reader.topic.name}: no match in {wall_timeout_s} s")
         time.sleep(0.01)
+
+
+def call(peer: Peer, service: str, request: Any, response: type[Any]) -> Any:
+    """Sends `request` on rq/<service>Request as an rmw_cyclonedds client would; the reply that
+    comes on rr/<service>Reply with its header (GUID, its seq)."""
+    replies = peer.reader(f"rr/{service}Reply", response, qos.requests())
+    requests = peer.writer(f"rq/{service}Request", type(request), qos.requests())
+    matched(requests)
+    matched(replies)
+    requests.write(request)
+    got = samples(replies, lambda got: any(r.seq == request.seq for r in got), 60.0)
+    (reply,) = [r for r in got if r.seq == request.seq]
+    assert reply.guid == GUID
+    return reply
+
+
+def send_goal(peer: Peer, goal_id: bytes, x: float, y: float, seq: int) -> t.NavigateToPoseSendGoalResponse:
+    goal = t.NavigateToPoseGoal(t.PoseStamped(t.Header(frame_id="map"), t.Pose(t.Point(x, y, 0.0))))
+    request = t.NavigateToPoseSendGoalRequest(GUID, seq, t.UUID(goal_id), goal)
+    reply: t.NavigateToPoseSendGoalResponse = call(
+        peer, f"{ACTION}/send_goal", request, t.NavigateToPoseSendGoalResponse
+    )
+    return reply
