@@ -29,6 +29,7 @@ from cart2d.ros2.node import RosNode
 log = logging.getLogger(__name__)
 
 POLL_S = 0.1  # the reading thread looks for close() this often
+TAKEN_A_ROUND = 64  # samples of one reader taken before the next reader's
 TASKS = 16  # goals and poses waiting for the worker; more are dropped (a flood of clicks)
 _STOP = object()
 
@@ -126,7 +127,7 @@ class Inbound:
                 self._take(reader, handler)
 
     def _take(self, reader: DataReader[Any], handler: Callable[[Any], None]) -> None:
-        while True:
+        for _ in range(TAKEN_A_ROUND):  # then the other readers' turn: a flood on one starves none
             try:
                 samples = reader.take(1)
             except Exception as exc:  # a sample of another layout: cyclonedds cannot read it
