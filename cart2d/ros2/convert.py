@@ -74,15 +74,16 @@ def joint_state(when: t.Time, angles: WheelAngles, tel: Mapping[str, Any]) -> t.
 def moving_transforms(
     options: Ros2Options, when: t.Time, tel: Mapping[str, Any], angles: WheelAngles
 ) -> t.TFMessage:
-    """map -> odom (identity: the gateway's map frame today), odom -> base_footprint, the wheels."""
+    """map -> odom (identity: the gateway's map frame today; left out for slam_toolbox or AMCL to
+    publish), odom -> base_footprint, the wheels."""
     x, y, theta = float(tel["x"]), float(tel["y"]), float(tel["theta"])
-    return t.TFMessage(
-        [
-            transform(options, when, "map", "odom", (0.0, 0.0, 0.0), t.Quaternion()),
-            transform(options, when, "odom", "base_footprint", (x, y, 0.0), rpy_quaternion(0.0, 0.0, theta)),
-            *wheel_transforms(options, when, angles.left_rad, angles.right_rad),
-        ]
-    )
+    moving = [
+        transform(options, when, "odom", "base_footprint", (x, y, 0.0), rpy_quaternion(0.0, 0.0, theta)),
+        *wheel_transforms(options, when, angles.left_rad, angles.right_rad),
+    ]
+    if options.map_to_odom:
+        moving.insert(0, transform(options, when, "map", "odom", (0.0, 0.0, 0.0), t.Quaternion()))
+    return t.TFMessage(moving)
 
 
 def pose_stamped(options: Ros2Options, when: t.Time, x: float, y: float, theta: float = 0.0) -> t.PoseStamped:

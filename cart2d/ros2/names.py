@@ -24,6 +24,7 @@ class Ros2Options:
     domain_id: int = 0
     namespace: str = ""  # "" or "/cart1", "/fleet/cart1"
     discovery: Range = "subnet"
+    map_to_odom: bool = True  # False: slam_toolbox or AMCL publish map -> odom, not the bridge
 
     def topic(self, name: str) -> str:
         """The DDS topic of the ROS topic `name` (relative to the namespace)."""
@@ -85,7 +86,10 @@ def discovery_from_environment(env: Mapping[str, str]) -> Range:
 
 
 def options_from(
-    domain_id: int | None, namespace: str | None, env: Mapping[str, str] | None = None
+    domain_id: int | None,
+    namespace: str | None,
+    env: Mapping[str, str] | None = None,
+    map_to_odom: bool = True,
 ) -> Ros2Options:
     """The command line's --ros-domain-id and --ros-namespace over ROS_DOMAIN_ID and the
     discovery range of the environment (checked by the command line first)."""
@@ -93,19 +97,27 @@ def options_from(
     if domain_id is None:
         from_env = env.get("ROS_DOMAIN_ID", "").strip()
         domain_id = int(from_env) if from_env and domain_problem(from_env) is None else 0
-    return Ros2Options(domain_id, normalized_namespace(namespace or ""), discovery_from_environment(env))
+    return Ros2Options(
+        domain_id, normalized_namespace(namespace or ""), discovery_from_environment(env), map_to_odom
+    )
 
 
 def cyclone_config(discovery: Range) -> str:
-    """Cyclone DDS's configuration for ROS's discovery range: on loopback with unicast discovery
-    among the participants of this machine (as rmw_cyclonedds does for LOCALHOST), none at all for
-    OFF (the process's own participants only), the default interface and multicast otherwise."""
+    """Cyclone DDS's configuration for ROS's discovery range, as rmw_cyclonedds_cpp writes its own
+    (check_create_domain): participant indices for unicast discovery among the processes of this
+    machine; LOCALHOST without multicast and with this machine as its one peer; OFF with a tag no
+    other process has (this process's participants only)."""
+    indices = "<ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>32</MaxAutoParticipantIndex>"
     if discovery == "subnet":
-        return '<CycloneDDS><Domain Id="any"/></CycloneDDS>'
-    peers = '<Peers><Peer address="127.0.0.1"/></Peers>' if discovery == "localhost" else ""
+        return f'<CycloneDDS><Domain Id="any"><Discovery>{indices}</Discovery></Domain></CycloneDDS>'
+    if discovery == "localhost":
+        return (
+            '<CycloneDDS><Domain Id="any"><General><AllowMulticast>false</AllowMulticast></General>'
+            f"<Discovery>{indices}"
+            '<Peers><Peer address="localhost"/></Peers></Discovery></Domain></CycloneDDS>'
+        )
     return (
-        '<CycloneDDS><Domain Id="any"><General><Interfaces><NetworkInterface address="127.0.0.1"/>'
-        "</Interfaces><AllowMulticast>false</AllowMulticast></General><Discovery>"
-        "<ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>100</MaxAutoParticipantIndex>"
-        f"{peers}</Discovery></Domain></CycloneDDS>"
+        '<CycloneDDS><Domain Id="any"><General><AllowMulticast>false</AllowMulticast></General>'
+        "<Discovery><ParticipantIndex>none</ParticipantIndex>"
+        f"<Tag>cart2d_discovery_off_{os.getpid()}</Tag></Discovery></Domain></CycloneDDS>"
     )

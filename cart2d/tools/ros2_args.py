@@ -45,12 +45,19 @@ def add_ros2_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="NAME",
         help="the node's namespace (/cart1/odom, frames cart1/odom): several carts on one network",
     )
+    parser.add_argument(
+        "--ros-no-map-tf",
+        action="store_true",
+        help="leave map -> odom to slam_toolbox or AMCL (the bridge publishes it as identity otherwise)",
+    )
 
 
 def ros2_problem(args: argparse.Namespace) -> str | None:
     """Why the ROS 2 options cannot be used, in a sentence (before anything starts)."""
-    if not args.ros2 and (args.ros_domain_id is not None or args.ros_namespace is not None):
-        return "--ros-domain-id and --ros-namespace need --ros2"
+    if not args.ros2 and (
+        args.ros_domain_id is not None or args.ros_namespace is not None or args.ros_no_map_tf
+    ):
+        return "--ros-domain-id, --ros-namespace and --ros-no-map-tf need --ros2"
     from_env = os.environ.get("ROS_DOMAIN_ID", "").strip()
     if args.ros2 and args.ros_domain_id is None and from_env and domain_problem(from_env):
         return f"ROS_DOMAIN_ID: {domain_problem(from_env)}"
@@ -65,7 +72,7 @@ def ros2_session(gateway: Any, args: argparse.Namespace) -> Iterator[Any]:
         return
     from cart2d.ros2.bridge import Bridge  # DDS only when asked for
 
-    options = options_from(args.ros_domain_id, args.ros_namespace)
+    options = options_from(args.ros_domain_id, args.ros_namespace, map_to_odom=not args.ros_no_map_tf)
     bridge = Bridge(gateway, options).start()
     try:
         print(
@@ -73,6 +80,12 @@ def ros2_session(gateway: Any, args: argparse.Namespace) -> Iterator[Any]:
             f"({options.discovery} discovery; rmw_cyclonedds_cpp peers: docs/ros2/README.md)",
             flush=True,
         )
+        if options.discovery == "subnet":
+            print(
+                "  on ROS 2, everyone on this network can drive the cart (DDS has no token); "
+                "ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST keeps it to this machine (SECURITY.md)",
+                flush=True,
+            )
         yield bridge
     finally:
         bridge.close()

@@ -236,3 +236,16 @@ def test_the_camera_is_a_scan_and_the_log_is_rosout(bridge: Bridge, peer: Peer) 
     logging.getLogger("cart2d.gateway").warning("a line for rosout")
     lines = samples(rosout, lambda got: any(s.msg == "a line for rosout" for s in got))
     assert any(s.level == 30 and s.name == "cart2d.gateway" for s in lines)
+
+
+def test_without_the_map_tf_slam_toolbox_owns_map_to_odom(gateway: Gateway, peer: Peer) -> None:
+    bridge = Bridge(gateway, Ros2Options(options().domain_id, "", "localhost", map_to_odom=False)).start()
+    try:
+        tf = peer.reader("rt/tf", t.TFMessage, qos.TOOLS["rviz"])
+        matched(tf)
+        bridge.on_message(telemetry())
+        got = samples(tf, lambda got: len(got) >= 1)[-1]
+        assert ("map", "odom") not in [(s.header.frame_id, s.child_frame_id) for s in got.transforms]
+        assert got.transforms[0].child_frame_id == "base_footprint"
+    finally:
+        bridge.close()

@@ -31,10 +31,11 @@ def test_the_command_line_goes_over_ros_domain_id() -> None:
     assert options_from(None, None, {}).domain_id == 0
 
 
-def test_localhost_discovery_stays_on_loopback() -> None:
+def test_localhost_discovery_has_no_multicast_and_this_machine_for_its_peer() -> None:
     config = cyclone_config("localhost")
-    assert '<NetworkInterface address="127.0.0.1"/>' in config and "<Peer address" in config
-    assert "Peer" not in cyclone_config("off")
+    assert "<AllowMulticast>false</AllowMulticast>" in config and '<Peer address="localhost"/>' in config
+    assert "Peer" not in cyclone_config("off") and "<Tag>" in cyclone_config("off")
+    assert "AllowMulticast" not in cyclone_config("subnet")
 
 
 @pytest.mark.parametrize(
@@ -42,7 +43,7 @@ def test_localhost_discovery_stays_on_loopback() -> None:
     [
         (["--ros2", "--ros-domain-id", "300"], "argument --ros-domain-id: '300' is not a ROS domain id"),
         (["--ros2", "--ros-namespace", "1cart"], "argument --ros-namespace: '1cart' is not a ROS namespace"),
-        (["--ros-domain-id", "3"], "--ros-domain-id and --ros-namespace need --ros2"),
+        (["--ros-domain-id", "3"], "--ros-domain-id, --ros-namespace and --ros-no-map-tf need --ros2"),
     ],
 )
 def test_bad_ros_options_are_one_sentence(tmp_path: Path, args: list[str], words: str) -> None:
