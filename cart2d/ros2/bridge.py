@@ -55,9 +55,12 @@ class Writers:
         self.tf_static = node.writer(o.topic("tf_static"), t.TFMessage, qos.latched())
         self.joint_states = node.writer(o.topic("joint_states"), t.JointState, qos.stream())
         self.robot_description = node.writer(o.topic("robot_description"), t.String, qos.latched())
-        self.plan = node.writer(o.topic("plan"), t.Path, qos.stream(1))
-        self.map = node.writer(o.topic("map"), t.OccupancyGrid, qos.latched())
-        self.perceived_map = node.writer(o.topic("perceived_map"), t.OccupancyGrid, qos.latched())
+        # the map and the plan: cart2d's own, not a base's (Nav2 or slam_toolbox publish them then)
+        self.plan = None if o.base_only else node.writer(o.topic("plan"), t.Path, qos.stream(1))
+        self.map = None if o.base_only else node.writer(o.topic("map"), t.OccupancyGrid, qos.latched())
+        self.perceived_map = (
+            None if o.base_only else node.writer(o.topic("perceived_map"), t.OccupancyGrid, qos.latched())
+        )
         self.scan = node.writer(o.topic("scan"), t.LaserScan, qos.stream(5))
         self.image = node.writer(o.topic("camera/image/compressed"), t.CompressedImage, qos.stream(2))
         self.camera_info = node.writer(o.topic("camera/camera_info"), t.CameraInfo, qos.stream(2))
@@ -105,7 +108,7 @@ class Bridge:
         self.writers = Writers(self.node)
         self.inbound = Inbound(self.node, gateway, command_clock)  # the clock of cmd_vel's silences
         self.services = TriggerServices(self.inbound, gateway)
-        self.action = NavigateToPose(self.inbound, gateway, clock)
+        self.action = None if options.base_only else NavigateToPose(self.inbound, gateway, clock)
         self.published = 0
         self.dropped = 0
         self._queue: queue.Queue[Any] = queue.Queue(QUEUE_LENGTH)
@@ -178,16 +181,17 @@ class Bridge:
         self.published += 1
 
     def _publish_message(self, now: t.Time, message: dict[str, Any]) -> None:
-        self.action.on_message(message)
+        if self.action is not None:
+            self.action.on_message(message)
         kind = message.get("type")
         w = self.writers
         if kind == "telemetry":
             self._publish_telemetry(message)
-        elif kind in ("hello", "mission"):
+        elif kind in ("hello", "mission") and w.plan is not None:
             w.plan.write(convert.path(self.options, now, message.get("plan")))
-        elif kind == "map":
+        elif kind == "map" and w.map is not None:
             w.map.write(grids.map_grid(self.options, now, self.gateway.map_view(), self.gateway.floor_plan()))
-        elif kind == "perceived":
+        elif kind == "perceived" and w.perceived_map is not None:
             w.perceived_map.write(grids.perceived_grid(self.options, now, self.gateway.map_view(), message))
         elif kind == "camera":
             w.scan.write(sensors.virtual_scan(self.options, now, message, self._pose))

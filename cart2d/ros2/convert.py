@@ -81,7 +81,7 @@ def moving_transforms(
         transform(options, when, "odom", "base_footprint", (x, y, 0.0), rpy_quaternion(0.0, 0.0, theta)),
         *wheel_transforms(options, when, angles.left_rad, angles.right_rad),
     ]
-    if options.map_to_odom:
+    if not options.base_only:
         moving.insert(0, transform(options, when, "map", "odom", (0.0, 0.0, 0.0), t.Quaternion()))
     return t.TFMessage(moving)
 

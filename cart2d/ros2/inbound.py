@@ -89,19 +89,21 @@ class Inbound:
         self.driver = Driver(lambda v, w, token: gateway.drive(v, w, token))
         self.tasks = Tasks()
         self.dropped = 0  # malformed samples
-        self._handlers: list[tuple[DataReader[Any], Callable[[Any], None]]] = []
+        self.handlers: list[tuple[DataReader[Any], Callable[[Any], None]]] = []
         self.add(node.reader(o.topic("cmd_vel"), t.Twist, qos.commands()), self._on_twist)
         self.add(node.reader(o.topic("cmd_vel"), t.TwistStamped, qos.commands()), self._on_twist_stamped)
-        self.add(node.reader(o.topic("goal_pose"), t.PoseStamped, qos.requests()), self._on_goal)
-        self.add(
-            node.reader(o.topic("initialpose"), t.PoseWithCovarianceStamped, qos.requests()), self._on_pose
-        )
+        if not o.base_only:  # goals and the pose are Nav2's otherwise
+            self.add(node.reader(o.topic("goal_pose"), t.PoseStamped, qos.requests()), self._on_goal)
+            self.add(
+                node.reader(o.topic("initialpose"), t.PoseWithCovarianceStamped, qos.requests()),
+                self._on_pose,
+            )
         self._closed = threading.Event()
         self._thread = threading.Thread(target=self._run, name="ros2 readers", daemon=True)
 
     def add(self, reader: DataReader[Any], handler: Callable[[Any], None]) -> None:
         """Calls handler(sample) on the reading thread for each sample of `reader` (before start())."""
-        self._handlers.append((reader, handler))
+        self.handlers.append((reader, handler))
 
     def start(self) -> Inbound:
         self.driver.start()
@@ -119,11 +121,11 @@ class Inbound:
     def _run(self) -> None:
         waitset = WaitSet(self.node.participant)
         mask = SampleState.NotRead | ViewState.Any | InstanceState.Any
-        for reader, _ in self._handlers:
+        for reader, _ in self.handlers:
             waitset.attach(ReadCondition(reader, mask))
         while not self._closed.is_set():
             waitset.wait(duration(seconds=POLL_S))
-            for reader, handler in self._handlers:
+            for reader, handler in self.handlers:
                 self._take(reader, handler)
 
     def _take(self, reader: DataReader[Any], handler: Callable[[Any], None]) -> None:

@@ -24,7 +24,9 @@ class Ros2Options:
     domain_id: int = 0
     namespace: str = ""  # "" or "/cart1", "/fleet/cart1"
     discovery: Range = "subnet"
-    map_to_odom: bool = True  # False: slam_toolbox or AMCL publish map -> odom, not the bridge
+    # Nav2's base only: no map, map -> odom, plan, goals of its own (Nav2's map_server or
+    # slam_toolbox, AMCL and bt_navigator have them)
+    base_only: bool = False
 
     def topic(self, name: str) -> str:
         """The DDS topic of the ROS topic `name` (relative to the namespace)."""
@@ -89,7 +91,7 @@ def options_from(
     domain_id: int | None,
     namespace: str | None,
     env: Mapping[str, str] | None = None,
-    map_to_odom: bool = True,
+    base_only: bool = False,
 ) -> Ros2Options:
     """The command line's --ros-domain-id and --ros-namespace over ROS_DOMAIN_ID and the
     discovery range of the environment (checked by the command line first)."""
@@ -98,7 +100,7 @@ def options_from(
         from_env = env.get("ROS_DOMAIN_ID", "").strip()
         domain_id = int(from_env) if from_env and domain_problem(from_env) is None else 0
     return Ros2Options(
-        domain_id, normalized_namespace(namespace or ""), discovery_from_environment(env), map_to_odom
+        domain_id, normalized_namespace(namespace or ""), discovery_from_environment(env), base_only
     )
 
 

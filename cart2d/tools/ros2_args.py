@@ -46,18 +46,19 @@ def add_ros2_arguments(parser: argparse.ArgumentParser) -> None:
         help="the node's namespace (/cart1/odom, frames cart1/odom): several carts on one network",
     )
     parser.add_argument(
-        "--ros-no-map-tf",
+        "--ros-base-only",
         action="store_true",
-        help="leave map -> odom to slam_toolbox or AMCL (the bridge publishes it as identity otherwise)",
+        help="the base for Nav2 or slam_toolbox: odom, tf, scan, camera, cmd_vel; no map, map -> odom, plan "
+        "or goals of cart2d's own (docs/ros2/README.md)",
     )
 
 
 def ros2_problem(args: argparse.Namespace) -> str | None:
     """Why the ROS 2 options cannot be used, in a sentence (before anything starts)."""
     if not args.ros2 and (
-        args.ros_domain_id is not None or args.ros_namespace is not None or args.ros_no_map_tf
+        args.ros_domain_id is not None or args.ros_namespace is not None or args.ros_base_only
     ):
-        return "--ros-domain-id, --ros-namespace and --ros-no-map-tf need --ros2"
+        return "--ros-domain-id, --ros-namespace and --ros-base-only need --ros2"
     from_env = os.environ.get("ROS_DOMAIN_ID", "").strip()
     if args.ros2 and args.ros_domain_id is None and from_env and domain_problem(from_env):
         return f"ROS_DOMAIN_ID: {domain_problem(from_env)}"
@@ -72,7 +73,7 @@ def ros2_session(gateway: Any, args: argparse.Namespace) -> Iterator[Any]:
         return
     from cart2d.ros2.bridge import Bridge  # DDS only when asked for
 
-    options = options_from(args.ros_domain_id, args.ros_namespace, map_to_odom=not args.ros_no_map_tf)
+    options = options_from(args.ros_domain_id, args.ros_namespace, base_only=args.ros_base_only)
     bridge = Bridge(gateway, options).start()
     try:
         print(

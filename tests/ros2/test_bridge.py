@@ -238,8 +238,8 @@ def test_the_camera_is_a_scan_and_the_log_is_rosout(bridge: Bridge, peer: Peer) 
     assert any(s.level == 30 and s.name == "cart2d.gateway" for s in lines)
 
 
-def test_without_the_map_tf_slam_toolbox_owns_map_to_odom(gateway: Gateway, peer: Peer) -> None:
-    bridge = Bridge(gateway, Ros2Options(options().domain_id, "", "localhost", map_to_odom=False)).start()
+def test_as_nav2s_base_it_leaves_map_to_odom_the_map_and_goals_to_nav2(gateway: Gateway, peer: Peer) -> None:
+    bridge = Bridge(gateway, Ros2Options(options().domain_id, "", "localhost", base_only=True)).start()
     try:
         tf = peer.reader("rt/tf", t.TFMessage, qos.TOOLS["rviz"])
         matched(tf)
@@ -247,5 +247,8 @@ def test_without_the_map_tf_slam_toolbox_owns_map_to_odom(gateway: Gateway, peer
         got = samples(tf, lambda got: len(got) >= 1)[-1]
         assert ("map", "odom") not in [(s.header.frame_id, s.child_frame_id) for s in got.transforms]
         assert got.transforms[0].child_frame_id == "base_footprint"
+        assert bridge.writers.map is None and bridge.action is None
+        topics = {reader.topic.name for reader, _ in bridge.inbound.handlers}
+        assert topics == {"rt/cmd_vel", "rq/stopRequest", "rq/reset_odometryRequest"}
     finally:
         bridge.close()

@@ -43,7 +43,7 @@ def test_localhost_discovery_has_no_multicast_and_this_machine_for_its_peer() ->
     [
         (["--ros2", "--ros-domain-id", "300"], "argument --ros-domain-id: '300' is not a ROS domain id"),
         (["--ros2", "--ros-namespace", "1cart"], "argument --ros-namespace: '1cart' is not a ROS namespace"),
-        (["--ros-domain-id", "3"], "--ros-domain-id, --ros-namespace and --ros-no-map-tf need --ros2"),
+        (["--ros-domain-id", "3"], "--ros-domain-id, --ros-namespace and --ros-base-only need --ros2"),
     ],
 )
 def test_bad_ros_options_are_one_sentence(tmp_path: Path, args: list[str], words: str) -> None:
