@@ -1,7 +1,8 @@
 """The ROS 2 side of bench/ros2.py, in a process of its own (its CPU is not the gateway's): a
-reader of odom as RViz subscribes, and teleop writing cmd_vel at 10 Hz, each command's speed
-unique so that the gateway's side can tell which it acknowledged. Prints one JSON object at the
-end: the wall time each odom (by its x, y) arrived and each command was written.
+reader of odom as RViz subscribes, and teleop writing cmd_vel at 10 Hz, forwards and back, each
+command's speed unique so that the gateway's side can tell which it acknowledged. Prints one
+JSON object at the end: the wall time each odom (by its x, y) arrived and each command was
+written.
 
 `python -m bench.ros2_peer DOMAIN SECONDS`."""
 
@@ -38,9 +39,9 @@ def main(argv: list[str]) -> int:
                 received.append((time.time(), sample.pose.pose.position.x, sample.pose.pose.position.y))
         if time.monotonic() >= next_command:
             k += 1
-            v = 0.1 + 0.05 * (k % 2) + k * 1e-6  # alternating speeds, each unique
+            v = (0.1 if k % 2 else -0.1) + k * 1e-6  # to and fro (no wall met), each speed unique
             written.append((time.time(), v))
-            cmd.write(t.Twist(t.Vector3(v), t.Vector3(0.0, 0.0, 0.3)))
+            cmd.write(t.Twist(t.Vector3(v)))
             next_command += COMMAND_PERIOD_S
         time.sleep(0.002)
     print(json.dumps({"received": received, "written": written}))
