@@ -145,3 +145,5 @@ class Driver:
             log.info("cmd_vel refused by the firmware: %s", exc)
         except LinkError as exc:
             log.warning("cmd_vel not sent: %s", exc)
+        except Exception:  # the driver must outlive a command the gateway could not take
+            log.exception("cmd_vel not sent")
