@@ -7,7 +7,8 @@ gateway to the peer's reader (wall clock, the same machine's; each pose's first 
 pose repeats while the cart stands), the time from a `cmd_vel` written
 to the firmware acknowledging its VELOCITY (its wheels' new target set), and the gateway's CPU
 time per simulated second with and without the bridge (which at 1x is the share of a core it
-takes). The runs alternate, with and without the bridge.
+takes), and the API's stop (20 after the run, the bridge still publishing) with and without it.
+The runs alternate, with and without the bridge.
 
 `python -m bench.ros2 [--quick]`.
 """
@@ -40,6 +41,10 @@ MAX_CORE_SHARE = 0.05
 def _percentile(values: list[float], q: float) -> float:
     ordered = sorted(values)
     return ordered[min(len(ordered) - 1, round(q * (len(ordered) - 1)))] if ordered else float("nan")
+
+
+def _ms(values: list[float]) -> str:
+    return f"{_percentile(values, 0.5) * 1e3:.1f} / {_percentile(values, 0.99) * 1e3:.1f} ms"
 
 
 class _Acknowledged:
@@ -84,6 +89,7 @@ def _run(folder: Path, seconds: float, bridged: bool) -> dict[str, Any]:
         sim_began, cpu_began = sim.truth()["t"], time.process_time()
         out, _ = peer.communicate(timeout=seconds + 60)
         cpu_s, sim_s = time.process_time() - cpu_began, sim.truth()["t"] - sim_began
+        stops = _stop_times(gateway)
         if bridge is not None:
             bridge.close()
     finally:
@@ -107,7 +113,19 @@ def _run(folder: Path, seconds: float, bridged: bool) -> dict[str, Any]:
         "odom_latency_s": latencies,
         "command_s": commands,
         "commands_written": len(written),
+        "stop_s": stops,
     }
+
+
+def _stop_times(gateway: Any, count: int = 20) -> list[float]:
+    """The API's stop, timed from the call to the firmware's answer, with the bridge publishing."""
+    times = []
+    for _ in range(count):
+        began = time.perf_counter()
+        gateway.stop("bench")
+        times.append(time.perf_counter() - began)
+        time.sleep(0.05)
+    return times
 
 
 def run(out: Path, quick: bool) -> Section:
@@ -122,6 +140,8 @@ def run(out: Path, quick: bool) -> Section:
     commands = [v for r in bridged for v in r["command_s"]]
     rtf = spread([r["rtf"] for r in bridged]).median
     command_sim = [v * rtf for v in commands]  # simulated time at the run's real-time factor
+    stops_plain = [v for r in plain for v in r["stop_s"]]
+    stops_bridged = [v for r in bridged for v in r["stop_s"]]
     cpu_plain = spread([r["cpu_per_sim_s"] for r in plain])
     cpu_bridged = spread([r["cpu_per_sim_s"] for r in bridged])
     share = cpu_bridged.median - cpu_plain.median
@@ -137,6 +157,8 @@ def run(out: Path, quick: bool) -> Section:
         ("gateway CPU s per simulated s, without / with the bridge",
          f"{cpu_plain.text('.3f')} / {cpu_bridged.text('.3f')}", ""),
         ("the bridge's cost at 1x real time", f"{share:.1%} of a core", f"≤ {MAX_CORE_SHARE:.0%}"),
+        ("the API's stop without / with the bridge, p50 / p99",
+         f"{_ms(stops_plain)}, {_ms(stops_bridged)}", "no change"),
     ]  # fmt: skip
     markdown = (__doc__ or "") + "\n" + table(["", "measured", "target"], rows)
     data = {
@@ -145,6 +167,8 @@ def run(out: Path, quick: bool) -> Section:
         "command_p50_s": c50,
         "command_p99_s": c99,
         "core_share": share,
+        "stop_p50_s": {"plain": _percentile(stops_plain, 0.5), "bridged": _percentile(stops_bridged, 0.5)},
+        "stop_p99_s": {"plain": _percentile(stops_plain, 0.99), "bridged": _percentile(stops_bridged, 0.99)},
         "cpu_plain": cpu_plain.as_dict(),
         "cpu_bridged": cpu_bridged.as_dict(),
         "samples": len(latencies),
