@@ -17,6 +17,8 @@ from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.annotations import final
 from cyclonedds.idl.types import (
     array,
+    bounded_str,
+    byte,
     float32,
     float64,
     int8,
@@ -282,7 +284,7 @@ class KeyValue(IdlStruct, typename="diagnostic_msgs::msg::dds_::KeyValue_"):
 @final
 @dataclass
 class DiagnosticStatus(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticStatus_"):
-    level: uint8 = 0  # OK 0, WARN 1, ERROR 2, STALE 3
+    level: byte = 0  # OK 0, WARN 1, ERROR 2, STALE 3 (ROS's byte: an IDL octet, not a uint8)
     name: str = ""
     message: str = ""
     hardware_id: str = ""
@@ -320,8 +322,8 @@ class Gid(IdlStruct, typename="rmw_dds_common::msg::dds_::Gid_"):
 @final
 @dataclass
 class NodeEntitiesInfo(IdlStruct, typename="rmw_dds_common::msg::dds_::NodeEntitiesInfo_"):
-    node_namespace: str = ""
-    node_name: str = ""
+    node_namespace: Annotated[str, bounded_str(256)] = ""  # string<=256, as rmw_dds_common has it
+    node_name: Annotated[str, bounded_str(256)] = ""
     reader_gid_seq: Annotated[Sequence[Gid], sequence(Gid)] = field(default_factory=list)
     writer_gid_seq: Annotated[Sequence[Gid], sequence(Gid)] = field(default_factory=list)
 

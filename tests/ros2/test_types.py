@@ -10,10 +10,13 @@ from __future__ import annotations
 import dataclasses
 import functools
 import itertools
+import typing
 from typing import Any
 
+import cyclonedds.idl.types as cdds
 import numpy as np
 import pytest
+from cyclonedds.idl import IdlStruct
 from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.msg import get_types_from_msg
@@ -178,3 +181,44 @@ def test_the_same_message_in_kilted_and_jazzy_where_both_define_it() -> None:
     jazzy, kilted = typestore(Stores.ROS2_JAZZY), typestore(Stores.ROS2_KILTED)
     for name in OURS:
         assert jazzy.fielddefs[oracle(name)] == kilted.fielddefs[oracle(name)], name
+
+
+def our_spelling(hint: Any) -> str:
+    """A field's type as our declaration gives it to Cyclone's XTypes type object."""
+    if isinstance(hint, type) and issubclass(hint, IdlStruct):
+        return dds_name(hint)
+    if hint is str or hint is bool:
+        return {str: "string", bool: "bool"}[hint]
+    meta = hint.__metadata__[0]
+    if isinstance(meta, str):
+        return meta
+    if isinstance(meta, cdds.array):
+        return f"{our_spelling(meta.subtype)}[{meta.length}]"
+    if isinstance(meta, cdds.sequence):
+        return f"{our_spelling(meta.subtype)}[{meta.max_length or ''}]"
+    assert isinstance(meta, cdds.bounded_str)
+    return f"string<={meta.max_length}"
+
+
+def ros_spelling(store: Typestore, node: tuple[Any, Any]) -> str:
+    """The same as ROS's IDL has it (rosidl: a message's `char` is a uint8, its `byte` an octet)."""
+    kind, spec = node
+    if kind == Nodetype.BASE:
+        name, bound = spec
+        if name == "string":
+            return f"string<={bound}" if bound else "string"
+        return {"char": "uint8"}.get(name, name)
+    if kind == Nodetype.NAME:
+        return dds_name({oracle(ros): ours for ros, ours in OURS.items()}[spec])
+    element, length = spec
+    return f"{ros_spelling(store, element)}[{length or ''}]"
+
+
+@pytest.mark.parametrize("name", sorted(OURS))
+def test_every_field_has_the_idl_type_ros_gives_it(name: str) -> None:
+    """Byte for byte is not enough: Cyclone matches a reader and a writer by their XTypes type
+    objects too, where an octet is not a uint8 and a bounded string not an unbounded one."""
+    store = typestore(Stores.ROS2_JAZZY)
+    hints = typing.get_type_hints(OURS[name], include_extras=True)
+    for field, node in store.fielddefs[oracle(name)][1]:
+        assert our_spelling(hints[field]) == ros_spelling(store, node), f"{name}.{field}"
