@@ -207,7 +207,7 @@ def ros_spelling(store: Typestore, node: tuple[Any, Any]) -> str:
         name, bound = spec
         if name == "string":
             return f"string<={bound}" if bound else "string"
-        return {"char": "uint8"}.get(name, name)
+        return "uint8" if name == "char" else str(name)
     if kind == Nodetype.NAME:
         return dds_name({oracle(ros): ours for ros, ours in OURS.items()}[spec])
     element, length = spec
