@@ -8,7 +8,7 @@ import logging
 import threading
 from typing import Any
 
-from cyclonedds.core import Entity, Qos
+from cyclonedds.core import Entity, Policy, Qos
 from cyclonedds.domain import Domain, DomainParticipant
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
@@ -17,6 +17,7 @@ from cyclonedds.topic import Topic
 from cart2d.ros2 import qos
 from cart2d.ros2 import types as t
 from cart2d.ros2.names import NODE_NAME, Range, Ros2Options, cyclone_config
+from cart2d.ros2.typehash import type_hash
 
 log = logging.getLogger(__name__)
 
@@ -41,6 +42,14 @@ def gid(entity: Entity) -> t.Gid:
     return t.Gid(entity.guid.bytes)
 
 
+def with_type_hash(profile: Qos, kind: type[Any]) -> Qos:
+    """A message topic's endpoint QoS with `typehash=RIHS01_...;` in its USER_DATA, as
+    rmw_cyclonedds_cpp's (services' and actions' parts carry none: ROS hashes them as services)."""
+    if "::msg::" not in str(kind.__idl_typename__):
+        return profile
+    return profile + Qos(Policy.Userdata(f"typehash={type_hash(kind)};".encode()))
+
+
 class RosNode:
     """One participant in `options`' domain, one node named `cart2d` in its namespace."""
 
@@ -63,13 +72,13 @@ class RosNode:
         return self._topics[key]
 
     def writer(self, dds_name: str, kind: type[Any], profile: Qos) -> DataWriter[Any]:
-        writer = DataWriter(self.participant, self._topic(dds_name, kind), profile)
+        writer = DataWriter(self.participant, self._topic(dds_name, kind), with_type_hash(profile, kind))
         with self._lock:
             self._writers.append(writer)
         return writer
 
     def reader(self, dds_name: str, kind: type[Any], profile: Qos) -> DataReader[Any]:
-        reader = DataReader(self.participant, self._topic(dds_name, kind), profile)
+        reader = DataReader(self.participant, self._topic(dds_name, kind), with_type_hash(profile, kind))
         with self._lock:
             self._readers.append(reader)
         return reader
