@@ -29,6 +29,7 @@ SECTIONS = (
     "perception",
     "camera_stream",
     "recording",
+    "ros2",
     "safety",
     "drivetrain",
     "serial",

@@ -19,6 +19,7 @@ from cart2d.tools import cli_args, live
 from cart2d.tools import recording_args as recording_cli
 from cart2d.tools.camera_calibration.command import add_arguments as add_camera_calibrate_arguments
 from cart2d.tools.camera_calibration.command import main_camera_calibrate
+from cart2d.tools.ros2_args import add_ros2_arguments
 from cart2d.tools.umbmark.command import add_arguments as add_calibrate_arguments
 from cart2d.tools.umbmark.command import main_calibrate
 
@@ -66,6 +67,7 @@ def build_parser() -> argparse.ArgumentParser:
         + ", ".join(f"{f.name} ({f.range_text()})" for f in fault_table.FAULTS),
     )
     recording_cli.add_live_arguments(sim)
+    add_ros2_arguments(sim)
     sim.add_argument(
         "--camera-port",
         type=cli_args.camera_port_number,
@@ -94,6 +96,7 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--baud", type=int, default=115200)
     live.network_args(serve)
     recording_cli.add_live_arguments(serve)
+    add_ros2_arguments(serve)
     live.camera_args(serve)
     serve.set_defaults(run=live.cmd_serve)
 

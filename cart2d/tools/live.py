@@ -27,6 +27,7 @@ from cart2d.simulation.world import with_boxes, world_file
 from cart2d.store import Store
 from cart2d.tools import cli_args
 from cart2d.tools import recording_args as recording_cli
+from cart2d.tools.ros2_args import ros2_problem, ros2_session
 
 log = logging.getLogger("cart2d")
 
@@ -160,7 +161,7 @@ def _fault_options(options: list[str]) -> tuple[dict[str, float], list[str]]:
 
 def cmd_sim(args: argparse.Namespace) -> int:
     faults, problems = _fault_options(args.fault)
-    problems += [p for p in [recording_cli.record_problem(args)] if p]
+    problems += [p for p in [recording_cli.record_problem(args), ros2_problem(args)] if p]
     boxes, look, world_problems = world_file(args.world) if args.world else ([], None, [])
     problems += world_problems
     for problem in problems:
@@ -199,7 +200,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
         simulation = simulated_gateway(link, store, where.settings, sim)
         gateway = simulation.gateway
         try:
-            with recording_cli.live_session(gateway, args):
+            with recording_cli.live_session(gateway, args), ros2_session(gateway, args):
                 _connect(gateway, 5.0)
                 gateway.start()
                 if camera and not (args.camera or args.camera_stream):
@@ -293,7 +294,7 @@ def _open_serial(args: argparse.Namespace) -> Link | None:
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
-    problem = recording_cli.record_problem(args)
+    problem = recording_cli.record_problem(args) or ros2_problem(args)
     if problem:
         print(f"cart2d serve: {problem}", file=sys.stderr)
         return 2
@@ -307,7 +308,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
             return 1
         gateway = Gateway(link, store, where.settings)
         try:
-            with recording_cli.live_session(gateway, args):
+            with recording_cli.live_session(gateway, args), ros2_session(gateway, args):
                 _connect(gateway, 5.0)
                 gateway.start()
                 _attach_camera(gateway, args)
