@@ -96,6 +96,7 @@ struct Scene {
   double c = 1.0, s = 0.0;
   std::vector<Slab> slabs;
   const Checkerboard* board = nullptr;
+  std::vector<const Marker*> markers;  // marker_render.cpp
   Vec3 bx, by, bn, b0;
   Rgb background = rgb_of(CameraRenderer::kBackgroundColour);
   Rgb dark = rgb_of(CameraRenderer::kBoardDark), light = rgb_of(CameraRenderer::kBoardLight);
@@ -133,6 +134,9 @@ Hit trace(const Scene& sc, const Vec3& r, int u, int v) {
       hit = {face == 0 ? sl.top : face == 1 ? sl.face_x : sl.face_y, 2 + static_cast<uint32_t>(k) * 4 + face};
     }
   }
+  uint32_t marker_colour = 0;
+  if (hit_markers(sc.markers, o, d, CameraRenderer::kBoardDark, CameraRenderer::kBoardLight, &best, &marker_colour, &hit.surface))
+    hit.colour = rgb_of(marker_colour);
   if (sc.board) {
     const Vec3 &bn = sc.bn, &b0 = sc.b0;
     const double denom = bn.x * d.x + bn.y * d.y + bn.z * d.z;
@@ -220,6 +224,7 @@ void CameraRenderer::render_clean(const World& world, const Pose& pose, const Ch
     pixel_bounds(model_, pose, &slab);
     if (slab.u0 <= slab.u1 && slab.v0 <= slab.v1) sc.slabs.push_back(slab);
   }
+  sc.markers = markers_ahead(markers_, sc.o, sc.c, sc.s);
   if (board) {
     sc.board = board;
     board->axes(&sc.bx, &sc.by, &sc.bn);

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "camera_model.hpp"
+#include "marker_render.hpp"
 #include "world.hpp"
 
 namespace cart2d {
@@ -45,6 +46,7 @@ class CameraRenderer {
 
   explicit CameraRenderer(const CameraModel& model) : model_(model) {}
   const CameraModel& model() const { return model_; }
+  void set_markers(const std::vector<Marker>* markers) { markers_ = markers; }  // marker_render.hpp
 
   // The linear picture (before exposure and noise), RGB row-major.
   void render_clean(const World& world, const Pose& pose, const Checkerboard* board, std::vector<Rgb>* out) const;
@@ -55,6 +57,7 @@ class CameraRenderer {
 
  private:
   const CameraModel& model_;
+  const std::vector<Marker>* markers_ = nullptr;
 };
 
 }  // namespace cart2d
