@@ -26,6 +26,7 @@ from cart2d.simulation.wiring import simulated_gateway
 from cart2d.simulation.world import with_boxes, world_file_boxes
 from cart2d.store import Store
 from cart2d.tools import cli_args
+from cart2d.tools import localisation as localisation_cli
 from cart2d.tools import recording_args as recording_cli
 
 log = logging.getLogger("cart2d")
@@ -163,6 +164,8 @@ def cmd_sim(args: argparse.Namespace) -> int:
     problems += [p for p in [recording_cli.record_problem(args)] if p]
     boxes, world_problems = world_file_boxes(args.world) if args.world else ([], [])
     problems += world_problems
+    markers, markers_problem = localisation_cli.markers_of(args)
+    problems += [markers_problem] if markers_problem else []
     for problem in problems:
         print(f"cart2d sim: {problem}", file=sys.stderr)
     if problems:
@@ -204,6 +207,8 @@ def cmd_sim(args: argparse.Namespace) -> int:
                 if camera and not (args.camera or args.camera_stream):
                     args.camera = camera.url  # the simulated ESP32-CAM, read as a real one is
                 _attach_camera(gateway, args)
+                if markers is not None:
+                    localisation_cli.start_localisation(gateway, markers, store.directory, sim)
                 on = f"; faults: {', '.join(f'{k}={v:g}' for k, v in faults.items())}" if faults else ""
                 on += f"; {len(boxes)} boxes from {args.world}" if args.world else ""
                 print(
@@ -292,7 +297,8 @@ def _open_serial(args: argparse.Namespace) -> Link | None:
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
-    problem = recording_cli.record_problem(args)
+    markers, markers_problem = localisation_cli.markers_of(args)
+    problem = recording_cli.record_problem(args) or markers_problem
     if problem:
         print(f"cart2d serve: {problem}", file=sys.stderr)
         return 2
@@ -310,6 +316,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
                 _connect(gateway, 5.0)
                 gateway.start()
                 _attach_camera(gateway, args)
+                if markers is not None:
+                    localisation_cli.start_localisation(gateway, markers, store.directory)
                 _serve(gateway, where, args.allow_host)
         finally:
             _detach_camera(gateway)
