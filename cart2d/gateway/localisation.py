@@ -16,6 +16,7 @@ carried to now by the odometry's step since the capture before it is fused.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import threading
@@ -46,6 +47,10 @@ MESSAGE_EVERY_S = 0.25  # LocalisationMessage at most this often, but at every c
 REROUTE_SHIFT_M = 0.01
 REROUTE_TURN_RAD = math.radians(1.0)
 SET_POSE_SIGMA = (0.01, 0.01, math.radians(1.0))  # the user's SET_POSE, as good as a tape measure
+# How far off a frame's capture time may be (the latency varies with Wi-Fi and load): a fix taken
+# while the cart moves is as uncertain as the motion in that time
+CAPTURE_SIGMA_S = 0.04
+RATE_WINDOW_S = 0.1  # the odometry's speed at capture: over this long before it
 
 
 class Frames:
@@ -153,12 +158,14 @@ class Localisation:
         del self.detect_s[:-1000]
         if not fixes:
             return None
-        captured = self._poses.at(frame.received_s - self.latency_s)
+        captured_s = frame.received_s - self.latency_s
+        captured = self._poses.at(captured_s)
+        before = self._poses.at(captured_s - RATE_WINDOW_S)
         now = self._poses.at(self._clock())
         if captured is None or now is None:
             return None
         for fix in fixes:
-            self.fuse(fix, captured, now)
+            self.fuse(with_timing(fix, before or captured, captured), captured, now)
         return None
 
     def fuse(self, fix: TagFix, captured_odom: Pose2, now_odom: Pose2) -> str:
@@ -227,6 +234,16 @@ class Localisation:
             "detect_ms_median": 1000 * costs[len(costs) // 2] if costs else None,
             **self.view().model_dump(mode="json", exclude={"markers", "type"}),
         }
+
+
+def with_timing(fix: TagFix, before: Pose2, captured: Pose2) -> TagFix:
+    """The fix with the uncertainty of its capture time added: the odometry's speed just before
+    the capture times CAPTURE_SIGMA_S, in x and y and in the heading."""
+    step = between(before, captured)
+    v = math.hypot(step[0], step[1]) / RATE_WINDOW_S
+    w = abs(step[2]) / RATE_WINDOW_S
+    extra = np.diag([(v * CAPTURE_SIGMA_S) ** 2, (v * CAPTURE_SIGMA_S) ** 2, (w * CAPTURE_SIGMA_S) ** 2])
+    return dataclasses.replace(fix, covariance=fix.covariance + extra)
 
 
 def _moved(a: Pose2, b: Pose2) -> bool:
