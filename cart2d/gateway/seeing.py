@@ -184,6 +184,11 @@ class Seeing:
     def close(self) -> None:
         self._unsubscribe()
 
+    @property
+    def grid(self) -> LogOddsGrid | None:
+        """What the camera has seen so far (None before its first frame): map_saving.py's."""
+        return self._perception.grid if self._perception is not None else None
+
     def _perception_for_the_map(self) -> Perception:
         """A grid over the current map: a new map (its arena) starts a new belief."""
         arena = self.host.arena()

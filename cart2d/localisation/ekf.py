@@ -32,7 +32,7 @@ REJOIN_AGREE_M = 0.1  # the doubted fixes that mean a carried cart lie this clos
 # (a_dist, a_turn, a_turn_per_m): a step's sigma of distance a_dist |d|,
 # of turn a_turn |dth| + a_turn_per_m |d|
 # a_turn_per_m: a wheel slipping 2.5 % more than the other turns the cart 0.08 rad per metre
-ODOMETRY_NOISE = (0.05, 0.05, math.radians(6.0))
+ODOMETRY_NOISE = (0.05, 0.05, math.radians(12.0))
 MIN_STEP_VARIANCE = 1e-10
 
 

@@ -73,9 +73,13 @@ class TagFix:
 
 
 class TagDetector:
-    def __init__(self) -> None:
+    """`refinement`: OpenCV's corner refinement; the AprilTag one by default, SUBPIX a fraction
+    of its cost with corners as good on the simulator's pictures (bench/localisation.py)."""
+
+    def __init__(self, refinement: int = cv2.aruco.CORNER_REFINE_APRILTAG) -> None:
         params = cv2.aruco.DetectorParameters()
-        params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_APRILTAG
+        params.cornerRefinementMethod = refinement
+        self._offset = CORNER_OFFSET_PX if refinement == cv2.aruco.CORNER_REFINE_APRILTAG else 0.0
         self._detector = cv2.aruco.ArucoDetector(dictionary(), params)
 
     def detect(self, image: npt.NDArray[np.uint8]) -> list[Sighting]:
@@ -84,7 +88,7 @@ class TagDetector:
         if ids is None:
             return []
         return [
-            Sighting(int(i), np.asarray(c, dtype=np.float64).reshape(4, 2) - CORNER_OFFSET_PX)
+            Sighting(int(i), np.asarray(c, dtype=np.float64).reshape(4, 2) - self._offset)
             for c, i in zip(corners, ids.ravel(), strict=True)
         ]
 

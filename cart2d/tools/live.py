@@ -25,7 +25,7 @@ from cart2d.simulation.simulator import SimOptions, Simulator
 from cart2d.simulation.wiring import simulated_gateway
 from cart2d.simulation.world import with_boxes, world_file_boxes
 from cart2d.store import Store
-from cart2d.tools import cli_args
+from cart2d.tools import cli_args, map_command
 from cart2d.tools import localisation as localisation_cli
 from cart2d.tools import recording_args as recording_cli
 
@@ -165,7 +165,8 @@ def cmd_sim(args: argparse.Namespace) -> int:
     boxes, world_problems = world_file_boxes(args.world) if args.world else ([], [])
     problems += world_problems
     markers, markers_problem = localisation_cli.markers_of(args)
-    problems += [markers_problem] if markers_problem else []
+    floor_plan, map_problem = map_command.floor_plan_of(args)
+    problems += [p for p in (markers_problem, map_problem) if p]
     for problem in problems:
         print(f"cart2d sim: {problem}", file=sys.stderr)
     if problems:
@@ -206,6 +207,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
                 gateway.start()
                 if camera and not (args.camera or args.camera_stream):
                     args.camera = camera.url  # the simulated ESP32-CAM, read as a real one is
+                map_command.load_floor_plan(gateway, floor_plan, args.map)
                 _attach_camera(gateway, args)
                 if markers is not None:
                     localisation_cli.start_localisation(gateway, markers, store.directory, sim)
@@ -298,7 +300,8 @@ def _open_serial(args: argparse.Namespace) -> Link | None:
 
 def cmd_serve(args: argparse.Namespace) -> int:
     markers, markers_problem = localisation_cli.markers_of(args)
-    problem = recording_cli.record_problem(args) or markers_problem
+    floor_plan, map_problem = map_command.floor_plan_of(args)
+    problem = recording_cli.record_problem(args) or markers_problem or map_problem
     if problem:
         print(f"cart2d serve: {problem}", file=sys.stderr)
         return 2
@@ -315,6 +318,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
             with recording_cli.live_session(gateway, args):
                 _connect(gateway, 5.0)
                 gateway.start()
+                map_command.load_floor_plan(gateway, floor_plan, args.map)
                 _attach_camera(gateway, args)
                 if markers is not None:
                     localisation_cli.start_localisation(gateway, markers, store.directory)

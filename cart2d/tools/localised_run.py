@@ -29,6 +29,7 @@ from cart2d.tools.missions.camera import mission_camera
 from cart2d.tools.missions.events import Pacer
 
 Pose = tuple[float, float, float]
+TRACE_EVERY_S = 0.25  # simulated
 
 
 @dataclass
@@ -60,6 +61,7 @@ def run_goals(run: Run, speed: str = "max", seed: int = 1) -> dict[str, Any]:
     cols, rows, step = run.grid
     settings = GatewaySettings(map=MapSettings(cols=cols, rows=rows, step_m=step))
     report: dict[str, Any] = {"goals": []}
+    trace: list[list[float]] = report.setdefault("trace", [])
     with tempfile.TemporaryDirectory() as tmp:
         options = SimOptions(
             speed=speed,
@@ -91,7 +93,7 @@ def run_goals(run: Run, speed: str = "max", seed: int = 1) -> dict[str, Any]:
                         else None
                     )
                     for goal in run.goals:
-                        report["goals"].append(_drive(gateway, sim, goal, run.goal_timeout_s, service))
+                        report["goals"].append(_drive(gateway, sim, goal, run.goal_timeout_s, service, trace))
                     report["localisation"] = service.summary() if service is not None else None
             finally:
                 gateway.close()
@@ -102,8 +104,25 @@ def run_goals(run: Run, speed: str = "max", seed: int = 1) -> dict[str, Any]:
     return report
 
 
+def _sample(gateway: Any, service: Any, truth: dict[str, Any], trace: list[list[float]]) -> None:
+    """[t, x, y (truth), error of the gateway's pose, of the odometry's] every TRACE_EVERY_S."""
+    frame = gateway.link.telemetry
+    if frame is None or (trace and truth["t"] - trace[-1][0] < TRACE_EVERY_S):
+        return
+    odom = (frame.x, frame.y, frame.theta)
+    estimate = service.filter.pose if service is not None and service.filter.pose else odom
+    error = math.hypot(estimate[0] - truth["x"], estimate[1] - truth["y"])
+    odom_error = math.hypot(odom[0] - truth["x"], odom[1] - truth["y"])
+    trace.append([truth["t"], truth["x"], truth["y"], error, odom_error])
+
+
 def _drive(
-    gateway: Any, sim: Simulator, goal: tuple[float, float], timeout_s: float, service: Any
+    gateway: Any,
+    sim: Simulator,
+    goal: tuple[float, float],
+    timeout_s: float,
+    service: Any,
+    trace: list[list[float]],
 ) -> dict[str, Any]:
     out: dict[str, Any] = {"goal": list(goal)}
     deadline = sim.truth()["t"] + timeout_s
@@ -115,10 +134,12 @@ def _drive(
     except (PlanError, PoseUntrusted) as exc:
         return {**out, "reached": False, "reason": str(exc)}
     while gateway.mission_view()["state"] == "driving":
-        if sim.truth()["t"] > deadline:
+        truth = sim.truth()
+        if truth["t"] > deadline:
             gateway.stop()
             break
-        time.sleep(0.01)
+        _sample(gateway, service, truth, trace)
+        time.sleep(0.05)
     time.sleep(0.3)  # the last frames of the cart at rest: a fix at the goal
     view = gateway.mission_view()
     truth = sim.truth()
