@@ -29,6 +29,7 @@ Pose2 = tuple[float, float, float]
 GATE_CHI2 = 16.27  # χ²(3) at 99.9 %
 FIXES_TO_REJOIN = 4
 REJOIN_AGREE_M = 0.1  # the doubted fixes that mean a carried cart lie this close together
+REJOIN_AGREE_RAD = math.radians(10.0)
 # (a_dist, a_turn, a_turn_per_m): a step's sigma of distance a_dist |d|,
 # of turn a_turn |dth| + a_turn_per_m |d|
 # a_turn_per_m: a wheel slipping 2.5 % more than the other turns the cart 0.08 rad per metre
@@ -127,7 +128,7 @@ class PoseFilter:
             # kept as the map -> odom each implies: a carried cart's fixes agree on that as it drives
             self.doubted.append(compose(z, inverse(self.odom)) if self.odom is not None else z)
             recent = self.doubted[-FIXES_TO_REJOIN:]
-            if len(recent) == FIXES_TO_REJOIN and _together(recent):
+            if len(recent) == FIXES_TO_REJOIN and _together(recent, self.odom):
                 self.start_at(z, r, self.odom)
                 return "rejoined"
             return "doubted"
@@ -147,10 +148,19 @@ class PoseFilter:
         return compose(self.pose, inverse(self.odom))
 
 
-def _together(poses: list[Pose2]) -> bool:
-    xs = [p[0] for p in poses]
-    ys = [p[1] for p in poses]
-    return max(xs) - min(xs) < REJOIN_AGREE_M and max(ys) - min(ys) < REJOIN_AGREE_M
+def _together(maps_to_odom: list[Pose2], odom: Pose2 | None) -> bool:
+    """Whether the doubted fixes put the cart in one place now: each one's map -> odom applied
+    to the odometry's pose now (their translations alone differ by the distance to odom's origin
+    times the fixes' small heading errors)."""
+    here = [compose(m, odom) if odom is not None else m for m in maps_to_odom]
+    xs = [p[0] for p in here]
+    ys = [p[1] for p in here]
+    turns = [wrap(p[2] - here[0][2]) for p in here]
+    return (
+        max(xs) - min(xs) < REJOIN_AGREE_M
+        and max(ys) - min(ys) < REJOIN_AGREE_M
+        and max(turns) - min(turns) < REJOIN_AGREE_RAD
+    )
 
 
 def to_map(map_to_odom: Pose2, odom_pose: Pose2) -> Pose2:

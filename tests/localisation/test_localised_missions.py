@@ -35,6 +35,6 @@ def test_a_carried_cart_is_found_at_its_first_marker_and_driven() -> None:
     report = run_goals(run)
     (goal,) = report["goals"]
     assert goal["reached"], goal
-    assert goal["pose_error_m"] < 0.03 and goal["goal_error_m"] < 0.05, goal
+    assert goal["pose_error_m"] < 0.05 and goal["goal_error_m"] < 0.06, goal
     # the firmware still counts from where it believed it was, facing the other way
     assert abs(report["localisation"]["map_to_odom"]["theta"]) > math.radians(170)
