@@ -12,6 +12,7 @@ import urllib.request
 from pathlib import Path
 from typing import Any
 
+from cart2d.gateway.map_saving import checked_name
 from cart2d.maps.occupancy import MapError, OccupancyMap
 from cart2d.maps.ros import load_ros_map
 
@@ -27,6 +28,11 @@ def add_save_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def cmd_map_save(args: argparse.Namespace) -> int:
+    try:
+        checked_name(args.name)
+    except ValueError as exc:
+        print(f"cart2d map save: {exc}", file=sys.stderr)
+        return 2
     request = urllib.request.Request(
         args.url.rstrip("/") + "/api/map/save",
         data=json.dumps({"name": args.name}).encode(),
