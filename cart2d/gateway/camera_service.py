@@ -25,6 +25,7 @@ from cart2d.gateway.bus import EventBus, PerceivedChanged, ViewerMessage
 from cart2d.gateway.camera import CameraFeed, Processor, Shown
 from cart2d.gateway.forward_only import ReverseGuard
 from cart2d.gateway.live_map import Replan, arena
+from cart2d.gateway.localisation import Frames
 from cart2d.gateway.map_service import LiveMap
 from cart2d.gateway.perceived import PerceivedLayer, check_resolution, parse_cells
 from cart2d.gateway.seeing import Seeing, seeing_for
@@ -58,8 +59,10 @@ class CameraService:
         directory: Path,
         replans: Callable[[], list[Replan]] = list,
         clock: Callable[[], float] = time.monotonic,
+        frames: Frames | None = None,
     ) -> None:
         self.link = link
+        self.frames = frames or Frames()  # odometry -> map, for what is seen (localisation.py)
         self.live_map = live_map
         self.bus = bus
         self.directory = directory
@@ -112,7 +115,7 @@ class CameraService:
             with self._lock:
                 if self.camera is not feed:
                     return  # replaced meanwhile by another call, which stopped it
-                self.seeing = seeing_for(self, self.directory)
+                self.seeing = seeing_for(self, self.directory, self.frames.to_map)
                 feed.add_processor(self.seeing)
                 for processor in self._processors:
                     feed.add_processor(processor)

@@ -93,10 +93,10 @@ class Gateway:
         self.world = world
         self.bus = EventBus()  # what happened, typed; viewers' messages too (bus.py)
         self.live_map = LiveMap(store, settings, self.bus, self._position)  # map_service.py
-        self.camera_service = CameraService(  # camera_service.py: the feed, perception
-            link, self.live_map, self.bus, store.directory, lambda: self.mission.replans
-        )
         self.frames = Frames()  # map -> odom: the identity until markers correct it (localisation.py)
+        self.camera_service = CameraService(  # camera_service.py: the feed, perception
+            link, self.live_map, self.bus, store.directory, lambda: self.mission.replans, frames=self.frames
+        )
         self.localisation: Localisation | None = None  # with a markers file (localisation.localise)
         self.version: firmware.Version | None = None
         self.status_cache = StatusCache()  # what /api/status answers (status_cache.py)

@@ -5,12 +5,15 @@ in the corrected odometry's frame, and a fix far from the prediction changes not
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import cast
 
 import numpy as np
 import pytest
 
 from cart2d.gateway import Gateway
 from cart2d.gateway.bus import Event, PoseCorrected, ViewerMessage
+from cart2d.gateway.camera import CameraFeed
 from cart2d.gateway.localisation import Localisation
 from cart2d.gateway.messages import LocalisationMessage, TelemetryMessage
 from cart2d.localisation.ekf import Pose2
@@ -126,3 +129,33 @@ def test_setting_the_pose_makes_map_and_odom_agree_again(
     assert gateway.frames.get() != (0.0, 0.0, 0.0)
     gateway.set_pose(0.5, 0.5, 0.0)
     assert gateway.frames.get() == (0.0, 0.0, 0.0)
+
+
+class FakeFeed:
+    """What the camera service asks of a camera feed."""
+
+    def __init__(self) -> None:
+        self.processors: list[object] = []
+
+    def add_processor(self, processor: object) -> None:
+        self.processors.append(processor)
+
+    def subscribe(self, viewer: object) -> Callable[[], None]:
+        return lambda: None
+
+    def stop(self) -> None:
+        pass
+
+
+def test_what_the_camera_sees_is_placed_in_map_and_the_markers_processor_gets_every_feed(
+    gateway: Gateway, service: Localisation
+) -> None:
+    gateway.frames.set((1.0, 0.5, math.pi / 2))
+    gateway.camera_service.add_processor(service)
+    feed = FakeFeed()
+    gateway.camera_service.use_camera(cast(CameraFeed, feed))
+    seeing = gateway.camera_service.seeing
+    assert seeing is not None and feed.processors == [seeing, service]
+    # perception's pose: odometry's (0.2, 0, 0) is map's (1.0, 0.7, pi/2)
+    assert seeing.to_map((0.2, 0.0, 0.0)) == pytest.approx((1.0, 0.7, math.pi / 2))
+    gateway.camera_service.use_camera(None)
