@@ -76,3 +76,19 @@ export function drawLocalisation(
   }
   ctx.restore();
 }
+
+/** The odometry's pose in `map` through map -> odom (the identity without markers). */
+export function inMap<P extends { x: number; y: number; theta: number }>(
+  pose: P,
+  mapToOdom: { x: number; y: number; theta: number } | undefined,
+): P {
+  if (!mapToOdom) return pose;
+  const c = Math.cos(mapToOdom.theta);
+  const s = Math.sin(mapToOdom.theta);
+  return {
+    ...pose,
+    x: mapToOdom.x + c * pose.x - s * pose.y,
+    y: mapToOdom.y + s * pose.x + c * pose.y,
+    theta: pose.theta + mapToOdom.theta,
+  };
+}

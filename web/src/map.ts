@@ -20,7 +20,7 @@ import { cssVar } from "./dom";
 import { clipFieldOfView, type FloorCells, floorOccupied } from "./field_of_view";
 import { AXIS_BOTTOM_PX, Viewport, drawAxes } from "./map_view";
 import type { LocalisationMessage } from "./generated/live";
-import { drawLocalisation } from "./localisation";
+import { drawLocalisation, inMap } from "./localisation";
 
 export interface Pose {
   x: number;
@@ -211,7 +211,9 @@ export class LiveMap {
     this.invalidate();
   }
 
-  setPose(pose: Pose): void {
+  /** The firmware's pose (odometry), drawn in `map` (localisation.ts). */
+  setPose(odometry: Pose): void {
+    const pose = inMap(odometry, this.localisation?.map_to_odom);
     this.pose = pose;
     push(this.trail, pose);
     this.invalidate();
