@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 from PIL import Image, ImageDraw
 
+from cart2d.gateway.bus import EventBus, SimulatorRestarted
 from cart2d.gateway.localisation import Localisable, Localisation, localise
 from cart2d.gateway.seeing import default_latency_s
 from cart2d.localisation.markers import BITMAP_CELLS, TAG_IDS, MarkerMap, MarkersError, bitmap, load_markers
@@ -58,7 +59,18 @@ def start_localisation(
     mount = Mount.from_robot()
     if sim is not None:
         place_markers(sim, markers)  # the simulated camera sees them where the file says
+        replace_after_restarts(gateway.bus, sim, markers)
     return localise(gateway, markers, lens_for(directory, mount, sim is not None), mount, default_latency_s())
+
+
+def replace_after_restarts(bus: EventBus, sim: Controls, markers: MarkerMap) -> None:
+    """A simulator its supervisor started again has no markers: they are sent again."""
+
+    def again(event: SimulatorRestarted) -> None:
+        if not event.error:
+            place_markers(sim, markers)
+
+    bus.subscribe(SimulatorRestarted, again)
 
 
 # -- cart2d tags print -------------------------------------------------------------------------------

@@ -5,14 +5,17 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 from PIL import Image
 
-from cart2d.localisation.markers import MarkersError, load_markers
+from cart2d.gateway.bus import EventBus, SimulatorRestarted
+from cart2d.localisation.markers import Marker, MarkerMap, MarkersError, load_markers
 from cart2d.localisation.tags import TagDetector
 from cart2d.tools import cli
+from cart2d.tools.localisation import replace_after_restarts
 
 
 def test_a_png_sheet_is_at_true_size_and_is_read_back(tmp_path: Path) -> None:
@@ -63,3 +66,20 @@ def test_a_markers_file_with_an_id_twice_or_a_bad_field_says_so(tmp_path: Path) 
     path.write_text('{"markers": [{"id": 1, "size_m": -1, "x": 0, "y": 0}]}')
     with pytest.raises(MarkersError, match="size_m"):
         load_markers(path)
+
+
+def test_the_markers_are_sent_again_to_a_simulator_started_again() -> None:
+    sent: list[dict[str, Any]] = []
+
+    class FakeSim:
+        def control(self, kind: str, **members: Any) -> dict[str, Any]:
+            sent.append({"type": kind, **members})
+            return {}
+
+    bus = EventBus()
+    markers = MarkerMap((Marker(3, 0.1, 1.0, 0.0, 0.06, 180.0),))
+    replace_after_restarts(bus, FakeSim(), markers)
+    bus.publish(SimulatorRestarted(1, "it exited", False))
+    assert sent == []  # not running: nothing to send to
+    bus.publish(SimulatorRestarted(2, "", True))
+    assert [m["type"] for m in sent] == ["markers"] and sent[0]["markers"][0]["id"] == 3
