@@ -27,6 +27,7 @@ SECTIONS = (
     "streaming",
     "live_map",
     "perception",
+    "localisation",
     "camera_stream",
     "recording",
     "ros2",

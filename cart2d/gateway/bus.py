@@ -49,9 +49,17 @@ class Restarted(Event):
 @dataclass(frozen=True)
 class PoseCorrected(Event):
     """The pose is trusted again: the user set it, accepted it, or the reset routine squared the
-    cart up (`how`, in words)."""
+    cart up (`how`, in words); or the pose filter corrected it from fiducial markers
+    (cart2d/gateway/localisation.py), which fills the rest: `map_to_odom` (x, y, yaw: where the
+    odometry's origin lies in `map`), the cart's `pose` in `map`, its 3 x 3 `covariance` of
+    (x, y, yaw) row by row, and `stamp_s` the gateway's monotonic time of the fix. What a ROS 2
+    bridge publishes as map -> odom and a PoseWithCovarianceStamped."""
 
     how: str
+    map_to_odom: tuple[float, float, float] | None = None
+    pose: tuple[float, float, float] | None = None
+    covariance: tuple[float, ...] | None = None
+    stamp_s: float | None = None
 
 
 @dataclass(frozen=True)

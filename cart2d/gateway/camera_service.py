@@ -22,9 +22,10 @@ from typing import Any
 
 from cart2d.gateway import messages
 from cart2d.gateway.bus import EventBus, PerceivedChanged, ViewerMessage
-from cart2d.gateway.camera import CameraFeed, Shown
+from cart2d.gateway.camera import CameraFeed, Processor, Shown
 from cart2d.gateway.forward_only import ReverseGuard
 from cart2d.gateway.live_map import Replan, arena
+from cart2d.gateway.localisation import Frames
 from cart2d.gateway.map_service import LiveMap
 from cart2d.gateway.perceived import PerceivedLayer, check_resolution, parse_cells
 from cart2d.gateway.seeing import Seeing, seeing_for
@@ -58,8 +59,10 @@ class CameraService:
         directory: Path,
         replans: Callable[[], list[Replan]] = list,
         clock: Callable[[], float] = time.monotonic,
+        frames: Frames | None = None,
     ) -> None:
         self.link = link
+        self.frames = frames or Frames()  # odometry -> map, for what is seen (localisation.py)
         self.live_map = live_map
         self.bus = bus
         self.directory = directory
@@ -68,6 +71,7 @@ class CameraService:
         self.camera: CameraFeed | None = None
         self.seeing: Seeing | None = None  # the camera's frames into the perceived layer (seeing.py)
         self._sinks: dict[Callable[[Shown], None], Callable[[], None] | None] = {}  # sink: unsubscribe
+        self._processors: list[Processor] = []  # besides seeing: the markers' (localisation.py)
         self._lock = threading.RLock()
         self._guard = ReverseGuard()  # forwards only while seeing (forward_only.py)
         self._guard_lock = threading.Lock()
@@ -111,8 +115,10 @@ class CameraService:
             with self._lock:
                 if self.camera is not feed:
                     return  # replaced meanwhile by another call, which stopped it
-                self.seeing = seeing_for(self, self.directory)
+                self.seeing = seeing_for(self, self.directory, self.frames.to_map)
                 feed.add_processor(self.seeing)
+                for processor in self._processors:
+                    feed.add_processor(processor)
                 for sink in self._sinks:
                     self._sinks[sink] = feed.subscribe(sink)
         self.forwards_only_while_seeing(certain=False)
@@ -131,6 +137,13 @@ class CameraService:
                 self._guard.apply(self.link, seeing)
             else:
                 self._guard.try_apply(self.link, seeing)
+
+    def add_processor(self, processor: Processor) -> None:
+        """processor(frame, image) on every frame of this camera and the next ones."""
+        with self._lock:
+            self._processors.append(processor)
+            if self.camera is not None:
+                self.camera.add_processor(processor)
 
     def add_camera_sink(self, sink: Callable[[Shown], None]) -> Callable[[], None]:
         """sink(shown) for every frame shown of whichever camera the gateway reads, now and after

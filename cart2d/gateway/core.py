@@ -38,6 +38,7 @@ from cart2d.gateway.camera_service import CameraService
 from cart2d.gateway.collaborators import GroundTruth, ResetButton, SimulatedWorld
 from cart2d.gateway.commands import Commands
 from cart2d.gateway.live_map import world_for
+from cart2d.gateway.localisation import Frames, Localisation
 from cart2d.gateway.look import look_before_driving
 from cart2d.gateway.map_service import LiveMap
 from cart2d.gateway.missions import Missions, plan_view
@@ -92,9 +93,11 @@ class Gateway:
         self.world = world
         self.bus = EventBus()  # what happened, typed; viewers' messages too (bus.py)
         self.live_map = LiveMap(store, settings, self.bus, self._position)  # map_service.py
+        self.frames = Frames()  # map -> odom: the identity until markers correct it (localisation.py)
         self.camera_service = CameraService(  # camera_service.py: the feed, perception
-            link, self.live_map, self.bus, store.directory, lambda: self.mission.replans
+            link, self.live_map, self.bus, store.directory, lambda: self.mission.replans, frames=self.frames
         )
+        self.localisation: Localisation | None = None  # with a markers file (localisation.localise)
         self.version: firmware.Version | None = None
         self.status_cache = StatusCache()  # what /api/status answers (status_cache.py)
         self.restarts = Restarts(  # restarts.py: every STATUS read, the pose's trust
@@ -126,6 +129,7 @@ class Gateway:
             wait_for_the_program=self._wait_for_the_program,
             sim_time=lambda: truth.time_s() if truth is not None else None,
             wake=self.monitor.wake,
+            frames=self.frames,
         )
         self.monitor.follow(self.missions)
         self.monitor.follow(self.reset_routine)

@@ -188,6 +188,31 @@ class PoseTrustMessage(_Message):
     how: str
 
 
+class MarkerView(_Strict):
+    id: int
+    size_m: Number
+    x: Number
+    y: Number
+    yaw_deg: Number
+    on: Literal["wall", "floor"]
+
+
+class LocalisationMessage(_Message):
+    """The pose filter (cart2d/gateway/localisation.py): the cart's pose in `map`, its
+    uncertainty (the covariance of x, y and theta, row by row, m and rad), map -> odom, and the
+    markers it knows (to draw)."""
+
+    type: Literal["localisation"] = "localisation"
+    trusted: bool
+    pose: Pose | None
+    covariance: list[Number]
+    map_to_odom: Pose
+    accepted: int
+    doubted: int
+    last: str  # the last fix, in words
+    markers: list[MarkerView]
+
+
 class ResetMessage(_Message):
     """A restart of the controller the gateway noticed (gateway/state.py, ResetReport)."""
 
@@ -295,6 +320,7 @@ LiveMessage = Annotated[
     | ReplanMessage
     | RoutineMessage
     | PoseTrustMessage
+    | LocalisationMessage
     | ResetMessage
     | SimulatorMessage
     | MapMessage

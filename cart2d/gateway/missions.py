@@ -11,7 +11,12 @@ as it is (tests/server/test_stop_lock.py).
 
 The lock guards the mission and the path's stream, and a path is sent and its mission recorded
 together under it. The live map hands out planner snapshots no later edit changes; its changes
-(MapChanged / PerceivedChanged, published with its locks free) check the route here under it."""
+(MapChanged / PerceivedChanged, published with its locks free) check the route here under it.
+
+Goals, routes and the map are in `map`; the firmware's pose and waypoints in its odometry's frame
+(`odom`): `frames` (cart2d/gateway/localisation.py) converts between them, the identity until a
+marker corrects the pose. A correction (PoseCorrected with map -> odom) re-sends the driven
+route: the same goal, its waypoints in the corrected odometry's frame."""
 
 from __future__ import annotations
 
@@ -32,10 +37,12 @@ from cart2d.gateway.bus import (
     MissionEnded,
     MissionStarted,
     PerceivedChanged,
+    PoseCorrected,
     RoutineStarted,
     ViewerMessage,
 )
 from cart2d.gateway.live_map import Replan, RouteAhead
+from cart2d.gateway.localisation import Frames
 from cart2d.gateway.restarts import Restarts
 from cart2d.gateway.routine import ResetRoutine
 from cart2d.gateway.state import Mission, MissionEnd, PathTooLong, PoseUntrusted, Routine
@@ -71,6 +78,7 @@ class Missions:
         sim_time: Callable[[], float | None],
         wake: Callable[[], None],
         clock: Callable[[], float] = time.monotonic,
+        frames: Frames | None = None,
     ) -> None:
         """`restarts`: the restart watch (STATUS reads, the pose's trust); `lock`: the one the
         map's edits hold too (module docstring), the routine's; `planner()`: the routes' now;
@@ -91,6 +99,7 @@ class Missions:
         self._sim_time = sim_time
         self._wake = wake
         self._clock = clock
+        self.frames = frames or Frames()  # map <-> odom (module docstring)
         self.mission = Mission()
         self._stream: path_stream.PathStream | None = None  # the mission's path, streamed to the firmware
         self._frames_at_route = 0  # telemetry frames received when the last route was sent
@@ -101,6 +110,7 @@ class Missions:
         bus.subscribe(MapChanged, lambda e: self._routes_changed(e.why))
         bus.subscribe(PerceivedChanged, lambda e: self._routes_changed(e.why))
         bus.subscribe(RoutineStarted, lambda _: self._replaced_by_routine())
+        bus.subscribe(PoseCorrected, self._pose_corrected)
         bus.subscribe(Closing, lambda _: self.cancel_stream())
 
     def _publish(self, message: messages.LiveMessage) -> None:
@@ -119,7 +129,8 @@ class Missions:
         with self.lock:
             if not self.restarts.pose_trust.trusted:
                 raise PoseUntrusted(self.restarts.pose_trust.refusal())
-        pose = self.link.call("POSE")
+        odom_x, odom_y, odom_theta = self.link.call("POSE")
+        pose = self.frames.to_map((odom_x, odom_y, odom_theta))
         with self.lock:
             if not self.restarts.pose_trust.trusted:  # a restart noticed meanwhile
                 raise PoseUntrusted(self.restarts.pose_trust.refusal())
@@ -154,7 +165,8 @@ class Missions:
         new one (docs/protocol.md, Paths and the waypoint window)."""
         self.cancel_stream()
         self._forwards_only(True)
-        self._stream = path_stream.upload_path(self.link, plan.waypoints, token)
+        waypoints = self.frames.to_odom_points(plan.waypoints)
+        self._stream = path_stream.upload_path(self.link, waypoints, token)
         self._frames_at_route = self.link.telemetry_count
 
     def drive(self, v_mps: float, omega_radps: float, token: int | None = None) -> None:
@@ -328,13 +340,23 @@ class Missions:
             if self.mission.state == "driving" and self.mission.route:
                 self._check_route(f"the map changed: {why}")
 
-    def _check_route(self, why: str) -> None:
+    def _pose_corrected(self, event: PoseCorrected) -> None:
+        """The pose filter moved map -> odom: the driven route's waypoints, in odom, are where
+        they were no longer; sent again from the corrected pose (lock held)."""
+        if event.map_to_odom is None:
+            return  # the user's SET_POSE: odometry is map's again, the route's odom points too
+        with self.lock:
+            if self.mission.state == "driving" and self.mission.route:
+                self._check_route(f"the pose was corrected ({event.how})", always=True)
+
+    def _check_route(self, why: str, always: bool = False) -> None:
         """Checks the rest of the driven route against the map now (the planner's own check:
-        footprint plus clearance); replans from the measured pose if it is blocked (lock held)."""
+        footprint plus clearance); replans from the measured pose if it is blocked, or `always`
+        (lock held)."""
         mission = self.mission
         try:
             status = self.restarts.read_status()
-            pose = self._read_pose()
+            pose = self.frames.to_map(self._read_pose())
         except (LinkError, CommandRefused) as exc:
             log.warning("the path could not be checked against the changed map: %s", exc)
             return
@@ -342,7 +364,7 @@ class Missions:
             return  # ended meanwhile, or about to be ended by the monitor
         here = (pose[0], pose[1])
         ahead = RouteAhead.of(mission.route_start, mission.route, status.waypoint_index, here)
-        if ahead.blocked(self._planner().graph):
+        if always or ahead.blocked(self._planner().graph):
             self._replan(why, here, ahead.entry)
 
     def _check_off_path(self) -> None:
@@ -364,7 +386,8 @@ class Missions:
                 limits["off_path_replan_interval_s"]
             ):
                 return
-            here = (frame.x, frame.y)
+            x, y, _ = self.frames.to_map((frame.x, frame.y, frame.theta))
+            here = (x, y)
             ahead = RouteAhead.of(mission.route_start, mission.route, int(frame.waypoint_index), here)
             off_m = ahead.distance(here)
             if off_m > float(limits["off_path_replan_m"]):

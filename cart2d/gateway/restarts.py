@@ -155,12 +155,13 @@ class Restarts:
         self.trust(words)
         return dict(zip(("x", "y", "theta"), pose, strict=True)), words
 
-    def trust(self, how: str) -> None:
-        """The pose is right again (`how`, in words: set, accepted, squared up)."""
+    def trust(self, how: str, corrected: PoseCorrected | None = None) -> None:
+        """The pose is right again (`how`, in words: set, accepted, squared up, found at a
+        marker: then `corrected` is the filter's event, published instead of a bare one)."""
         self.pose_trust = PoseTrust()
         log.info("pose trusted: %s", how)
         self.bus.publish(ViewerMessage(PoseTrustMessage(trusted=True, reason="", how=how)))
-        self.bus.publish(PoseCorrected(how))
+        self.bus.publish(corrected or PoseCorrected(how))
 
     def _on_restart(self, status: firmware.Status, reopened: bool) -> None:
         self.link.settings_may_change()  # the firmware loaded its settings from EEPROM again

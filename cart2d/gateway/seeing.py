@@ -154,8 +154,12 @@ class Seeing:
         calibration: CameraCalibration | None = None,
         latency_s: float | None = None,
         resolution_m: float = GRID_RESOLUTION_M,
+        to_map: Callable[[Pose], Pose] | None = None,
     ) -> None:
         self.host = host
+        # odometry -> map (localisation.py's Frames): the planner plans in map, so what is seen
+        # is put there; the identity without markers
+        self.to_map = to_map or (lambda pose: pose)
         self.calibration = calibration
         self.latency_s = default_latency_s() if latency_s is None else latency_s
         self.resolution_m = resolution_m
@@ -183,6 +187,11 @@ class Seeing:
 
     def close(self) -> None:
         self._unsubscribe()
+
+    @property
+    def grid(self) -> LogOddsGrid | None:
+        """What the camera has seen so far (None before its first frame): map_saving.py's."""
+        return self._perception.grid if self._perception is not None else None
 
     def _perception_for_the_map(self) -> Perception:
         """A grid over the current map: a new map (its arena) starts a new belief."""
@@ -220,7 +229,7 @@ class Seeing:
         ):
             self.idle_skipped += 1
             return Overlay(draw=self._last_seen.draw)
-        seen = perception.process(np.asarray(bgr, dtype=np.uint8), pose)
+        seen = perception.process(np.asarray(bgr, dtype=np.uint8), self.to_map(pose))
         self._last_seen = seen
         self.frames += 1
         self.frame_log.append((frame.stamp_s, pose))
@@ -289,7 +298,7 @@ class Seeing:
         return what
 
 
-def seeing_for(host: SeeingHost, directory: Path) -> Seeing:
+def seeing_for(host: SeeingHost, directory: Path, to_map: Callable[[Pose], Pose] | None = None) -> Seeing:
     """Perception with the calibration saved in `directory`, beside the gateway's settings (the
     nominal model, with a warning in the log, if there is none)."""
     path = calibration_path(directory)
@@ -298,4 +307,4 @@ def seeing_for(host: SeeingHost, directory: Path) -> Seeing:
         log.warning(
             "the camera is not calibrated (cart2d camera calibrate): perception uses the nominal model"
         )
-    return Seeing(host, calibration)
+    return Seeing(host, calibration, to_map=to_map)

@@ -15,7 +15,8 @@ from types import FrameType
 
 from cart2d.server import serving
 from cart2d.simulation import faults as fault_table
-from cart2d.tools import cli_args, live
+from cart2d.tools import cli_args, live, map_command
+from cart2d.tools import localisation as localisation_cli
 from cart2d.tools import recording_args as recording_cli
 from cart2d.tools.camera_calibration.command import add_arguments as add_camera_calibrate_arguments
 from cart2d.tools.camera_calibration.command import main_camera_calibrate
@@ -84,6 +85,8 @@ def build_parser() -> argparse.ArgumentParser:
         '"sy", "height", "colour", "id"}, ...]} (m); the panel\'s Box mode and /api/sim/boxes change them',
     )
     live.camera_args(sim)
+    localisation_cli.add_markers_argument(sim)
+    map_command.add_map_argument(sim)
     sim.set_defaults(run=live.cmd_sim)
 
     serve = sub.add_parser("serve", help="the gateway and panel for a real cart on a serial port")
@@ -98,6 +101,8 @@ def build_parser() -> argparse.ArgumentParser:
     recording_cli.add_live_arguments(serve)
     add_ros2_arguments(serve)
     live.camera_args(serve)
+    localisation_cli.add_markers_argument(serve)
+    map_command.add_map_argument(serve)
     serve.set_defaults(run=live.cmd_serve)
 
     mission = sub.add_parser("mission", help="run a mission in the simulator and write a report")
@@ -138,6 +143,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_camera_calibrate_arguments(camera_calibrate)
     camera_calibrate.set_defaults(run=main_camera_calibrate)
+
+    tags = sub.add_parser("tags", help="AprilTag markers for localisation: print")
+    tags_sub = tags.add_subparsers(dest="tags_command", required=True)
+    tags_print = tags_sub.add_parser("print", help="printable sheets of markers at true size (PDF or PNG)")
+    localisation_cli.add_print_arguments(tags_print)
+    tags_print.set_defaults(run=localisation_cli.cmd_tags_print)
+
+    maps = sub.add_parser("map", help="maps built from what the camera saw: save")
+    maps_sub = maps.add_subparsers(dest="map_command", required=True)
+    map_save = maps_sub.add_parser("save", help="the running gateway's seen map as a ROS map_server map")
+    map_command.add_save_arguments(map_save)
+    map_save.set_defaults(run=map_command.cmd_map_save)
     return parser
 
 

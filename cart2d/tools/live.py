@@ -25,7 +25,8 @@ from cart2d.simulation.simulator import SimOptions, Simulator
 from cart2d.simulation.wiring import simulated_gateway
 from cart2d.simulation.world import with_boxes, world_file
 from cart2d.store import Store
-from cart2d.tools import cli_args
+from cart2d.tools import cli_args, map_command
+from cart2d.tools import localisation as localisation_cli
 from cart2d.tools import recording_args as recording_cli
 from cart2d.tools.ros2_args import ros2_problem, ros2_session
 
@@ -164,6 +165,9 @@ def cmd_sim(args: argparse.Namespace) -> int:
     problems += [p for p in [recording_cli.record_problem(args), ros2_problem(args)] if p]
     boxes, look, world_problems = world_file(args.world) if args.world else ([], None, [])
     problems += world_problems
+    markers, markers_problem = localisation_cli.markers_of(args)
+    floor_plan, map_problem = map_command.floor_plan_of(args)
+    problems += [p for p in (markers_problem, map_problem) if p]
     for problem in problems:
         print(f"cart2d sim: {problem}", file=sys.stderr)
     if problems:
@@ -205,7 +209,10 @@ def cmd_sim(args: argparse.Namespace) -> int:
                 gateway.start()
                 if camera and not (args.camera or args.camera_stream):
                     args.camera = camera.url  # the simulated ESP32-CAM, read as a real one is
+                map_command.load_floor_plan(gateway, floor_plan, args.map)
                 _attach_camera(gateway, args)
+                if markers is not None:
+                    localisation_cli.start_localisation(gateway, markers, store.directory, sim)
                 on = f"; faults: {', '.join(f'{k}={v:g}' for k, v in faults.items())}" if faults else ""
                 on += f"; {len(boxes)} boxes from {args.world}" if args.world else ""
                 print(
@@ -294,7 +301,9 @@ def _open_serial(args: argparse.Namespace) -> Link | None:
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
-    problem = recording_cli.record_problem(args) or ros2_problem(args)
+    markers, markers_problem = localisation_cli.markers_of(args)
+    floor_plan, map_problem = map_command.floor_plan_of(args)
+    problem = recording_cli.record_problem(args) or ros2_problem(args) or markers_problem or map_problem
     if problem:
         print(f"cart2d serve: {problem}", file=sys.stderr)
         return 2
@@ -311,7 +320,10 @@ def cmd_serve(args: argparse.Namespace) -> int:
             with recording_cli.live_session(gateway, args), ros2_session(gateway, args):
                 _connect(gateway, 5.0)
                 gateway.start()
+                map_command.load_floor_plan(gateway, floor_plan, args.map)
                 _attach_camera(gateway, args)
+                if markers is not None:
+                    localisation_cli.start_localisation(gateway, markers, store.directory)
                 _serve(gateway, where, args.allow_host)
         finally:
             _detach_camera(gateway)

@@ -105,6 +105,7 @@ struct Scene {
   double c = 1.0, s = 0.0;
   std::vector<Slab> slabs;
   const Checkerboard* board = nullptr;
+  std::vector<const Marker*> markers;  // marker_render.cpp
   Vec3 bx, by, bn, b0;
   Rgb background = rgb_of(CameraRenderer::kBackgroundColour);
   Rgb dark = rgb_of(CameraRenderer::kBoardDark), light = rgb_of(CameraRenderer::kBoardLight);
@@ -237,6 +238,11 @@ Hit trace(const Scene& sc, const Vec3& r, int u, int v) {
     bool skirting = false;
     const Rgb c = box_colour(sc, sc.slabs[static_cast<size_t>(k)], face, p, d, &skirting);
     hit = {c, (2 + static_cast<uint32_t>(k) * 4 + face) | (skirting ? kSurfaceSkirting : 0u), best};
+  }
+  uint32_t marker_colour = 0;
+  if (hit_markers(sc.markers, o, d, CameraRenderer::kBoardDark, CameraRenderer::kBoardLight, &best, &marker_colour, &hit.surface)) {
+    hit.colour = rgb_of(marker_colour);
+    hit.t = best;
   }
   if (sc.board) {
     const Vec3 &bn = sc.bn, &b0 = sc.b0;
@@ -405,6 +411,7 @@ void CameraRenderer::render_clean(const FrameScene& frame, std::vector<Rgb>* out
     if ((slab.u0 <= slab.u1 && slab.v0 <= slab.v1) || (glossy && slab.ru0 <= slab.ru1 && slab.rv0 <= slab.rv1))
       sc.slabs.push_back(slab);
   }
+  sc.markers = markers_ahead(markers_, sc.o, sc.c, sc.s);
   if (frame.board) {
     sc.board = frame.board;
     frame.board->axes(&sc.bx, &sc.by, &sc.bn);

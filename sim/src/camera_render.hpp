@@ -11,6 +11,7 @@
 
 #include "body.hpp"  // Pose, Twist
 #include "camera_model.hpp"
+#include "marker_render.hpp"
 #include "world.hpp"
 
 namespace cart2d {
@@ -71,6 +72,7 @@ class CameraRenderer {
 
   explicit CameraRenderer(const CameraModel& model) : model_(model) {}
   const CameraModel& model() const { return model_; }
+  void set_markers(const std::vector<Marker>* markers) { markers_ = markers; }  // marker_render.hpp
 
   // The linear picture (before the camera's effects), RGB row-major; *depth (if given) the distance
   // along each pixel's ray to what it shows (kMaxRangeM for the background).
@@ -86,6 +88,7 @@ class CameraRenderer {
 
  private:
   const CameraModel& model_;
+  const std::vector<Marker>* markers_ = nullptr;
 };
 
 }  // namespace cart2d

@@ -95,6 +95,7 @@ std::string Simulator::dispatch(int client, const std::string& type, const json:
   if (type == "camera") return cmd_camera(client, msg, extra);
   if (type == "target") return cmd_target(msg);
   if (type == "look") return cmd_look(msg);
+  if (type == "markers") return cmd_markers(msg);
   if (type == "link") return cmd_link(msg, extra);
   if (type == "profile") return cmd_profile(msg, extra);
   if (type == "run") return cmd_run(msg);

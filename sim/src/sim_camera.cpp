@@ -81,6 +81,7 @@ void SimCamera::rebuild() {
                                                     params::camera::hfov_deg * kPi / 180.0, settings_.k1, settings_.k2);
   model_ = std::make_unique<CameraModel>(CameraMount::from_params(), intr);
   renderer_ = std::make_unique<CameraRenderer>(*model_);
+  renderer_->set_markers(&markers_);
   clock_ = CameraClock(settings_.fps, settings_.latency_ms / 1000.0, cpu_hz_);
 }
 

@@ -47,6 +47,9 @@ class SimCamera {
   // {"cols","rows","square_m","x","y","z","roll","pitch","yaw"} or null; "" or why not.
   std::string set_target(const json::Value& board);
   const Checkerboard* board() const { return board_ ? &*board_ : nullptr; }
+  // The fiducial markers in view of the camera (marker_render.hpp: its message's "markers"); "" or why not.
+  std::string set_markers(const json::Value& markers);
+  size_t markers() const { return markers_.size(); }
 
   // Capturing from the first frame at or after `now_cycle` (turned on), or not (frames in flight dropped).
   void set_on(bool on, uint64_t now_cycle);
@@ -82,6 +85,7 @@ class SimCamera {
   CameraClock clock_;
   JpegEncoder encoder_;
   std::optional<Checkerboard> board_;
+  std::vector<Marker> markers_;
   bool on_ = false;
   uint64_t next_k_ = 0;
   std::deque<CameraFrame> in_flight_;

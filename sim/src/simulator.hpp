@@ -74,6 +74,7 @@ class Simulator {
   std::string cmd_camera(int client, const json::Value& msg, std::string* extra);
   std::string cmd_look(const json::Value& msg);
   std::string cmd_target(const json::Value& msg);
+  std::string cmd_markers(const json::Value& msg);  // marker_commands.cpp
   void camera_step(uint64_t end_cycle);
 
   void on_physics_step(uint64_t end_cycle);

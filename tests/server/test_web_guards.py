@@ -102,6 +102,7 @@ ATTACKS: dict[str, bytes] = {
     # a wall of perceived cells across the arena, or perception off
     "PUT /api/perception": b'{"enabled": false, "cells": [[1.0, 0.0, 1.0], [1.0, 0.2, 1.0]]}',
     "POST /api/perception/clear": b"",
+    "POST /api/map/save": b'{"name": "attack"}',  # a file written in the gateway's folder
     "PUT /api/settings/camera": b'{"stream_url": "http://127.0.0.1:9/stream"}',  # a camera of theirs
     # a 4 x 4 m floor plan with a wall (a PGM of 40 x 40 cells at 0.1 m)
     "POST /api/map": b'{"resolution_m": 0.1, "image": "'

@@ -37,6 +37,7 @@ import { gatewayAnswers, TokenForm, wsUrl } from "./token";
 import { Toasts } from "./toasts";
 import { Trajectory } from "./trajectory";
 import { Tuning, type PanelContext } from "./tuning";
+import { initMapSave } from "./map_save";
 
 // -- messages ----------------------------------------------------------------------------------
 const toasts = new Toasts($("messages"), [".segmented", "#cmd-form", "#estop"], document.querySelector("header") ?? document.body);
@@ -51,6 +52,7 @@ function errorText(err: unknown): string {
 }
 
 const ctx: PanelContext = { notify, errorText };
+initMapSave(ctx);
 let tokenRefused = false; // the live stream was refused for the token: wait for a new one
 const tokenForm = new TokenForm(ctx, () => {
   tokenRefused = false;
@@ -402,6 +404,9 @@ function onMessage(msg: LiveMessage): void {
       break;
     case "camera":
       liveMap.setCamera(msg.fov, msg.hits);
+      break;
+    case "localisation":
+      liveMap.setLocalisation(msg);
       break;
     case "sim_world":
       simWorld.show(msg);

@@ -19,6 +19,8 @@ import type { Arena, MapView, Plan, Point, SimBox } from "./api";
 import { cssVar } from "./dom";
 import { clipFieldOfView, type FloorCells, floorOccupied } from "./field_of_view";
 import { AXIS_BOTTOM_PX, Viewport, drawAxes } from "./map_view";
+import type { LocalisationMessage } from "./generated/live";
+import { drawLocalisation, inMap } from "./localisation";
 
 export interface Pose {
   x: number;
@@ -63,6 +65,7 @@ export class LiveMap {
   pose: Pose | null = null;
   truth: Pose | null = null;
   private rawPath: Point[] | null = null;
+  private localisation: LocalisationMessage | null = null;
   private hiddenPlan = ""; // a plan not to draw again (from before a reset or a new pose)
   private readonly trail: Point[] = [];
   private readonly truthTrail: Point[] = [];
@@ -145,6 +148,14 @@ export class LiveMap {
     this.invalidate();
   }
 
+  /** The pose filter's markers and the pose's uncertainty (localisation.ts). */
+  setLocalisation(loc: LocalisationMessage): void {
+    this.localisation = loc;
+    this.canvas.dataset["markers"] = String(loc.markers.length);
+    this.canvas.dataset["localised"] = loc.pose ? "yes" : "no";
+    this.invalidate();
+  }
+
   /** The camera's field of view and the obstacle bases of its last processed frame. */
   setCamera(fov: Point[], hits: Point[]): void {
     this.fov = fov;
@@ -200,7 +211,9 @@ export class LiveMap {
     this.invalidate();
   }
 
-  setPose(pose: Pose): void {
+  /** The firmware's pose (odometry), drawn in `map` (localisation.ts). */
+  setPose(odometry: Pose): void {
+    const pose = inMap(odometry, this.localisation?.map_to_odom);
     this.pose = pose;
     push(this.trail, pose);
     this.invalidate();
@@ -503,6 +516,7 @@ export class LiveMap {
     this.drawPerception(ctx, s, colors);
     this.outlineBoxes(ctx, s); // over the perceived cells: what stands there, against what was seen
     this.drawPaths(ctx, colors);
+    if (this.localisation) drawLocalisation(ctx, this.localisation, (x, y) => this.toScreen(x, y), s, colors.fov);
 
     const radius = (m?.footprint_radius_m ?? 0.17) * s;
     ctx.lineWidth = 1.5;

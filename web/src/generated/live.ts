@@ -8,6 +8,7 @@ export type LiveMessage =
   | ReplanMessage
   | RoutineMessage
   | PoseTrustMessage
+  | LocalisationMessage
   | ResetMessage
   | SimulatorMessage
   | MapMessage
@@ -157,6 +158,35 @@ export interface PoseTrustMessage {
   how: string;
 }
 /**
+ * The pose filter (cart2d/gateway/localisation.py): the cart's pose in `map`, its
+ * uncertainty (the covariance of x, y and theta, row by row, m and rad), map -> odom, and the
+ * markers it knows (to draw).
+ */
+export interface LocalisationMessage {
+  type: "localisation";
+  trusted: boolean;
+  pose: Pose | null;
+  covariance: number[];
+  map_to_odom: Pose;
+  accepted: number;
+  doubted: number;
+  last: string;
+  markers: MarkerView[];
+}
+export interface Pose {
+  x: number;
+  y: number;
+  theta: number;
+}
+export interface MarkerView {
+  id: number;
+  size_m: number;
+  x: number;
+  y: number;
+  yaw_deg: number;
+  on: "wall" | "floor";
+}
+/**
  * A restart of the controller the gateway noticed (gateway/state.py, ResetReport).
  */
 export interface ResetMessage {
@@ -172,11 +202,6 @@ export interface ResetMessage {
   mission_ended: boolean;
   message: string;
   pose_trust: PoseTrustView;
-}
-export interface Pose {
-  x: number;
-  y: number;
-  theta: number;
 }
 export interface PoseTrustView {
   trusted: boolean;
