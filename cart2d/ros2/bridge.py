@@ -61,6 +61,10 @@ class Writers:
         self.perceived_map = (
             None if o.base_only else node.writer(o.topic("perceived_map"), t.OccupancyGrid, qos.latched())
         )
+        # the pose filter's pose in map (AMCL's amcl_pose, robot_localization's): a base leaves it
+        self.pose = (
+            None if o.base_only else node.writer(o.topic("pose"), t.PoseWithCovarianceStamped, qos.stream(1))
+        )
         self.scan = node.writer(o.topic("scan"), t.LaserScan, qos.stream(5))
         self.image = node.writer(o.topic("camera/image/compressed"), t.CompressedImage, qos.stream(2))
         self.camera_info = node.writer(o.topic("camera/camera_info"), t.CameraInfo, qos.stream(2))
@@ -115,6 +119,7 @@ class Bridge:
         self._angles = convert.WheelAngles()
         self._pose: tuple[float, float, float] = (0.0, 0.0, 0.0)  # the latest telemetry's
         self._resets: list[dict[str, Any]] = []
+        self._map_to_odom = (0.0, 0.0, 0.0)  # the pose filter's (a "localisation" message), else none
         self._diagnosed_s = -math.inf
         self.worker = threading.Thread(target=self._work, name="ros2 publisher", daemon=True)
         self._log_handler = _RosoutHandler(self)
@@ -197,6 +202,23 @@ class Bridge:
             w.scan.write(sensors.virtual_scan(self.options, now, message, self._pose))
         elif kind == "reset":
             self._resets = [*self._resets[-9:], message]
+        elif kind == "localisation":
+            self._localised(now, message)
+
+    def _localised(self, now: t.Time, message: dict[str, Any]) -> None:
+        """The pose filter's map -> odom, sent with every odom -> base_footprint from now on; its
+        pose and covariance while the pose is trusted."""
+        x, y, yaw = (float(v) for v in message["map_to_odom"])
+        if all(math.isfinite(v) for v in (x, y, yaw)):
+            self._map_to_odom = (x, y, yaw)
+        pose, covariance = message.get("pose"), message.get("covariance") or []
+        if (
+            self.writers.pose is not None
+            and message.get("trusted")
+            and pose is not None
+            and len(covariance) == 9
+        ):
+            self.writers.pose.write(convert.pose_with_covariance(self.options, now, pose, covariance))
 
     def _intrinsics(self) -> Intrinsics | None:
         seeing = getattr(self.gateway, "seeing", None)
@@ -210,7 +232,7 @@ class Bridge:
         self._pose = (float(tel["x"]), float(tel["y"]), float(tel["theta"]))
         w = self.writers
         w.odom.write(convert.odometry(self.options, now, tel))
-        w.tf.write(convert.moving_transforms(self.options, now, tel, self._angles))
+        w.tf.write(convert.moving_transforms(self.options, now, tel, self._angles, self._map_to_odom))
         w.joint_states.write(convert.joint_state(now, self._angles, tel))
         if seconds - self._diagnosed_s >= DIAGNOSTICS_PERIOD_S:
             self._diagnosed_s = seconds

@@ -72,18 +72,45 @@ def joint_state(when: t.Time, angles: WheelAngles, tel: Mapping[str, Any]) -> t.
 
 
 def moving_transforms(
-    options: Ros2Options, when: t.Time, tel: Mapping[str, Any], angles: WheelAngles
+    options: Ros2Options,
+    when: t.Time,
+    tel: Mapping[str, Any],
+    angles: WheelAngles,
+    map_to_odom: tuple[float, float, float] = (0.0, 0.0, 0.0),
 ) -> t.TFMessage:
-    """map -> odom (identity: the gateway's map frame today; left out for slam_toolbox or AMCL to
-    publish), odom -> base_footprint, the wheels."""
+    """map -> odom (the pose filter's, cart2d/gateway/localisation.py; the identity without
+    markers; left out for slam_toolbox or AMCL to publish), odom -> base_footprint, the wheels."""
     x, y, theta = float(tel["x"]), float(tel["y"]), float(tel["theta"])
     moving = [
         transform(options, when, "odom", "base_footprint", (x, y, 0.0), rpy_quaternion(0.0, 0.0, theta)),
         *wheel_transforms(options, when, angles.left_rad, angles.right_rad),
     ]
     if not options.base_only:
-        moving.insert(0, transform(options, when, "map", "odom", (0.0, 0.0, 0.0), t.Quaternion()))
+        mx, my, myaw = map_to_odom
+        moving.insert(
+            0, transform(options, when, "map", "odom", (mx, my, 0.0), rpy_quaternion(0.0, 0.0, myaw))
+        )
     return t.TFMessage(moving)
+
+
+# (x, y, yaw) of the filter's 3 x 3 covariance in ROS's 6 x 6 one of (x, y, z, roll, pitch, yaw)
+_PLANAR = (0, 1, 5)
+
+
+def pose_with_covariance(
+    options: Ros2Options, when: t.Time, pose: Sequence[float], covariance: Sequence[float]
+) -> t.PoseWithCovarianceStamped:
+    """The cart's pose in map and its uncertainty (robot_localization's and AMCL's message); z,
+    roll and pitch are fixed by the floor: their variances 0."""
+    full = [0.0] * 36
+    for i, row in enumerate(_PLANAR):
+        for j, col in enumerate(_PLANAR):
+            full[row * 6 + col] = float(covariance[i * 3 + j])
+    x, y, theta = (float(v) for v in pose)
+    return t.PoseWithCovarianceStamped(
+        t.Header(when, options.frame("map")),
+        t.PoseWithCovariance(t.Pose(t.Point(x, y, 0.0), rpy_quaternion(0.0, 0.0, theta)), full),
+    )
 
 
 def pose_stamped(options: Ros2Options, when: t.Time, x: float, y: float, theta: float = 0.0) -> t.PoseStamped:

@@ -252,3 +252,39 @@ def test_as_nav2s_base_it_leaves_map_to_odom_the_map_and_goals_to_nav2(gateway: 
         assert topics == {"rt/cmd_vel", "rq/stopRequest", "rq/reset_odometryRequest"}
     finally:
         bridge.close()
+
+
+def test_the_pose_filters_map_to_odom_goes_out_in_tf_and_its_pose_with_covariance(
+    bridge: Bridge, peer: Peer
+) -> None:
+    tf = peer.reader("rt/tf", t.TFMessage, qos.TOOLS["rviz"])
+    pose = peer.reader("rt/pose", t.PoseWithCovarianceStamped, qos.TOOLS["rviz"])
+    matched(tf)
+    matched(pose)
+    covariance = [0.0004, 0.0001, 0.0, 0.0001, 0.0009, 0.0, 0.0, 0.0, 0.0025]
+    bridge.on_message(
+        {
+            "type": "localisation",
+            "trusted": True,
+            "pose": [1.2, 0.8, 0.3],
+            "covariance": covariance,
+            "map_to_odom": [0.05, -0.02, 0.1],
+            "accepted": 3,
+            "doubted": 0,
+            "last": "tag 4",
+            "markers": [],
+        }
+    )
+    bridge.on_message(telemetry(tick=1000))
+    got = samples(tf, lambda got: len(got) >= 1)[-1]
+    map_odom = got.transforms[0]
+    assert (map_odom.header.frame_id, map_odom.child_frame_id) == ("map", "odom")
+    assert (map_odom.transform.translation.x, map_odom.transform.translation.y) == (0.05, -0.02)
+    assert yaw_of(map_odom.transform.rotation) == pytest.approx(0.1)
+    fix = samples(pose, lambda got: len(got) >= 1)[-1]
+    assert fix.header.frame_id == "map"
+    assert (fix.pose.pose.position.x, fix.pose.pose.position.y) == (1.2, 0.8)
+    assert yaw_of(fix.pose.pose.orientation) == pytest.approx(0.3)
+    c = fix.pose.covariance  # ROS's (x, y, z, roll, pitch, yaw), row by row
+    assert (c[0], c[1], c[6], c[7], c[35]) == (0.0004, 0.0001, 0.0001, 0.0009, 0.0025)
+    assert c[14] == c[21] == c[28] == 0.0  # z, roll, pitch: fixed by the floor
