@@ -15,7 +15,7 @@ from types import FrameType
 
 from cart2d.server import serving
 from cart2d.simulation import faults as fault_table
-from cart2d.tools import cli_args, live
+from cart2d.tools import cli_args, fleet_args, live
 from cart2d.tools import recording_args as recording_cli
 from cart2d.tools.camera_calibration.command import add_arguments as add_camera_calibrate_arguments
 from cart2d.tools.camera_calibration.command import main_camera_calibrate
@@ -82,6 +82,7 @@ def build_parser() -> argparse.ArgumentParser:
         '"sy", "height", "colour", "id"}, ...]} (m); the panel\'s Box mode and /api/sim/boxes change them',
     )
     live.camera_args(sim)
+    fleet_args.add_arguments(sim)
     sim.set_defaults(run=live.cmd_sim)
 
     serve = sub.add_parser("serve", help="the gateway and panel for a real cart on a serial port")
@@ -95,6 +96,7 @@ def build_parser() -> argparse.ArgumentParser:
     live.network_args(serve)
     recording_cli.add_live_arguments(serve)
     live.camera_args(serve)
+    fleet_args.add_arguments(serve)
     serve.set_defaults(run=live.cmd_serve)
 
     mission = sub.add_parser("mission", help="run a mission in the simulator and write a report")

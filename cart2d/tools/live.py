@@ -25,7 +25,7 @@ from cart2d.simulation.simulator import SimOptions, Simulator
 from cart2d.simulation.wiring import simulated_gateway
 from cart2d.simulation.world import with_boxes, world_file_boxes
 from cart2d.store import Store
-from cart2d.tools import cli_args
+from cart2d.tools import cli_args, fleet_args
 from cart2d.tools import recording_args as recording_cli
 
 log = logging.getLogger("cart2d")
@@ -160,7 +160,7 @@ def _fault_options(options: list[str]) -> tuple[dict[str, float], list[str]]:
 
 def cmd_sim(args: argparse.Namespace) -> int:
     faults, problems = _fault_options(args.fault)
-    problems += [p for p in [recording_cli.record_problem(args)] if p]
+    problems += [p for p in [recording_cli.record_problem(args), fleet_args.problem(args)] if p]
     boxes, world_problems = world_file_boxes(args.world) if args.world else ([], [])
     problems += world_problems
     for problem in problems:
@@ -218,7 +218,8 @@ def cmd_sim(args: argparse.Namespace) -> int:
                         f"simulated ESP32-CAM on {where_cam} (/capture; stream on port {camera.port + 1})",
                         flush=True,
                     )
-                _serve(gateway, where, args.allow_host, simulation.add_routes)
+                with fleet_args.fleet_vehicle(gateway, args):
+                    _serve(gateway, where, args.allow_host, simulation.add_routes)
         finally:
             _detach_camera(gateway)
             gateway.close()
@@ -292,7 +293,7 @@ def _open_serial(args: argparse.Namespace) -> Link | None:
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
-    problem = recording_cli.record_problem(args)
+    problem = recording_cli.record_problem(args) or fleet_args.problem(args)
     if problem:
         print(f"cart2d serve: {problem}", file=sys.stderr)
         return 2
@@ -310,7 +311,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
                 _connect(gateway, 5.0)
                 gateway.start()
                 _attach_camera(gateway, args)
-                _serve(gateway, where, args.allow_host)
+                with fleet_args.fleet_vehicle(gateway, args):
+                    _serve(gateway, where, args.allow_host)
         finally:
             _detach_camera(gateway)
             gateway.close()
