@@ -16,6 +16,7 @@ from types import FrameType
 from cart2d.server import serving
 from cart2d.simulation import faults as fault_table
 from cart2d.tools import cli_args, fleet_args, live
+from cart2d.tools import fleet as fleet_cli
 from cart2d.tools import recording_args as recording_cli
 from cart2d.tools.camera_calibration.command import add_arguments as add_camera_calibrate_arguments
 from cart2d.tools.camera_calibration.command import main_camera_calibrate
@@ -110,6 +111,8 @@ def build_parser() -> argparse.ArgumentParser:
     mission.add_argument("--seed", type=cli_args.seed, default=1)
     recording_cli.add_mission_arguments(mission)
     mission.set_defaults(run=cmd_mission)
+
+    fleet_cli.add_parser(sub)
 
     replay = sub.add_parser("replay", help="play an MCAP recording back into the panel (read-only)")
     replay.add_argument(

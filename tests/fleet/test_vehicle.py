@@ -53,7 +53,8 @@ def cart() -> FakeCart:
 
 
 @pytest.fixture
-def vehicle(broker: Mosquitto, cart: FakeCart) -> Iterator[Vehicle]:
+def vehicle(broker: Mosquitto, cart: FakeCart, master: Master) -> Iterator[Vehicle]:
+    """Started after the master, which hears its first state."""
     v = Vehicle(broker.broker, SERIAL, cart, lambda: cart.pose, lambda: True).start()
     yield v
     v.close()
