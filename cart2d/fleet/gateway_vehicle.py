@@ -20,6 +20,7 @@ class GatewayCart:
     def __init__(self, gateway: Gateway) -> None:
         self.gateway = gateway
         self.last: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
+        self.heard = False  # no telemetry yet: the position is not known (positionInitialized false)
 
     def go_to(self, x: float, y: float) -> None:
         try:
@@ -42,13 +43,16 @@ class GatewayCart:
     def telemetry(self, message: dict[str, Any]) -> None:
         if message.get("type") == "telemetry":
             self.last = (message["x"], message["y"], message["theta"], message["v"], message["omega"])
+            self.heard = True
 
 
 def join_fleet(gateway: Gateway, broker: Broker, fleet_id: str) -> Vehicle:
     """The gateway's vehicle, started: closed with vehicle.close() before the gateway closes."""
     cart = GatewayCart(gateway)
     gateway.subscribe(cart.telemetry)
-    vehicle = Vehicle(broker, fleet_id, cart, lambda: cart.last, lambda: gateway.pose_trust.trusted)
+    vehicle = Vehicle(
+        broker, fleet_id, cart, lambda: cart.last, lambda: cart.heard and gateway.pose_trust.trusted
+    )
     gateway.bus.subscribe(
         MissionEnded, lambda e: vehicle.mission_ended(e.goal, e.outcome == "arrived", e.reason)
     )

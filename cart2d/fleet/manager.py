@@ -50,7 +50,7 @@ class Goal:
     asked_s: float
     ordered_s: float | None = None
     reached_s: float | None = None
-    status: str = "waiting"  # waiting | driving | reached | cancelled
+    status: str = "waiting"  # waiting | driving | reached | cancelled | failed
     waited_s: float = 0.0  # for reservations, on its way
 
 
@@ -139,15 +139,31 @@ class FleetManager:
         if not p or not p.get("positionInitialized"):
             return
         cart.position = (float(p["x"]), float(p["y"]), float(p["theta"]))
+        try:
+            cell = self.lattice.nearest(p["x"], p["y"])
+        except ValueError:
+            return
+        if (
+            self.traffic.idle(cart.name)
+            and self.traffic.standing[cart.name] != cell
+            and cell not in self.traffic.holds
+        ):
+            self.traffic.remove(cart.name)  # an idle cart moved (initPosition, by hand): its node follows
         if cart.name not in self.traffic.standing:
             try:
-                self.traffic.join(cart.name, self.lattice.nearest(p["x"], p["y"]))
-            except (TrafficError, ValueError) as exc:
+                self.traffic.join(cart.name, cell)
+            except TrafficError as exc:
                 log.warning("%s cannot join the traffic: %s", cart.name, exc)
 
     def _progress(self, cart: CartView, state: dict[str, Any]) -> None:
         sent = self.sent.get(cart.name)
-        if sent is None or state.get("orderId") != sent.order_id:
+        if sent is None:
+            return
+        if state.get("orderId") != sent.order_id:
+            if sent.order_id in _references(state):  # the vehicle refused the order
+                sent.goal.status = "failed"
+                self.traffic.cancel(cart.name)
+                del self.sent[cart.name]
             return
         index = int(state.get("lastNodeSequenceId", 0)) // 2
         if self.traffic.reached(cart.name, index):
@@ -311,3 +327,12 @@ class FleetManager:
             "status": goal.status,
             "waited_s": round(goal.waited_s, 3),
         }
+
+
+def _references(state: dict[str, Any]) -> set[str]:
+    """The values the state's errors refer to (orderIds, nodeIds)."""
+    return {
+        str(ref.get("referenceValue"))
+        for e in state.get("errors", [])
+        for ref in e.get("errorReferences", [])
+    }

@@ -74,6 +74,7 @@ class Executor:
     edges: list[Edge] = field(default_factory=list)
     paused: bool = False
     driving_to: Node | None = None  # the node the cart's mission drives to now
+    stuck: bool = False  # a mission to a node failed: no retry until the master says (an update, stopPause)
     action_states: dict[str, dict[str, Any]] = field(default_factory=dict)
     errors: list[dict[str, Any]] = field(default_factory=list)
     changes: int = 0  # counts changes of the state (a state message is due after each)
@@ -95,6 +96,7 @@ class Executor:
             else:
                 self._start(nodes, edges, order_id)
             self.order_update_id = update_id
+            self.stuck = False
         except _OrderError as exc:
             self.errors = [exc.entry]
         self.changes += 1
@@ -140,7 +142,7 @@ class Executor:
     # -- driving -----------------------------------------------------------------------------
     def _drive_on(self) -> None:
         """Sends the cart to the next released node if it is not driving, paused or done."""
-        if self.paused or self.driving_to is not None or not self.nodes:
+        if self.paused or self.stuck or self.driving_to is not None or not self.nodes:
             return
         target = self.nodes[0]
         edge = self.edges[0] if self.edges else None
@@ -150,6 +152,7 @@ class Executor:
             self.cart.go_to(target.x, target.y)
         except Refused as exc:
             self.errors.append(error("noRouteError", str(exc), "WARNING", nodeId=target.node_id))
+            self.stuck = True
             self.changes += 1
             return
         self.driving_to = target
@@ -168,6 +171,7 @@ class Executor:
             self._traversed(target)
         elif not self.paused:  # a pause stops the cart: that end is expected
             self.errors.append(error("navigationError", reason, "WARNING", nodeId=target.node_id))
+            self.stuck = True  # it waits where it stopped: the master decides (stopPause retries)
         self.changes += 1
         self._drive_on()
 
@@ -199,12 +203,12 @@ class Executor:
             if not self.nodes and self.driving_to is None:
                 raise _OrderError("noOrderToCancel", "there is no order to cancel", self.order_id)
             self.cart.stop("the order was cancelled")
-            self.nodes, self.edges, self.driving_to = [], [], None
+            self.nodes, self.edges, self.driving_to, self.stuck = [], [], None, False
         elif kind == "startPause":
             self.paused = True
             self.cart.stop("paused by the fleet")
         elif kind == "stopPause":
-            self.paused = False
+            self.paused, self.stuck = False, False
             if self.driving_to is not None:
                 target, self.driving_to = self.driving_to, None
                 self.cart.go_to(target.x, target.y)

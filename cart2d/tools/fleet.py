@@ -148,17 +148,45 @@ def cmd_fleet_sim(args: argparse.Namespace) -> int:
         if broker is None:
             return 2
         try:
-            carts = [_start_cart(s, args, boxes, broker, stack) for s in starts]
+            fleet = SimFleet.start(starts, args.speed, boxes, broker, stack)
         except SimulatorError as exc:
             print(f"cart2d fleet sim: {exc}", file=sys.stderr)
             return 2
+        manager = FleetManager(lattice, broker)
+        manager.stoppers = [_stopper(c.gateway) for c in fleet.carts]
+        print(
+            f"fleet: {len(fleet.carts)} carts on {broker}: {', '.join(c.name for c in fleet.carts)}",
+            flush=True,
+        )
+        return _run_manager(manager, args, fleet.arena)
+    return 0
+
+
+@dataclass
+class SimFleet:
+    """Simulated carts in one arena, each with its gateway joined to the fleet (closed with the
+    ExitStack it was started on)."""
+
+    carts: list[SimCart]
+    arena: SharedArena
+
+    @classmethod
+    def start(
+        cls,
+        starts: list[CartStart],
+        speed: str,
+        boxes: list[Box],
+        broker: Broker,
+        stack: contextlib.ExitStack,
+        home: Path | None = None,
+    ) -> SimFleet:
+        """`home`: where each cart's settings and EEPROM go (HOME/NAME; default the settings'
+        folder's fleet/)."""
+        home = home or Store().directory / "fleet"
+        carts = [_start_cart(s, speed, boxes, broker, stack, home / s.id) for s in starts]
         arena = SharedArena({c.name: c.sim for c in carts}).start()
         stack.callback(arena.close)
-        manager = FleetManager(lattice, broker)
-        manager.stoppers = [_stopper(c.gateway) for c in carts]
-        print(f"fleet: {len(carts)} carts on {broker}: {', '.join(c.name for c in carts)}", flush=True)
-        return _run_manager(manager, args, arena)
-    return 0
+        return cls(carts, arena)
 
 
 def _stopper(gateway: Gateway) -> Callable[[], None]:
@@ -182,14 +210,14 @@ def _start_broker(args: argparse.Namespace, stack: contextlib.ExitStack) -> Brok
 
 
 def _start_cart(
-    start: CartStart, args: argparse.Namespace, boxes: list[Box], broker: Broker, stack: contextlib.ExitStack
+    start: CartStart, speed: str, boxes: list[Box], broker: Broker, stack: contextlib.ExitStack, home: Path
 ) -> SimCart:
-    store = Store(Store().directory / "fleet" / start.id)
+    store = Store(home)
     store.directory.mkdir(parents=True, exist_ok=True)
     settings = GatewaySettings(map=FLEET_MAP)
     pose = (start.x, start.y, start.theta)
     options = SimOptions(
-        speed=args.speed,
+        speed=speed,
         eeprom=store.directory / "sim-eeprom.bin",
         start=pose,
         world=with_boxes(world_for(FLEET_MAP), World(tuple(boxes))),

@@ -203,3 +203,17 @@ def test_a_vehicle_closed_in_order_says_offline(broker: Mosquitto, cart: FakeCar
     master.wait_for("c2", "connection", lambda m: m["connectionState"] == "ONLINE")
     v.close()
     master.wait_for("c2", "connection", lambda m: m["connectionState"] == "OFFLINE")
+
+
+def test_a_failed_mission_waits_for_the_master(vehicle: Vehicle, cart: FakeCart, master: Master) -> None:
+    master.wait_for(SERIAL, "connection", lambda m: True)
+    master.send(SERIAL, "order", order_body("o1", 0, POINTS[:3]))
+    state_with(master, orderId="o1", driving=True)
+    vehicle.mission_ended((0.75, 0.25), False, "a front switch closed")
+    stuck = master.wait_for(
+        SERIAL, "state", lambda s: any(e["errorType"] == "navigationError" for e in s["errors"])
+    )
+    assert not stuck["driving"] and cart.goals == [(0.75, 0.25)]  # not driven into it again by itself
+    master.send(SERIAL, "instantActions", instant("p1", "stopPause"))
+    state_with(master, driving=True)
+    assert cart.goals == [(0.75, 0.25), (0.75, 0.25)]
