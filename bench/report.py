@@ -37,6 +37,7 @@ SECTIONS = (
     "flashing",
     "control",
     "system",
+    "fleet",
 )
 
 

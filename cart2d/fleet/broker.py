@@ -45,6 +45,10 @@ class Mosquitto:
     def broker(self) -> Broker:
         return Broker(LOOPBACK, self.port)
 
+    @property
+    def pid(self) -> int | None:
+        return self._process.pid if self._process is not None else None
+
     def start(self, wait_s: float = 10.0) -> Mosquitto:
         program = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
         if not Path(program).exists():

@@ -48,7 +48,9 @@ class Goal:
     cell: Cell
     cart: str | None  # named by the user, or the one it was given to
     asked_s: float
-    ordered_s: float | None = None
+    assigned_s: float | None = None  # given to a cart
+    ordered_s: float | None = None  # its order sent
+    accepted_s: float | None = None  # the cart's state shows the order
     reached_s: float | None = None
     status: str = "waiting"  # waiting | driving | reached | cancelled | failed
     waited_s: float = 0.0  # for reservations, on its way
@@ -165,6 +167,8 @@ class FleetManager:
                 self.traffic.cancel(cart.name)
                 del self.sent[cart.name]
             return
+        if sent.goal.accepted_s is None:
+            sent.goal.accepted_s = self._clock()
         index = int(state.get("lastNodeSequenceId", 0)) // 2
         if self.traffic.reached(cart.name, index):
             goal = sent.goal
@@ -205,7 +209,7 @@ class FleetManager:
             except TrafficError as exc:
                 log.info("goal %d waits: %s", goal.goal_id, exc)
                 continue
-            goal.cart, goal.status = chosen.name, "driving"
+            goal.cart, goal.status, goal.assigned_s = chosen.name, "driving", self._clock()
             self.sent[chosen.name] = Sent(f"{chosen.name}-{goal.goal_id}", 0, 0, goal)
 
     # -- orders --------------------------------------------------------------------------------
