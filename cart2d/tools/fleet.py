@@ -23,7 +23,7 @@ from cart2d.gateway import Gateway
 from cart2d.gateway.live_map import world_for
 from cart2d.link import Link
 from cart2d.maps.world import Box, World
-from cart2d.server import addresses, serving
+from cart2d.server import addresses, is_loopback, serving
 from cart2d.simulation.shared_arena import CartStart, SharedArena, read_fleet_world
 from cart2d.simulation.side_channel import SimulatorError
 from cart2d.simulation.simulator import SimOptions, Simulator
@@ -60,7 +60,12 @@ def add_parser(sub: argparse._SubParsersAction[cli_args.Parser]) -> None:
 def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--mqtt", metavar="URL", help="the broker, mqtt://HOST[:PORT] or mqtts://...")
     parser.add_argument("--mqtt-ca", type=Path, metavar="FILE", help="mqtts://: the broker's CA certificate")
-    parser.add_argument("--host", type=cli_args.host, default="127.0.0.1", help="the page's address")
+    parser.add_argument(
+        "--host",
+        type=cli_args.host,
+        default="127.0.0.1",
+        help="the page's address (loopback only: it has no token)",
+    )
     parser.add_argument(
         "--port", type=cli_args.port_number, default=8090, help="the page's port (default 8090)"
     )
@@ -96,6 +101,11 @@ def cmd_fleet(args: argparse.Namespace) -> int:
 
 
 def _run_manager(manager: FleetManager, args: argparse.Namespace, arena: SharedArena | None) -> int:
+    if not is_loopback(args.host):
+        print(
+            "cart2d fleet: the fleet page has no access token: it listens on loopback only", file=sys.stderr
+        )
+        return 2
     try:
         sock = addresses.open_listener(args.host, args.port)
     except addresses.CannotListen as exc:

@@ -76,3 +76,8 @@ def test_the_api_takes_goals_refuses_bad_ones_and_stops_all() -> None:
     assert client.delete("/api/fleet/carts/c2").status_code == 200
     assert (3, 3) not in manager.traffic.holds
     assert client.delete("/api/fleet/carts/c2").status_code == 404
+
+
+def test_the_page_listens_on_loopback_only(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["fleet", "--mqtt", "mqtt://127.0.0.1:1", "--host", "0.0.0.0"]) == 2
+    assert "loopback only" in capsys.readouterr().err
