@@ -27,17 +27,38 @@ def free_port(host: str = LOOPBACK) -> int:
         return port
 
 
+def _program(name: str) -> str:
+    """mosquitto's programs: Debian puts the broker in /usr/sbin (not on a user's PATH)."""
+    for candidate in (shutil.which(name), f"/usr/sbin/{name}", f"/usr/bin/{name}"):
+        if candidate and Path(candidate).exists():
+            return candidate
+    raise BrokerError(f"{name} is not installed (Debian: apt install mosquitto; tools/install-deps.sh)")
+
+
 class Mosquitto:
     """A mosquitto process on LOOPBACK:port (a free one by default); start() waits until it
     accepts connections; stop() and start() again restart it on the same port."""
 
-    def __init__(self, port: int | None = None) -> None:
+    def __init__(self, port: int | None = None, users: dict[str, str] | None = None) -> None:
+        """`users`: name -> password, the only clients it lets in (default: anyone on loopback)."""
         self.port = port or free_port()
         self._dir = tempfile.TemporaryDirectory(prefix="cart2d-mosquitto-")
-        self.config = Path(self._dir.name) / "mosquitto.conf"
+        folder = Path(self._dir.name)
+        folder.chmod(0o755)  # started by root, mosquitto reads its files as the user mosquitto
+        self.config = folder / "mosquitto.conf"
+        self.log = folder / "mosquitto.log"
+        access = "allow_anonymous true\n"
+        if users:
+            passwords = folder / "passwords"
+            for k, (name, password) in enumerate(users.items()):
+                create = ["-c"] if k == 0 else []
+                subprocess.run(
+                    [_program("mosquitto_passwd"), *create, "-b", str(passwords), name, password], check=True
+                )
+            passwords.chmod(0o644)  # hashed; the folder is this run's only
+            access = f"allow_anonymous false\npassword_file {passwords}\n"
         self.config.write_text(
-            f"listener {self.port} {LOOPBACK}\nallow_anonymous true\npersistence false\n"
-            f"log_dest file {Path(self._dir.name) / 'mosquitto.log'}\n"
+            f"listener {self.port} {LOOPBACK}\n{access}persistence false\nlog_dest stderr\n"
         )
         self._process: subprocess.Popen[bytes] | None = None
 
@@ -50,19 +71,17 @@ class Mosquitto:
         return self._process.pid if self._process is not None else None
 
     def start(self, wait_s: float = 10.0) -> Mosquitto:
-        program = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
-        if not Path(program).exists():
-            raise BrokerError(
-                "mosquitto is not installed (Debian: apt install mosquitto; tools/install-deps.sh)"
+        with self.log.open("ab") as log:  # its log, kept beside its configuration
+            self._process = subprocess.Popen(
+                [_program("mosquitto"), "-c", str(self.config)], stdout=subprocess.DEVNULL, stderr=log
             )
-        self._process = subprocess.Popen(
-            [program, "-c", str(self.config)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
-        )
         deadline = time.monotonic() + wait_s
         while time.monotonic() < deadline:
             if self._process.poll() is not None:
-                err = self._process.stderr.read().decode(errors="replace") if self._process.stderr else ""
-                raise BrokerError(f"mosquitto exited with status {self._process.returncode}: {err.strip()}")
+                said = self.log.read_text(errors="replace").strip().splitlines()[-3:]
+                raise BrokerError(
+                    f"mosquitto exited with status {self._process.returncode}: {' '.join(said)}"
+                )
             try:
                 socket.create_connection((LOOPBACK, self.port), timeout=0.5).close()
                 return self

@@ -4,6 +4,7 @@ official schemas (tests/support/vda5050.py)."""
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 import time
 from collections.abc import Iterator
@@ -217,3 +218,31 @@ def test_a_failed_mission_waits_for_the_master(vehicle: Vehicle, cart: FakeCart,
     master.send(SERIAL, "instantActions", instant("p1", "stopPause"))
     state_with(master, driving=True)
     assert cart.goals == [(0.75, 0.25), (0.75, 0.25)]
+
+
+def test_a_broker_with_users_lets_in_only_the_vehicle_with_its_password(cart: FakeCart) -> None:
+    with Mosquitto(users={"cart7": "s3cret", "master": "m"}) as locked:
+        master = Master(dataclasses.replace(locked.broker, username="master", password="m"))
+        try:
+            wrong = Vehicle(
+                dataclasses.replace(locked.broker, username="cart7", password="no"),
+                "c7",
+                cart,
+                lambda: cart.pose,
+                lambda: True,
+            )
+            wrong.start()
+            right = Vehicle(
+                dataclasses.replace(locked.broker, username="cart7", password="s3cret"),
+                "c8",
+                cart,
+                lambda: cart.pose,
+                lambda: True,
+            )
+            right.start()
+            master.wait_for("c8", "connection", lambda m: m["connectionState"] == "ONLINE")
+            assert not wrong.connection.connected.is_set() and master.last("c7", "connection") is None
+            right.close()
+            wrong.close()
+        finally:
+            master.close()
