@@ -43,3 +43,6 @@ def test_two_carts_pass_through_one_corridor_without_contact(tmp_path: Path) -> 
         for name, cart in truth["carts"].items():
             assert cart["wall_contacts"] == 0 and cart["box_contacts"] == 0, (name, cart)
         assert manager.traffic.deadlocks + sum(j.waited_s > 0 for _, j in manager.traffic.finished) >= 1
+        # each simulator's world holds the other cart (what its bumpers and its camera meet)
+        west_world = fleet.carts[0].sim.control("world_get")["world"]
+        assert [b["id"] for b in west_world["boxes"] if b["id"].startswith("cart:")] == ["cart:east"]
