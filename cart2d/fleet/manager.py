@@ -194,7 +194,9 @@ class FleetManager:
             return goal
 
     def _assign(self) -> None:
-        for goal in [g for g in self.goals if g.status == "waiting"]:
+        waiting = [g for g in self.goals if g.status == "waiting"]
+        leaving = frozenset(g.cart for g in waiting if g.cart is not None)  # named carts leave soon
+        for goal in waiting:
             idle = [c for c in self.carts.values() if c.online and self.traffic.idle(c.name)]
             if goal.cart is not None:
                 idle = [c for c in idle if c.name == goal.cart]
@@ -205,7 +207,7 @@ class FleetManager:
                 idle, key=lambda c: math.dist(self.lattice.position(self.traffic.standing[c.name]), target)
             )
             try:
-                self.traffic.send(chosen.name, goal.cell)
+                self.traffic.send(chosen.name, goal.cell, leaving - {chosen.name})
             except TrafficError as exc:
                 log.info("goal %d waits: %s", goal.goal_id, exc)
                 continue

@@ -79,13 +79,14 @@ class Traffic:
         return cart in self.standing and cart not in self.journeys and cart not in self.offline
 
     # -- goals -------------------------------------------------------------------------------
-    def send(self, cart: str, goal: Cell) -> Journey:
-        """A route from where the cart stands to `goal`, round the nodes parked carts hold."""
+    def send(self, cart: str, goal: Cell, leaving: frozenset[str] = frozenset()) -> Journey:
+        """A route from where the cart stands to `goal`, round the nodes parked carts hold
+        (`leaving`: carts about to get a goal of their own, not parked for long)."""
         if cart not in self.standing:
             raise TrafficError(f"{cart} is not on the map yet")
         if cart in self.journeys:
             raise TrafficError(f"{cart} is on its way to {self.journeys[cart].goal}")
-        parked = self._parked(cart)
+        parked = self._parked(cart, leaving)
         if goal in parked:  # a moving cart's nodes are its only for a while
             raise TrafficError(f"node {goal} is held by {self.holds[goal]}, which is not going anywhere")
         route = self.lattice.route(self.standing[cart], goal, parked)
@@ -95,10 +96,13 @@ class Traffic:
         self.journeys[cart] = journey
         return journey
 
-    def _parked(self, but: str) -> frozenset[Cell]:
-        """Nodes held by carts that are not going anywhere (idle or OFFLINE), but `but`'s."""
+    def _parked(self, but: str, leaving: frozenset[str] = frozenset()) -> frozenset[Cell]:
+        """Nodes held by carts that are not going anywhere (idle or OFFLINE), but `but`'s and
+        those of the carts `leaving`."""
         return frozenset(
-            c for c, h in self.holds.items() if h != but and (h not in self.journeys or h in self.offline)
+            c
+            for c, h in self.holds.items()
+            if h != but and (h in self.offline or (h not in self.journeys and h not in leaving))
         )
 
     def reached(self, cart: str, index: int) -> bool:

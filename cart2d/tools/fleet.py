@@ -20,10 +20,12 @@ from cart2d.fleet.lattice import Lattice
 from cart2d.fleet.manager import FleetManager
 from cart2d.fleet.mqtt import Broker
 from cart2d.gateway import Gateway
+from cart2d.gateway.camera import CameraFeed
 from cart2d.gateway.live_map import world_for
 from cart2d.link import Link
 from cart2d.maps.world import Box, World
 from cart2d.server import addresses, is_loopback, serving
+from cart2d.simulation.camera import SimCameraServer
 from cart2d.simulation.shared_arena import CartStart, SharedArena, read_fleet_world
 from cart2d.simulation.side_channel import SimulatorError
 from cart2d.simulation.simulator import SimOptions, Simulator
@@ -53,6 +55,18 @@ def add_parser(sub: argparse._SubParsersAction[cli_args.Parser]) -> None:
     )
     sim.add_argument(
         "--speed", type=cli_args.speed, default="1", help="simulated seconds per second (default 1)"
+    )
+    sim.add_argument(
+        "--cameras",
+        type=cli_args.camera_port_number,
+        metavar="PORT",
+        help="each cart's simulated ESP32-CAM, with perception on, on PORT, PORT + 2, ... (its stream on the "
+        "next port); each sees the others (default: no cameras)",
+    )
+    sim.add_argument(
+        "--broker-port",
+        type=cli_args.port_number,
+        help="without --mqtt: the started mosquitto's port (default: a free one)",
     )
     sim.set_defaults(run=cmd_fleet_sim)
 
@@ -159,6 +173,8 @@ def cmd_fleet_sim(args: argparse.Namespace) -> int:
             return 2
         try:
             fleet = SimFleet.start(starts, args.speed, boxes, broker, stack)
+            if args.cameras is not None:
+                fleet.attach_cameras(args.cameras, stack)
         except SimulatorError as exc:
             print(f"cart2d fleet sim: {exc}", file=sys.stderr)
             return 2
@@ -197,6 +213,22 @@ class SimFleet:
         arena = SharedArena({c.name: c.sim for c in carts}).start()
         stack.callback(arena.close)
         return cls(carts, arena)
+
+    def attach_cameras(self, first_port: int, stack: contextlib.ExitStack) -> None:
+        """Each cart's simulated ESP32-CAM on first_port + 2k (its stream on the next port), its
+        frames the gateway's perception (no lockstep: the simulators keep to the wall clock)."""
+        for k, cart in enumerate(self.carts):
+            server = SimCameraServer(_address(cart.sim), first_port + 2 * k).start()
+            stack.callback(server.stop)
+            feed = CameraFeed.of(server.url, None)
+            assert feed is not None  # a base URL always gives a feed
+            cart.gateway.use_camera(feed.start())
+            stack.callback(cart.gateway.use_camera, None)
+            print(f"fleet: {cart.name}'s camera on {server.url.removeprefix('http://')}", flush=True)
+
+
+def _address(sim: Simulator) -> Callable[[], str]:
+    return lambda: sim.control_address
 
 
 def _stopper(gateway: Gateway) -> Callable[[], None]:

@@ -4,9 +4,14 @@ status 2), and the manager's API (goals, STOP ALL, a cart removed) on fake vehic
 from __future__ import annotations
 
 import json
+import os
+import signal
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
+import httpx2 as httpx
 import pytest
 from fastapi.testclient import TestClient
 
@@ -15,6 +20,9 @@ from cart2d.fleet.api import fleet_app
 from cart2d.fleet.lattice import Lattice
 from cart2d.fleet.manager import FleetManager
 from cart2d.tools.cli import main
+from tests.support.sim import require_builds
+from tests.support.sockets import free_port
+from tests.support.waiting import wait_for
 
 
 def test_the_manager_needs_a_broker(capsys: pytest.CaptureFixture[str]) -> None:
@@ -81,3 +89,28 @@ def test_the_api_takes_goals_refuses_bad_ones_and_stops_all() -> None:
 def test_the_page_listens_on_loopback_only(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["fleet", "--mqtt", "mqtt://127.0.0.1:1", "--host", "0.0.0.0"]) == 2
     assert "loopback only" in capsys.readouterr().err
+
+
+def test_fleet_sim_starts_its_broker_carts_and_page_and_stops_on_sigterm(tmp_path: Path) -> None:
+    require_builds()
+    port, broker_port = free_port(), free_port()
+    command = ["fleet", "sim", "--carts", "2", f"--port={port}", f"--broker-port={broker_port}"]
+    process = subprocess.Popen(
+        [sys.executable, "-m", "cart2d.tools.cli", *command],
+        env={**os.environ, "CART2D_HOME": str(tmp_path)},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert process.stdout is not None
+        lines = [process.stdout.readline() for _ in range(3)]
+        assert f"mosquitto on mqtt://127.0.0.1:{broker_port}" in lines[0], lines
+        assert "2 carts" in lines[1] and f"http://127.0.0.1:{port}/" in lines[2], lines
+        with httpx.Client(base_url=f"http://127.0.0.1:{port}") as client:
+            wait_for(lambda: len(client.get("/api/fleet").json()["carts"]) == 2, 30)
+            assert set(client.get("/api/fleet").json()["truth"]["carts"]) == {"cart1", "cart2"}
+    finally:
+        process.send_signal(signal.SIGTERM)
+        _, err = process.communicate(timeout=30)
+    assert process.returncode == 0 and "Traceback" not in err, err

@@ -130,3 +130,14 @@ def test_a_named_cart_takes_the_goal_and_stop_all_cancels_every_order() -> None:
         assert "no cart 'c9'" in str(exc)
     else:
         raise AssertionError("a goal for an unknown cart was taken")
+
+
+def test_two_idle_carts_swap_places() -> None:
+    lattice = Lattice((0.25, 0.25), 0.5, frozenset((i, j) for i in range(4) for j in range(3)))
+    fleet = Fleet(lattice, {"c1": (0, 1), "c2": (3, 1)})
+    fleet.manager.add_goal(*lattice.position((3, 1)), cart="c1")  # each goal where the other stands
+    fleet.manager.add_goal(*lattice.position((0, 1)), cart="c2")
+    for _ in range(60):
+        fleet.tick()
+    assert [g.status for g in fleet.manager.goals] == ["reached", "reached"]
+    assert fleet.carts["c1"].pose[:2] == lattice.position((3, 1))
