@@ -60,6 +60,7 @@ class Vehicle:
         )
         self._last_state_s = -math.inf
         self._published_changes = -1
+        self._published_initialized: bool | None = None  # positionInitialized as last published
 
     def _topic(self, name: str) -> str:
         return vda5050.topic(self.serial_number, name)
@@ -129,9 +130,12 @@ class Vehicle:
         self.connection.publish(self._topic(name), payload, retain=retain)
 
     def _publish_state_if_due(self) -> None:
-        changed = self.executor.changes != self._published_changes
+        initialized = self._pose_trusted()  # its change is a change of the state too
+        changed = (
+            self.executor.changes != self._published_changes or initialized != self._published_initialized
+        )
         if changed or self._clock() - self._last_state_s >= STATE_EVERY_S:
-            self._published_changes = self.executor.changes
+            self._published_changes, self._published_initialized = self.executor.changes, initialized
             self._last_state_s = self._clock()
             self._publish("state", self.state())
 
