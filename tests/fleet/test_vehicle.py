@@ -178,10 +178,12 @@ def test_a_broker_restart_mid_order_loses_nothing(
     broker.stop()
     arrive(vehicle, cart, (0.75, 0.25))  # while the broker is away
     wait_until(lambda: not vehicle.connection.connected.is_set(), "the vehicle never saw the broker go")
-    broker.start()
     master.forget()
+    broker.start()
     assert master.connection.wait(10) and vehicle.connection.wait(10)
     master.wait_for(SERIAL, "connection", lambda m: m["connectionState"] == "ONLINE")  # retained again
+    # the state the vehicle sent as it came back may have gone before the master was back: ask
+    master.send(SERIAL, "instantActions", instant("s1", "stateRequest"))
     state_with(master, lastNodeId="b", driving=False)
     master.send(SERIAL, "order", order_body("o1", 1, POINTS[1:], first_seq=2))
     arrive(vehicle, cart, (1.25, 0.25))
