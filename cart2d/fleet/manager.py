@@ -85,7 +85,11 @@ class FleetManager:
         self._lock = threading.RLock()
         self._ids = itertools.count(1)
         self._headers: dict[str, vda5050.Headers] = {}
-        self.connection = None if broker is None else Connection(broker, f"cart2d-fleet-{time.time_ns()}")
+        self.connection = (
+            None
+            if broker is None
+            else Connection(broker, f"cart2d-fleet-{time.time_ns()}", on_connect=self.ask_states)
+        )
         self._publish = publish or self._to_broker
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="fleet manager", daemon=True)
@@ -264,6 +268,18 @@ class FleetManager:
         cart = self.carts[name]
         headers = self._headers.setdefault(name, vda5050.Headers(name, cart.manufacturer))
         self._publish(vda5050.topic(name, topic, cart.manufacturer), {**headers.header(topic), **body})
+
+    def ask_states(self) -> None:
+        """stateRequest to every cart known (at every connection: what they said while the
+        broker was away, or before this manager subscribed again, is not lost for 30 s)."""
+        with self._lock:
+            for name in self.carts:
+                action = {
+                    "actionId": f"ask-{time.time_ns()}",
+                    "actionType": "stateRequest",
+                    "blockingType": "NONE",
+                }
+                self._send(name, "instantActions", {"actions": [action]})
 
     # -- STOP ALL -----------------------------------------------------------------------------
     def stop_all(self) -> None:

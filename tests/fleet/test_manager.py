@@ -141,3 +141,11 @@ def test_two_idle_carts_swap_places() -> None:
         fleet.tick()
     assert [g.status for g in fleet.manager.goals] == ["reached", "reached"]
     assert fleet.carts["c1"].pose[:2] == lattice.position((3, 1))
+
+
+def test_at_every_connection_the_manager_asks_each_cart_for_its_state() -> None:
+    lattice = Lattice((0.25, 0.25), 0.5, frozenset((i, 0) for i in range(4)))
+    fleet = Fleet(lattice, {"c1": (0, 0), "c2": (3, 0)})
+    fleet.manager.ask_states()  # what its broker connection calls when it (re)connects
+    asked = [(t.split("/")[3], m["actions"][0]["actionType"]) for t, m in fleet.outbox]
+    assert sorted(asked) == [("c1", "stateRequest"), ("c2", "stateRequest")]
