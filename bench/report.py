@@ -39,6 +39,7 @@ SECTIONS = (
     "flashing",
     "control",
     "system",
+    "fleet",
 )
 
 

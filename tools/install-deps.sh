@@ -12,6 +12,7 @@ packages=(
   clang libclang-rt-14-dev                # host tests, libFuzzer, sanitizers
   googletest libgtest-dev                 # unit tests
   python3 python3-venv                    # generators, gateway
+  mosquitto                               # the fleet's MQTT broker (cart2d fleet sim, tests/fleet/)
   chromium                                # control panel's browser tests (Playwright, headless)
 )
 # The control panel's build (Vite 7) needs Node >= 20.19 with npm. Debian 12's nodejs is 18:

@@ -15,7 +15,8 @@ from types import FrameType
 
 from cart2d.server import serving
 from cart2d.simulation import faults as fault_table
-from cart2d.tools import cli_args, live, map_command
+from cart2d.tools import cli_args, fleet_args, live, map_command
+from cart2d.tools import fleet as fleet_cli
 from cart2d.tools import localisation as localisation_cli
 from cart2d.tools import recording_args as recording_cli
 from cart2d.tools.camera_calibration.command import add_arguments as add_camera_calibrate_arguments
@@ -87,6 +88,7 @@ def build_parser() -> argparse.ArgumentParser:
     live.camera_args(sim)
     localisation_cli.add_markers_argument(sim)
     map_command.add_map_argument(sim)
+    fleet_args.add_arguments(sim)
     sim.set_defaults(run=live.cmd_sim)
 
     serve = sub.add_parser("serve", help="the gateway and panel for a real cart on a serial port")
@@ -103,6 +105,7 @@ def build_parser() -> argparse.ArgumentParser:
     live.camera_args(serve)
     localisation_cli.add_markers_argument(serve)
     map_command.add_map_argument(serve)
+    fleet_args.add_arguments(serve)
     serve.set_defaults(run=live.cmd_serve)
 
     mission = sub.add_parser("mission", help="run a mission in the simulator and write a report")
@@ -116,6 +119,8 @@ def build_parser() -> argparse.ArgumentParser:
     mission.add_argument("--seed", type=cli_args.seed, default=1)
     recording_cli.add_mission_arguments(mission)
     mission.set_defaults(run=cmd_mission)
+
+    fleet_cli.add_parser(sub)
 
     replay = sub.add_parser("replay", help="play an MCAP recording back into the panel (read-only)")
     replay.add_argument(

@@ -25,7 +25,7 @@ from cart2d.simulation.simulator import SimOptions, Simulator
 from cart2d.simulation.wiring import simulated_gateway
 from cart2d.simulation.world import with_boxes, world_file
 from cart2d.store import Store
-from cart2d.tools import cli_args, map_command
+from cart2d.tools import cli_args, fleet_args, map_command
 from cart2d.tools import localisation as localisation_cli
 from cart2d.tools import recording_args as recording_cli
 from cart2d.tools.ros2_args import ros2_problem, ros2_session
@@ -162,7 +162,7 @@ def _fault_options(options: list[str]) -> tuple[dict[str, float], list[str]]:
 
 def cmd_sim(args: argparse.Namespace) -> int:
     faults, problems = _fault_options(args.fault)
-    problems += [p for p in [recording_cli.record_problem(args), ros2_problem(args)] if p]
+    problems += [p for p in [recording_cli.record_problem(args), ros2_problem(args), fleet_args.problem(args)] if p]
     boxes, look, world_problems = world_file(args.world) if args.world else ([], None, [])
     problems += world_problems
     markers, markers_problem = localisation_cli.markers_of(args)
@@ -227,7 +227,8 @@ def cmd_sim(args: argparse.Namespace) -> int:
                         f"simulated ESP32-CAM on {where_cam} (/capture; stream on port {camera.port + 1})",
                         flush=True,
                     )
-                _serve(gateway, where, args.allow_host, simulation.add_routes)
+                with fleet_args.fleet_vehicle(gateway, args):
+                    _serve(gateway, where, args.allow_host, simulation.add_routes)
         finally:
             _detach_camera(gateway)
             gateway.close()
@@ -303,7 +304,13 @@ def _open_serial(args: argparse.Namespace) -> Link | None:
 def cmd_serve(args: argparse.Namespace) -> int:
     markers, markers_problem = localisation_cli.markers_of(args)
     floor_plan, map_problem = map_command.floor_plan_of(args)
-    problem = recording_cli.record_problem(args) or ros2_problem(args) or markers_problem or map_problem
+    problem = (
+        recording_cli.record_problem(args)
+        or ros2_problem(args)
+        or fleet_args.problem(args)
+        or markers_problem
+        or map_problem
+    )
     if problem:
         print(f"cart2d serve: {problem}", file=sys.stderr)
         return 2
@@ -324,7 +331,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
                 _attach_camera(gateway, args)
                 if markers is not None:
                     localisation_cli.start_localisation(gateway, markers, store.directory)
-                _serve(gateway, where, args.allow_host)
+                with fleet_args.fleet_vehicle(gateway, args):
+                    _serve(gateway, where, args.allow_host)
         finally:
             _detach_camera(gateway)
             gateway.close()

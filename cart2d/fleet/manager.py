@@ -1,0 +1,360 @@
+"""The fleet manager, VDA 5050's master control: it hears every vehicle's connection, state and
+visualization on the broker, gives goals to carts (the nearest idle one, or the one named) as
+orders on the shared lattice, and releases each route a few nodes at a time as traffic.py
+allows, in order updates. STOP ALL cancels every order (and calls each gateway's own stop when
+it runs beside them, `cart2d fleet sim`).
+
+Its state is changed under one lock, by paho's thread (what vehicles say) and by step() (the
+manager's thread, every STEP_S, or a test's fake clock)."""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import math
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from cart2d.fleet import vda5050
+from cart2d.fleet.lattice import Cell, Lattice, node_id
+from cart2d.fleet.mqtt import Broker, Connection
+from cart2d.fleet.traffic import Traffic, TrafficError
+
+log = logging.getLogger(__name__)
+
+STEP_S = 0.1
+ALL_VEHICLES = f"{vda5050.INTERFACE}/{vda5050.MAJOR}/+/+/+"
+
+
+@dataclass
+class CartView:
+    name: str
+    manufacturer: str = vda5050.MANUFACTURER
+    connection: str = "UNKNOWN"
+    position: tuple[float, float, float] | None = None
+    state: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def online(self) -> bool:
+        return self.connection == "ONLINE"
+
+
+@dataclass
+class Goal:
+    goal_id: int
+    cell: Cell
+    cart: str | None  # named by the user, or the one it was given to
+    asked_s: float
+    assigned_s: float | None = None  # given to a cart
+    ordered_s: float | None = None  # its order sent
+    accepted_s: float | None = None  # the cart's state shows the order
+    reached_s: float | None = None
+    status: str = "waiting"  # waiting | driving | reached | cancelled | failed
+    waited_s: float = 0.0  # for reservations, on its way
+
+
+@dataclass
+class Sent:
+    """The order a cart drives: its id, update, the route's base end already sent."""
+
+    order_id: str
+    update_id: int
+    base_end: int
+    goal: Goal
+
+
+class FleetManager:
+    def __init__(
+        self,
+        lattice: Lattice,
+        broker: Broker | None = None,
+        clock: Callable[[], float] = time.monotonic,
+        publish: Callable[[str, dict[str, Any]], None] | None = None,
+    ) -> None:
+        """`publish(topic, message)`: how messages leave (default: the broker's connection)."""
+        self.lattice = lattice
+        self.traffic = Traffic(lattice)
+        self.carts: dict[str, CartView] = {}
+        self.goals: list[Goal] = []
+        self.sent: dict[str, Sent] = {}
+        self.stoppers: list[Callable[[], None]] = []  # each gateway's own stop, where it runs beside us
+        self._clock = clock
+        self._lock = threading.RLock()
+        self._ids = itertools.count(1)
+        self._headers: dict[str, vda5050.Headers] = {}
+        self.connection = (
+            None
+            if broker is None
+            else Connection(broker, f"cart2d-fleet-{time.time_ns()}", on_connect=self.ask_states)
+        )
+        self._publish = publish or self._to_broker
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="fleet manager", daemon=True)
+        if self.connection is not None:
+            self.connection.subscribe(ALL_VEHICLES, self.heard)
+
+    # -- life --------------------------------------------------------------------------------
+    def start(self) -> FleetManager:
+        if self.connection is not None:
+            self.connection.start()
+        self._thread.start()
+        return self
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(2)
+        if self.connection is not None:
+            self.connection.close()
+
+    def _run(self) -> None:
+        while not self._stop.wait(STEP_S):
+            try:
+                self.step()
+            except Exception:  # one bad step must not end the manager
+                log.exception("the fleet manager's step failed")
+
+    def _to_broker(self, topic: str, message: dict[str, Any]) -> None:
+        assert self.connection is not None
+        self.connection.publish(topic, message)
+
+    # -- what vehicles say ---------------------------------------------------------------------
+    def heard(self, topic: str, message: dict[str, Any]) -> None:
+        where = vda5050.vehicle_of(topic)
+        if where is None:
+            return
+        name, kind = where
+        with self._lock:
+            cart = self.carts.setdefault(name, CartView(name, str(message.get("manufacturer", ""))))
+            if kind == "connection":
+                cart.connection = str(message.get("connectionState"))
+                if cart.name in self.traffic.standing:
+                    self.traffic.set_online(name, cart.online)
+            elif kind in ("state", "visualization"):
+                self._position(cart, message)
+                if kind == "state":
+                    if cart.connection == "UNKNOWN":
+                        cart.connection = "ONLINE"  # a state before its (retained) connection
+                    cart.state = message
+                    self._progress(cart, message)
+
+    def _position(self, cart: CartView, message: dict[str, Any]) -> None:
+        p = message.get("agvPosition")
+        if not p or not p.get("positionInitialized"):
+            return
+        cart.position = (float(p["x"]), float(p["y"]), float(p["theta"]))
+        try:
+            cell = self.lattice.nearest(p["x"], p["y"])
+        except ValueError:
+            return
+        if (
+            self.traffic.idle(cart.name)
+            and self.traffic.standing[cart.name] != cell
+            and cell not in self.traffic.holds
+        ):
+            self.traffic.remove(cart.name)  # an idle cart moved (initPosition, by hand): its node follows
+        if cart.name not in self.traffic.standing:
+            try:
+                self.traffic.join(cart.name, cell)
+            except TrafficError as exc:
+                log.warning("%s cannot join the traffic: %s", cart.name, exc)
+
+    def _progress(self, cart: CartView, state: dict[str, Any]) -> None:
+        sent = self.sent.get(cart.name)
+        if sent is None:
+            return
+        if state.get("orderId") != sent.order_id:
+            if sent.order_id in _references(state):  # the vehicle refused the order
+                sent.goal.status = "failed"
+                self.traffic.cancel(cart.name)
+                del self.sent[cart.name]
+            return
+        if sent.goal.accepted_s is None:
+            sent.goal.accepted_s = self._clock()
+        index = int(state.get("lastNodeSequenceId", 0)) // 2
+        if self.traffic.reached(cart.name, index):
+            goal = sent.goal
+            goal.status, goal.reached_s = "reached", self._clock()
+            journey = next(j for c, j in reversed(self.traffic.finished) if c == cart.name)
+            goal.waited_s = journey.waited_s
+            del self.sent[cart.name]
+
+    # -- goals -------------------------------------------------------------------------------
+    def add_goal(self, x: float, y: float, cart: str | None = None) -> Goal:
+        """A goal at the lattice node nearest (x, y), for `cart` or the nearest idle one;
+        ValueError (a sentence) for an unknown cart or a point off the lattice."""
+        with self._lock:
+            if cart is not None and cart not in self.carts:
+                raise ValueError(
+                    f"there is no cart {cart!r} (carts: {', '.join(sorted(self.carts)) or 'none'})"
+                )
+            cell = self.lattice.nearest(x, y)
+            if math.dist(self.lattice.position(cell), (x, y)) > self.lattice.spacing_m:
+                raise ValueError(f"({x:.2f}, {y:.2f}) is not in the arena's free space")
+            goal = Goal(next(self._ids), cell, cart, self._clock())
+            self.goals.append(goal)
+            return goal
+
+    def _assign(self) -> None:
+        waiting = [g for g in self.goals if g.status == "waiting"]
+        leaving = frozenset(g.cart for g in waiting if g.cart is not None)  # named carts leave soon
+        for goal in waiting:
+            idle = [c for c in self.carts.values() if c.online and self.traffic.idle(c.name)]
+            if goal.cart is not None:
+                idle = [c for c in idle if c.name == goal.cart]
+            if not idle:
+                continue
+            target = self.lattice.position(goal.cell)
+            chosen = min(
+                idle, key=lambda c: math.dist(self.lattice.position(self.traffic.standing[c.name]), target)
+            )
+            try:
+                self.traffic.send(chosen.name, goal.cell, leaving - {chosen.name})
+            except TrafficError as exc:
+                log.info("goal %d waits: %s", goal.goal_id, exc)
+                continue
+            goal.cart, goal.status, goal.assigned_s = chosen.name, "driving", self._clock()
+            self.sent[chosen.name] = Sent(f"{chosen.name}-{goal.goal_id}", 0, 0, goal)
+
+    # -- orders --------------------------------------------------------------------------------
+    def step(self) -> None:
+        with self._lock:
+            self._assign()
+            changed = self.traffic.step(self._clock())
+            for name, sent in self.sent.items():
+                if sent.goal.ordered_s is None or name in changed:
+                    self._send_order(name, sent)
+
+    def _send_order(self, name: str, sent: Sent) -> None:
+        journey = self.traffic.journeys.get(name)
+        if journey is None:
+            return
+        first = 0 if sent.goal.ordered_s is None else sent.base_end
+        if sent.goal.ordered_s is not None:
+            sent.update_id += 1
+        route = journey.route
+        nodes: list[dict[str, Any]] = [
+            {
+                "nodeId": node_id(cell),
+                "sequenceId": 2 * i,
+                "released": i < journey.released,
+                "nodePosition": {"x": x, "y": y, "mapId": vda5050.MAP_ID, "allowedDeviationXY": 0.3},
+                "actions": [],
+            }
+            for i in range(first, len(route))
+            for cell in [route[i]]
+            for x, y in [self.lattice.position(cell)]
+        ]
+        edges = [
+            {
+                "edgeId": f"{a['nodeId']}-{b['nodeId']}",
+                "sequenceId": a["sequenceId"] + 1,
+                "released": b["released"],
+                "startNodeId": a["nodeId"],
+                "endNodeId": b["nodeId"],
+                "actions": [],
+            }
+            for a, b in itertools.pairwise(nodes)
+        ]
+        body = {"orderId": sent.order_id, "orderUpdateId": sent.update_id, "nodes": nodes, "edges": edges}
+        self._send(name, "order", body)
+        sent.base_end = journey.released - 1
+        if sent.goal.ordered_s is None:
+            sent.goal.ordered_s = self._clock()
+
+    def _send(self, name: str, topic: str, body: dict[str, Any]) -> None:
+        cart = self.carts[name]
+        headers = self._headers.setdefault(name, vda5050.Headers(name, cart.manufacturer))
+        self._publish(vda5050.topic(name, topic, cart.manufacturer), {**headers.header(topic), **body})
+
+    def ask_states(self) -> None:
+        """stateRequest to every cart known (at every connection: what they said while the
+        broker was away, or before this manager subscribed again, is not lost for 30 s)."""
+        with self._lock:
+            for name in self.carts:
+                action = {
+                    "actionId": f"ask-{time.time_ns()}",
+                    "actionType": "stateRequest",
+                    "blockingType": "NONE",
+                }
+                self._send(name, "instantActions", {"actions": [action]})
+
+    # -- STOP ALL -----------------------------------------------------------------------------
+    def stop_all(self) -> None:
+        """Every gateway's own stop first (where it runs beside us), then cancelOrder to each
+        vehicle; goals not reached are cancelled, and the carts keep the nodes they hold."""
+        for stop in self.stoppers:
+            try:
+                stop()
+            except Exception:  # one cart's failure must not keep the others going
+                log.exception("a gateway's stop failed")
+        with self._lock:
+            for name in self.carts:
+                action = {
+                    "actionId": f"stop-{time.time_ns()}",
+                    "actionType": "cancelOrder",
+                    "blockingType": "HARD",
+                }
+                self._send(name, "instantActions", {"actions": [action]})
+                self.traffic.cancel(name)
+            for goal in self.goals:
+                if goal.status in ("waiting", "driving"):
+                    goal.status = "cancelled"
+            self.sent.clear()
+
+    def remove(self, name: str) -> None:
+        """Forgets a cart (an OFFLINE one's nodes are free again)."""
+        with self._lock:
+            self.traffic.remove(name)
+            self.carts.pop(name, None)
+            sent = self.sent.pop(name, None)
+            if sent is not None:
+                sent.goal.status = "cancelled"
+
+    # -- views ---------------------------------------------------------------------------------
+    def view(self) -> dict[str, Any]:
+        with self._lock:
+            return {
+                "lattice": {
+                    "spacing_m": self.lattice.spacing_m,
+                    "nodes": sorted(self.lattice.position(c) for c in self.lattice.free),
+                },
+                "carts": [self._cart_view(c) for c in self.carts.values()],
+                "goals": [self._goal_view(g) for g in self.goals[-200:]],
+                "deadlocks": self.traffic.deadlocks,
+            }
+
+    def _cart_view(self, cart: CartView) -> dict[str, Any]:
+        journey = self.traffic.journeys.get(cart.name)
+        held = sorted(self.lattice.position(c) for c, h in self.traffic.holds.items() if h == cart.name)
+        return {
+            "name": cart.name,
+            "connection": cart.connection,
+            "position": cart.position,
+            "driving": bool(cart.state.get("driving")),
+            "paused": bool(cart.state.get("paused")),
+            "errors": cart.state.get("errors", []),
+            "held": held,
+            "route": [self.lattice.position(c) for c in journey.route[journey.passed :]] if journey else [],
+            "waiting_for": journey.waiting_for if journey else None,
+        }
+
+    def _goal_view(self, goal: Goal) -> dict[str, Any]:
+        return {
+            "id": goal.goal_id,
+            "at": self.lattice.position(goal.cell),
+            "cart": goal.cart,
+            "status": goal.status,
+            "waited_s": round(goal.waited_s, 3),
+        }
+
+
+def _references(state: dict[str, Any]) -> set[str]:
+    """The values the state's errors refer to (orderIds, nodeIds)."""
+    return {
+        str(ref.get("referenceValue"))
+        for e in state.get("errors", [])
+        for ref in e.get("errorReferences", [])
+    }

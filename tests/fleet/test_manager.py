@@ -1,0 +1,151 @@
+"""The fleet manager with fake vehicles on a fake clock (no broker, no simulator): each vehicle
+is the real order Executor over a cart that reaches the node it is sent to at the next tick;
+the manager's orders and the vehicles' states are checked against the VDA 5050 schemas."""
+
+from __future__ import annotations
+
+import random
+from typing import Any
+
+from cart2d.fleet import vda5050
+from cart2d.fleet.lattice import Lattice
+from cart2d.fleet.manager import FleetManager
+from cart2d.fleet.order import Executor
+from tests.support.vda5050 import check
+
+
+class InstantCart:
+    def __init__(self, x: float, y: float) -> None:
+        self.pose = (x, y, 0.0)
+        self.target: tuple[float, float] | None = None
+        self.stops = 0
+
+    def go_to(self, x: float, y: float) -> None:
+        self.target = (x, y)
+
+    def stop(self, reason: str) -> None:
+        self.target = None
+        self.stops += 1
+
+    def set_pose(self, x: float, y: float, theta: float) -> None:
+        self.pose = (x, y, theta)
+
+
+class Fleet:
+    def __init__(self, lattice: Lattice, starts: dict[str, tuple[int, int]]) -> None:
+        self.now = 0.0
+        self.outbox: list[tuple[str, dict[str, Any]]] = []
+        self.manager = FleetManager(lattice, clock=lambda: self.now, publish=self._sent)
+        self.carts: dict[str, InstantCart] = {}
+        self.vehicles: dict[str, Executor] = {}
+        self.headers = {name: vda5050.Headers(name) for name in starts}
+        for name, cell in starts.items():
+            cart = InstantCart(*lattice.position(cell))
+            self.carts[name] = cart
+            self.vehicles[name] = Executor(cart, pose=cart.pose)
+            self._say(name, "connection", {"connectionState": "ONLINE"})
+            self._report(name)
+
+    def _sent(self, topic: str, message: dict[str, Any]) -> None:
+        where = vda5050.vehicle_of(topic)
+        assert where is not None
+        check(where[1], message)
+        self.outbox.append((topic, message))
+
+    def _say(self, name: str, kind: str, body: dict[str, Any]) -> None:
+        message = {**self.headers[name].header(kind), **body}
+        check(kind, message)
+        self.manager.heard(vda5050.topic(name, kind), message)
+
+    def _report(self, name: str) -> None:
+        x, y, theta = self.carts[name].pose
+        position = {"x": x, "y": y, "theta": theta, "mapId": "arena", "positionInitialized": True}
+        self._say(
+            name,
+            "state",
+            {
+                **self.vehicles[name].state_fields(),
+                "agvPosition": position,
+                "operatingMode": "AUTOMATIC",
+                "batteryState": {"batteryCharge": 0.0, "charging": False},
+                "safetyState": {"eStop": "NONE", "fieldViolation": False},
+            },
+        )
+
+    def tick(self) -> None:
+        self.now += 0.5
+        self.manager.step()
+        for topic, message in self.outbox:
+            where = vda5050.vehicle_of(topic)
+            assert where is not None
+            vehicle = self.vehicles[where[0]]
+            if where[1] == "order":
+                vehicle.order(message)
+                assert vehicle.errors == [], vehicle.errors
+            else:
+                vehicle.instant_actions(message)
+        self.outbox.clear()
+        for name, cart in self.carts.items():
+            vehicle = self.vehicles[name]
+            if cart.target is not None:
+                goal, cart.target = cart.target, None
+                cart.pose = (*goal, 0.0)
+                vehicle.pose = cart.pose
+                vehicle.mission_ended(goal, True, "")
+            self._report(name)
+        places = [c.pose[:2] for c in self.carts.values()]
+        assert len(set(places)) == len(places), f"two carts on one node: {places}"
+
+
+def test_ten_random_goals_for_three_carts_are_all_reached_without_meeting() -> None:
+    lattice = Lattice((0.25, 0.25), 0.5, frozenset((i, j) for i in range(6) for j in range(6)))
+    fleet = Fleet(lattice, {"c1": (0, 0), "c2": (5, 0), "c3": (0, 5)})
+    rng = random.Random(7)
+    for _ in range(10):
+        cell = rng.choice(sorted(lattice.free))
+        fleet.manager.add_goal(*lattice.position(cell))
+    for _ in range(400):
+        fleet.tick()
+        if all(g.status in ("reached", "cancelled") for g in fleet.manager.goals):
+            break
+    assert [g.status for g in fleet.manager.goals] == ["reached"] * 10
+    assert {g.cart for g in fleet.manager.goals if g.status == "reached"} == {"c1", "c2", "c3"}
+
+
+def test_a_named_cart_takes_the_goal_and_stop_all_cancels_every_order() -> None:
+    lattice = Lattice((0.25, 0.25), 0.5, frozenset((i, 0) for i in range(8)))
+    fleet = Fleet(lattice, {"c1": (0, 0), "c2": (7, 0)})
+    goal = fleet.manager.add_goal(*lattice.position((3, 0)), cart="c2")  # c1 is nearer
+    fleet.tick()
+    fleet.tick()
+    assert goal.cart == "c2" and goal.status == "driving"
+    fleet.manager.stop_all()
+    fleet.tick()
+    assert goal.status == "cancelled"
+    assert all(v.nodes == [] for v in fleet.vehicles.values())
+    assert fleet.carts["c2"].stops == 1
+    try:
+        fleet.manager.add_goal(1.0, 1.0, cart="c9")
+    except ValueError as exc:
+        assert "no cart 'c9'" in str(exc)
+    else:
+        raise AssertionError("a goal for an unknown cart was taken")
+
+
+def test_two_idle_carts_swap_places() -> None:
+    lattice = Lattice((0.25, 0.25), 0.5, frozenset((i, j) for i in range(4) for j in range(3)))
+    fleet = Fleet(lattice, {"c1": (0, 1), "c2": (3, 1)})
+    fleet.manager.add_goal(*lattice.position((3, 1)), cart="c1")  # each goal where the other stands
+    fleet.manager.add_goal(*lattice.position((0, 1)), cart="c2")
+    for _ in range(60):
+        fleet.tick()
+    assert [g.status for g in fleet.manager.goals] == ["reached", "reached"]
+    assert fleet.carts["c1"].pose[:2] == lattice.position((3, 1))
+
+
+def test_at_every_connection_the_manager_asks_each_cart_for_its_state() -> None:
+    lattice = Lattice((0.25, 0.25), 0.5, frozenset((i, 0) for i in range(4)))
+    fleet = Fleet(lattice, {"c1": (0, 0), "c2": (3, 0)})
+    fleet.manager.ask_states()  # what its broker connection calls when it (re)connects
+    asked = [(t.split("/")[3], m["actions"][0]["actionType"]) for t, m in fleet.outbox]
+    assert sorted(asked) == [("c1", "stateRequest"), ("c2", "stateRequest")]
