@@ -162,7 +162,9 @@ def _fault_options(options: list[str]) -> tuple[dict[str, float], list[str]]:
 
 def cmd_sim(args: argparse.Namespace) -> int:
     faults, problems = _fault_options(args.fault)
-    problems += [p for p in [recording_cli.record_problem(args), ros2_problem(args), fleet_args.problem(args)] if p]
+    problems += [
+        p for p in [recording_cli.record_problem(args), ros2_problem(args), fleet_args.problem(args)] if p
+    ]
     boxes, look, world_problems = world_file(args.world) if args.world else ([], None, [])
     problems += world_problems
     markers, markers_problem = localisation_cli.markers_of(args)
