@@ -27,6 +27,7 @@ SECTIONS = (
     "streaming",
     "live_map",
     "perception",
+    "real_photographs",
     "camera_stream",
     "recording",
     "safety",

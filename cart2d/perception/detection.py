@@ -200,6 +200,10 @@ class ObstacleDetector:
         self.floor_model = FloorModel(self.config.floor)
         self.floor_model.learn(chroma, brightness, self.patch)
 
+    def forget_floor(self) -> None:
+        """The next picture learns the floor afresh from its patch (another room, another picture)."""
+        self.floor_model = FloorModel(self.config.floor)
+
     def detect(self, bgr: npt.NDArray[np.uint8], off_plane: BoolImage | None = None) -> Detection:
         """One raw image (the calibration's size) -> its Detection. `off_plane`: the parallax cue's
         mask for this image (raw pixels standing above the floor), if there is one. The first image

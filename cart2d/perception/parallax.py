@@ -43,12 +43,14 @@ class ParallaxConfig:
     misregistration_px: float = 1.0
     open_px: int = 3  # specks smaller than this are dropped (vertical and horizontal)
     # The homography odometry predicts is refined on the pictures themselves (corners tracked with
-    # cv2.calcOpticalFlowPyrLK from where it puts them, cv2.findHomography with RANSAC): the
-    # nominal lens is centimetres off, odometry slips. Without min_tracks inliers, or if the fit
-    # is more than max_correction_px from the prediction anywhere on the floor, the cue says nothing.
+    # cv2.calcOpticalFlowPyrLK from where it puts them; cv2.findHomography, USAC_ACCURATE: RANSAC
+    # with local optimisation): the nominal lens is centimetres off, odometry slips. Without
+    # min_tracks inliers, or if the fit strays more than max_correction_px from the prediction
+    # anywhere on the floor, the cue says nothing.
     max_corners: int = 80
     min_tracks: int = 12
     ransac_px: float = 1.5
+    ransac_iterations: int = 200  # the floor is most of the tracks: a few hundred draws find it
     max_correction_px: float = 12.0
 
 
@@ -112,7 +114,8 @@ class ParallaxCue:
     def reset(self) -> None:
         self.previous = None
 
-    def _prepare(self, bgr: npt.NDArray[np.uint8]) -> GreyImage:
+    def prepare(self, bgr: npt.NDArray[np.uint8]) -> GreyImage:
+        """A raw picture as the cue compares it: grey, undistorted, smoothed."""
         grey = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY)
         if self.distorted:
             grey = cv2.remap(grey, self.undistort_x, self.undistort_y, cv2.INTER_LINEAR, borderValue=0)
@@ -123,7 +126,7 @@ class ParallaxCue:
         """The later frame and its pose: the off-plane mask, or None if the cart has not moved
         min_baseline_m since the frame kept (which is then kept on; a frame far enough from it
         replaces it)."""
-        grey = self._prepare(bgr)
+        grey = self.prepare(bgr)
         if self.previous is None:
             self.previous = (grey, pose)
             return None
@@ -131,9 +134,62 @@ class ParallaxCue:
         if math.dist(earlier_pose[:2], pose[:2]) < self.config.min_baseline_m:
             return None
         self.previous = (grey, pose)
-        return self.off_plane(
-            earlier, grey, floor_homography(self.calibration.ground.floor_to_pixel, earlier_pose, pose)
+        predicted = floor_homography(self.calibration.ground.floor_to_pixel, earlier_pose, pose)
+        refined = self.refine(earlier, grey, predicted)
+        return None if refined is None else self.off_plane(earlier, grey, refined)
+
+    def refine(self, earlier: GreyImage, later: GreyImage, predicted: FloatArray | None) -> FloatArray | None:
+        """The floor's homography between two prepared pictures, fitted to corners of the lower
+        half of the earlier one (the floor nearest the cart) tracked into the later one from where
+        `predicted` puts them (from where they were, without a prediction); None if too few
+        track, or if the fit strays more than max_correction_px from the prediction."""
+        k = self.config
+        width, height = self.size
+        near = np.zeros_like(earlier)
+        near[height // 2 :, :] = 255
+        corners = cv2.goodFeaturesToTrack(earlier, k.max_corners, 0.01, 6, mask=near)
+        if corners is None or len(corners) < k.min_tracks:
+            return None
+        start = np.asarray(corners, dtype=np.float32)
+        guess = (
+            start if predicted is None else np.asarray(cv2.perspectiveTransform(start, predicted), np.float32)
         )
+        tracked, status, _ = cv2.calcOpticalFlowPyrLK(
+            earlier,
+            later,
+            start,
+            guess.copy(),
+            winSize=(15, 15),
+            maxLevel=2,
+            flags=cv2.OPTFLOW_USE_INITIAL_FLOW,
+        )
+        ok = status.ravel() == 1
+        if int(ok.sum()) < k.min_tracks:
+            return None
+        fitted, inliers = cv2.findHomography(
+            start[ok],
+            tracked[ok],
+            cv2.USAC_ACCURATE,
+            k.ransac_px,
+            maxIters=k.ransac_iterations,
+            confidence=0.99,
+        )
+        if fitted is None or inliers is None or int(inliers.sum()) < k.min_tracks:
+            return None
+        if predicted is not None:
+            probe = np.array(
+                [
+                    [[0, height - 1]],
+                    [[width - 1, height - 1]],
+                    [[0, height // 2]],
+                    [[width - 1, height // 2]],
+                ],
+                np.float32,
+            )
+            gap = cv2.perspectiveTransform(probe, fitted) - cv2.perspectiveTransform(probe, predicted)
+            if float(np.abs(gap).max()) > k.max_correction_px:
+                return None
+        return np.asarray(fitted, dtype=np.float64)
 
     def off_plane(
         self, earlier: GreyImage, later: GreyImage, homography: FloatArray
