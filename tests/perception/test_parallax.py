@@ -129,7 +129,7 @@ def test_a_wrong_motion_is_seen_as_parallax_everywhere() -> None:
     cue = ParallaxCue(CALIBRATION)
     earlier, later = render(EARLIER, wall=False), render(LATER, wall=False)
     h = floor_homography(CALIBRATION.ground.floor_to_pixel, EARLIER, EARLIER)
-    off = cue.off_plane(cue._prepare(earlier), cue._prepare(later), h)
+    off = cue.off_plane(cue.prepare(earlier), cue.prepare(later), h)
     assert off.mean() > 0.2
 
 
