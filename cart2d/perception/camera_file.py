@@ -76,6 +76,8 @@ def load_camera(path: Path) -> Camera:
 
 
 def read_picture(path: Path, camera: Camera) -> npt.NDArray[np.uint8]:
+    if not path.is_file():
+        raise ValueError(f"{path}: no such file")
     image = cv2.imread(str(path), cv2.IMREAD_COLOR)
     if image is None:
         raise ValueError(f"{path}: not a picture OpenCV can read")

@@ -119,37 +119,32 @@ class LogOddsGrid:
         ends_on_hit = np.zeros(len(ends), dtype=bool)
         ends_on_hit[: len(hits)] = True  # Detection.free lists the hits first
         behind, hit_of = self._behind_indexed(origin, hits)
-        hit_cells = np.unique(self._cells(behind))
+        hit_cells, weights = self._hit_weights(behind, hit_of, detection)
         free_cells = np.setdiff1d(
             self._free_cells(origin, ends, ends_on_hit, detection.min_range_m), hit_cells
         )
         flat = self.log_odds.reshape(-1)
-        changes = [(free_cells, self.free_log_odds)]
-        changes += [
-            (cells, self.hit_log_odds * weight)
-            for cells, weight in self._hit_weights(behind, hit_of, detection)
-        ]
-        for touched, change in changes:
+        for touched, change in ((free_cells, self.free_log_odds), (hit_cells, self.hit_log_odds * weights)):
             flat[touched] = np.clip(flat[touched] + change, self.min_log_odds, self.max_log_odds)
             self._observed.reshape(-1)[touched] = True
 
     def _hit_weights(
         self, behind: FloatArray, hit_of: npt.NDArray[np.int64], detection: Detection
-    ) -> list[tuple[npt.NDArray[np.int64], float]]:
-        """The hit cells in groups by the weight of their evidence: a hit that more cues saw
-        (Detection.support: appearance, parallax, boundary) counts SUPPORT_WEIGHT more per cue
-        beyond the first; a cell hit by several takes the strongest once."""
+    ) -> tuple[npt.NDArray[np.int64], FloatArray]:
+        """The cells the hits mark (each once) and the weight of their evidence: a hit that more
+        cues saw (Detection.support: appearance, parallax, boundary) counts SUPPORT_WEIGHT more per
+        cue beyond the first; a cell several hits mark takes the strongest."""
         support = np.ones(len(detection.hits), np.int32)
         if len(detection.support) == len(detection.hits):
             support = np.maximum(detection.support, 1)
-        groups: list[tuple[npt.NDArray[np.int64], float]] = []
-        taken = np.zeros(0, np.int64)
-        for level in sorted(set(support[hit_of].tolist()), reverse=True):
-            chosen = support[hit_of] == level
-            cells = np.setdiff1d(np.unique(self._cells(behind[chosen])), taken)
-            groups.append((cells, 1.0 + SUPPORT_WEIGHT * (level - 1)))
-            taken = np.union1d(taken, cells)
-        return groups
+        ij = np.floor((behind - np.array(self.origin)) / self.resolution_m).astype(np.int64)
+        inside = (ij[:, 0] >= 0) & (ij[:, 0] < self.width) & (ij[:, 1] >= 0) & (ij[:, 1] < self.height)
+        cells = ij[inside, 1] * self.width + ij[inside, 0]
+        levels = support[hit_of[inside]]
+        order = np.lexsort((-levels, cells))  # by cell, the strongest first
+        unique, first = np.unique(cells[order], return_index=True)
+        weights = 1.0 + SUPPORT_WEIGHT * (levels[order][first] - 1)
+        return np.asarray(unique, dtype=np.int64), np.asarray(weights, dtype=np.float64)
 
     def _behind(self, origin: FloatArray, hits: FloatArray) -> FloatArray:
         """The points _behind_indexed gives, without their hits' indices."""
