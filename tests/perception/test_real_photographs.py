@@ -42,7 +42,7 @@ def test_obstacles_found_do_not_fall_below_todays(results: list[Evaluated]) -> N
 def test_false_hits_do_not_rise_above_todays(results: list[Evaluated]) -> None:
     lines = sum(r.score.lines for r in results)
     false_hits = sum(r.score.false_hit_lines for r in results)
-    assert false_hits / lines <= 0.6  # 57 % today (target 3 %): the mat's edge, the white tape
+    assert false_hits / lines <= 0.6  # 56 % today (target 3 %): the mat's edge, the white tape
     # pictures where the floor is one colour up to the wall keep their floor clear
     clear = {r.annotation.image.name: r.score.false_hit_share for r in results}
     assert clear["openbot_0056.jpg"] <= 0.03 and clear["openbot_0168.jpg"] <= 0.03
