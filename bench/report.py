@@ -27,6 +27,7 @@ SECTIONS = (
     "streaming",
     "live_map",
     "perception",
+    "real_photographs",
     "localisation",
     "camera_stream",
     "recording",

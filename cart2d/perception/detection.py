@@ -10,11 +10,16 @@ and a plain image column crossing such an edge would take a point high on the bo
 placing a hit behind the box. Along a scan line through that point, the lowest non-floor pixel
 of an edge is its foot. The scan lines are sampled from the raw image with cv2.remap.
 
-- The floor's appearance is a colour histogram (CIE L*a*b*, where a grey floor's colour is
-  stable; the hue of HSV is noise on grey) learnt from a patch of floor just in front of the
-  cart (assumed clear when the detector starts), compared with every pixel by back-projection
-  (cv2.calcBackProject), smoothed, thresholded and cleaned with morphology. It is refreshed
-  slowly from the patch's pixels that look like floor, never from pixels near an obstacle.
+- Three cues say where the floor ends, each where it can decide: the floor's appearance in
+  shadow-blind terms (cart2d/perception/floor_model.py), learnt from a patch of floor just in
+  front of the cart and refreshed slowly from that patch's pixels no cue flags; the floor's
+  geometry, what does not line up with the last frame warped by the floor's homography
+  (cart2d/perception/parallax.py, passed in as `off_plane`); and the boundary, the image's edges
+  (cv2.Canny), onto which the foot of what the other two found is moved when one lies just below
+  it (JPEG blur and the cleaning spread an obstacle's colour a row or two onto the floor). Each
+  hit carries how many cues saw it (Detection.support), the weight of its evidence in the
+  log-odds grid (cart2d/perception/occupancy.py). Specks are dropped by an opening with a
+  vertical line, which keeps a 2 cm leg at 1 m (6 pixels wide) whole.
 - Each column gives a ray on the floor from the lens's foot: to the column's hit if there is one
   within the range limits (the hit's pixel edge projected), else to the last floor pixel within
   the maximum range. Rays are evidence of free floor; hits of obstacles (cart2d/perception/occupancy.py).
@@ -22,7 +27,8 @@ of an edge is its foot. The scan lines are sampled from the raw image with cv2.r
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -30,15 +36,9 @@ import numpy.typing as npt
 
 from cart2d.perception.calibration import CameraCalibration
 from cart2d.perception.camera_model import FloatArray, Mount
+from cart2d.perception.floor_model import FloorModel, FloorModelConfig, chromaticity
 
 BoolImage = npt.NDArray[np.bool_]
-# Lightness in steps of 32, a* and b* in steps of 8 (OpenCV's 8-bit Lab: 0..255 each, grey at
-# a* = b* = 128): one bin number per pixel, so that calcHist / calcBackProject work on one 16-bit
-# channel (a 3-D histogram does not survive the trip through the Python binding, which reads a
-# 3-D array as a 2-D one of many channels).
-L_STEP, A_STEP, B_STEP = 32, 16, 16
-BIN_SHAPE = (256 // L_STEP, 256 // A_STEP, 256 // B_STEP)
-BINS = BIN_SHAPE[0] * BIN_SHAPE[1] * BIN_SHAPE[2]
 
 
 @dataclass(frozen=True)
@@ -49,11 +49,10 @@ class DetectorConfig:
     max_range_m: float = 1.25  # where the picture ends (robot.toml), and a pixel spans ~2 cm of floor
     patch_depth_m: float = 0.15  # the floor patch learnt from: this deep from the nearest floor seen...
     patch_half_width_m: float = 0.12  # ...and this wide each side of the lens
-    floor_likelihood: int = 24  # back-projection (0..255, smoothed) at which a pixel is floor
-    learn_rate: float = 0.05  # weight of each frame's patch in the floor histogram
+    floor: FloorModelConfig = field(default_factory=FloorModelConfig)
     min_patch_floor: float = 0.6  # learn only while this much of the patch looks like floor
-    blur_px: int = 5  # median filter of the back-projection: 3 or 5
-    open_px: int = 5  # opening removes specks of non-floor (and JPEG ringing by edges)...
+    blur_px: int = 5  # median filter of the floor mask: 3 or 5
+    open_px: int = 5  # an opening by a vertical line removes specks of non-floor (JPEG ringing)...
     close_px: int = 7  # ... closing fills holes inside an obstacle
     guard_px: int = 9  # learning keeps this far from any non-floor pixel
     solid_samples: int = 5  # an obstacle spans at least this many samples up a scan line
@@ -64,6 +63,11 @@ class DetectorConfig:
     # rising less than foot_step_rows per line, passes at any distance).
     foot_step_rows: int = 3
     foot_lines: int = 4
+    # The boundary cue: edges (cv2.Canny on the grey picture, these thresholds) up to snap_rows
+    # below the lowest obstacle sample of a line take the foot down to them.
+    canny_low: int = 40
+    canny_high: int = 100
+    snap_rows: int = 4
 
 
 @dataclass
@@ -79,30 +83,8 @@ class Detection:
     origin: FloatArray  # the lens's foot on the floor, where every ray starts
     min_range_m: float
     is_hit: BoolImage  # per scan line: whether it gave a hit
-
-
-def colour_bins(bgr: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint16]:
-    """Each pixel's colour histogram bin."""
-    lab = cv2.cvtColor(bgr, cv2.COLOR_BGR2LAB)
-    lightness = lab[..., 0].astype(np.uint16) // L_STEP
-    a = lab[..., 1].astype(np.uint16) // A_STEP
-    b = lab[..., 2].astype(np.uint16) // B_STEP
-    return np.asarray((lightness * BIN_SHAPE[1] + a) * BIN_SHAPE[2] + b, dtype=np.uint16)
-
-
-def _widened(hist: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
-    """Each bin also counts as its neighbours' (a step up or down in each channel): a patch of
-    floor never shows all the shades the rest of the floor has."""
-    cube = hist.reshape(BIN_SHAPE)
-    wide = cube.copy()
-    for axis in (0, 1, 2):
-        for step in (-1, 1):
-            shifted = np.roll(cube, step, axis=axis)
-            edge = [slice(None)] * 3
-            edge[axis] = slice(0, 1) if step == 1 else slice(-1, None)
-            shifted[tuple(edge)] = 0  # no wrapping round
-            wide = np.maximum(wide, shifted)
-    return np.asarray(wide.reshape(-1, 1), dtype=np.float32)
+    # per hit: how many cues (appearance, parallax, boundary) put an obstacle's foot there
+    support: npt.NDArray[np.int32] = field(default_factory=lambda: np.zeros(0, np.int32))
 
 
 class ObstacleDetector:
@@ -123,9 +105,9 @@ class ObstacleDetector:
                 "the camera sees no floor just in front of the cart: check [camera] and the calibration"
             )
         self._scan_lines()
-        self.hist: npt.NDArray[np.float32] | None = None
         k = self.config
-        self.open_kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k.open_px, k.open_px))
+        self.floor_model = FloorModel(k.floor)
+        self.open_kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (1, k.open_px))
         self.close_kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k.close_px, k.close_px))
         self.guard_kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (k.guard_px, k.guard_px))
         self.solid_kernel = np.ones((k.solid_samples, 1), np.uint8)
@@ -212,53 +194,88 @@ class ObstacleDetector:
         far = self.far_xy[lines]
         return np.asarray(np.concatenate([near, far[::-1]]), dtype=np.float64)
 
-    def _histogram(self, bins: npt.NDArray[np.uint16], mask: BoolImage) -> npt.NDArray[np.float32]:
-        hist = np.asarray(cv2.calcHist([bins], [0], mask.astype(np.uint8), [BINS], [0, BINS]), np.float32)
-        wide = _widened(hist)
-        return np.asarray(wide * (255.0 / max(float(wide.max()), 1e-9)), dtype=np.float32)
-
     def learn(self, bgr: npt.NDArray[np.uint8]) -> None:
         """Learns the floor from the patch in front of the cart, all of it: the patch must be clear."""
-        self.hist = self._histogram(colour_bins(bgr), self.patch)
+        chroma, brightness = chromaticity(bgr)
+        self.floor_model = FloorModel(self.config.floor)
+        self.floor_model.learn(chroma, brightness, self.patch)
 
-    def detect(self, bgr: npt.NDArray[np.uint8]) -> Detection:
-        """One raw image (the calibration's size) -> its Detection. The first image also teaches the
-        floor (see learn)."""
+    def forget_floor(self) -> None:
+        """The next picture learns the floor afresh from its patch (another room, another picture)."""
+        self.floor_model = FloorModel(self.config.floor)
+
+    def detect(self, bgr: npt.NDArray[np.uint8], off_plane: BoolImage | None = None) -> Detection:
+        """One raw image (the calibration's size) -> its Detection. `off_plane`: the parallax cue's
+        mask for this image (raw pixels standing above the floor), if there is one. The first image
+        also teaches the floor (see learn)."""
         if (bgr.shape[1], bgr.shape[0]) != self.size:
             raise ValueError(f"a {bgr.shape[1]} x {bgr.shape[0]} image; the calibration is for {self.size}")
-        bins = colour_bins(bgr)
-        if self.hist is None:
-            self.hist = self._histogram(bins, self.patch)
+        chroma, brightness = chromaticity(bgr)
+        if not self.floor_model.learnt:
+            self.floor_model.learn(
+                chroma, brightness, self.patch if off_plane is None else self.patch & ~off_plane
+            )
         k = self.config
-        likelihood = cv2.calcBackProject([bins], [0], self.hist, [0, BINS], 1)
-        likelihood = cv2.medianBlur(likelihood, k.blur_px)  # an edge stays where it is
-        speckled = (likelihood < k.floor_likelihood).astype(np.uint8)
+        looks_floor = self.floor_model.floor_like(chroma, brightness).astype(np.uint8)
+        speckled = cv2.medianBlur(1 - looks_floor, k.blur_px)  # an edge stays where it is
         opened = cv2.morphologyEx(speckled, cv2.MORPH_OPEN, self.open_kernel)
-        not_floor = np.asarray(cv2.morphologyEx(opened, cv2.MORPH_CLOSE, self.close_kernel), dtype=np.uint8)
-        self._refresh(bins, not_floor)
-        along_lines = cv2.remap(not_floor, self.map_x, self.map_y, cv2.INTER_NEAREST, borderValue=0)
-        solid = cv2.morphologyEx(along_lines, cv2.MORPH_OPEN, self.solid_kernel)
-        return self._rays(not_floor == 0, solid.astype(bool) & self.scan_in_range)
+        unlike = np.asarray(cv2.morphologyEx(opened, cv2.MORPH_CLOSE, self.close_kernel), dtype=np.uint8)
+        not_floor = unlike if off_plane is None else np.maximum(unlike, off_plane.astype(np.uint8))
+        self._refresh(chroma, brightness, not_floor)
+        edges = cv2.Canny(cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY), k.canny_low, k.canny_high)
+        lines = [
+            cv2.remap(image, self.map_x, self.map_y, cv2.INTER_NEAREST, borderValue=0)
+            for image in (
+                unlike,
+                np.zeros_like(unlike) if off_plane is None else off_plane.astype(np.uint8),
+                edges,
+            )
+        ]
+        cues = [
+            cv2.morphologyEx(line, cv2.MORPH_OPEN, self.solid_kernel).astype(bool) & self.scan_in_range
+            for line in lines[:2]
+        ]
+        return self._rays(not_floor == 0, cues[0] | cues[1], cues, lines[2] > 0)
 
-    def _refresh(self, bins: npt.NDArray[np.uint16], not_floor: npt.NDArray[np.uint8]) -> None:
+    def _refresh(
+        self,
+        chroma: npt.NDArray[np.uint8],
+        brightness: npt.NDArray[np.uint8],
+        not_floor: npt.NDArray[np.uint8],
+    ) -> None:
         """Follows slow changes of the floor (light, a different floor) from the patch's floor pixels
         away from any obstacle; a patch mostly covered is not learnt from at all."""
         k = self.config
         guarded = cv2.dilate(not_floor, self.guard_kernel).astype(bool)
         learn_from = self.patch & ~guarded
-        if learn_from.sum() < k.min_patch_floor * self.patch.sum() or self.hist is None:
+        if learn_from.sum() < k.min_patch_floor * self.patch.sum():
             return
-        self.hist = np.asarray(
-            (1.0 - k.learn_rate) * self.hist + k.learn_rate * self._histogram(bins, learn_from),
-            dtype=np.float32,
-        )
+        self.floor_model.learn(chroma, brightness, learn_from)
 
-    def _rays(self, floor: BoolImage, obstacle: BoolImage) -> Detection:
+    def _rays(
+        self,
+        floor: BoolImage,
+        obstacle: BoolImage,
+        cues: Sequence[BoolImage] = (),
+        edges: BoolImage | None = None,
+    ) -> Detection:
+        """`obstacle`: along the scan lines (row, line), where an obstacle is; `cues`: the same
+        per cue (appearance, parallax) for the support count; `edges`: the boundary cue's edges
+        along the lines, onto which each line's foot is moved if one is within snap_rows."""
         height, width = obstacle.shape
         k = self.config
-        has = obstacle.any(axis=0)
+        has = np.asarray(obstacle.any(axis=0), dtype=np.bool_)
         lowest = np.where(has, height - 1 - np.argmax(obstacle[::-1], axis=0), -1).astype(np.int32)
         cols = np.arange(width)
+        support = np.zeros(width, np.int32)
+        for cue in cues:
+            near = [
+                cue[np.clip(lowest + d, 0, height - 1), cols] for d in range(-k.snap_rows, k.snap_rows + 1)
+            ]
+            support += np.any(near, axis=0) & has
+        if edges is not None:
+            lowest, snapped = self._snapped(lowest, has, edges)
+            support += snapped
         rows = np.maximum(lowest, 0)
         hit_distance = np.where(has, self.edge_distance[rows, cols], np.inf)
         foot_seen = lowest < self.bottom_row  # floor seen below the obstacle on this line
@@ -288,7 +305,26 @@ class ObstacleDetector:
             origin=self.origin.copy(),
             min_range_m=k.min_range_m,
             is_hit=is_hit,
+            support=support[is_hit],
         )
+
+    def _snapped(
+        self, lowest: npt.NDArray[np.int32], has: BoolImage, edges: BoolImage
+    ) -> tuple[npt.NDArray[np.int32], BoolImage]:
+        """Each line's lowest obstacle sample moved to the nearest edge within snap_rows (the
+        nearer one first; at equal distance the one above: JPEG and the cleaning spread an
+        obstacle downwards, never up), and which lines were moved."""
+        height, width = edges.shape
+        cols = np.arange(width)
+        out, snapped = lowest.copy(), np.zeros(width, dtype=np.bool_)
+        for distance in range(self.config.snap_rows + 1):
+            for d in (-distance, distance) if distance else (0,):
+                rows = lowest + d
+                inside = has & ~snapped & (rows >= 0) & (rows < height)
+                found = inside & edges[np.clip(rows, 0, height - 1), cols]
+                out[found] = rows[found]
+                snapped |= found
+        return out, snapped
 
 
 def draw_detection(canvas: npt.NDArray[np.uint8], detection: Detection) -> None:

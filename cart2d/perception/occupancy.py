@@ -40,6 +40,9 @@ MIN_FACE_SPAN_M = 0.04
 # A run of hits: hits in scan-line order each within RUN_GAP_M of the one before (along a face the
 # next line's hit is millimetres to a range step away; another obstacle's starts further off).
 RUN_GAP_M = 0.04
+# A hit that two cues saw adds this much more of hit_log_odds than one only one cue saw (and
+# again for a third): believed after fewer frames, cleared by more.
+SUPPORT_WEIGHT = 0.5
 
 
 def run_lengths(hits: FloatArray) -> FloatArray:
@@ -115,27 +118,54 @@ class LogOddsGrid:
         hits, ends = to_map(detection.hits), to_map(detection.free)
         ends_on_hit = np.zeros(len(ends), dtype=bool)
         ends_on_hit[: len(hits)] = True  # Detection.free lists the hits first
-        hit_cells = np.unique(self._cells(self._behind(origin, hits)))
+        behind, hit_of = self._behind_indexed(origin, hits)
+        hit_cells, weights = self._hit_weights(behind, hit_of, detection)
         free_cells = np.setdiff1d(
             self._free_cells(origin, ends, ends_on_hit, detection.min_range_m), hit_cells
         )
         flat = self.log_odds.reshape(-1)
-        for touched, change in ((free_cells, self.free_log_odds), (hit_cells, self.hit_log_odds)):
+        for touched, change in ((free_cells, self.free_log_odds), (hit_cells, self.hit_log_odds * weights)):
             flat[touched] = np.clip(flat[touched] + change, self.min_log_odds, self.max_log_odds)
             self._observed.reshape(-1)[touched] = True
 
+    def _hit_weights(
+        self, behind: FloatArray, hit_of: npt.NDArray[np.int64], detection: Detection
+    ) -> tuple[npt.NDArray[np.int64], FloatArray]:
+        """The cells the hits mark (each once) and the weight of their evidence: a hit that more
+        cues saw (Detection.support: appearance, parallax, boundary) counts SUPPORT_WEIGHT more per
+        cue beyond the first; a cell several hits mark takes the strongest."""
+        support = np.ones(len(detection.hits), np.int32)
+        if len(detection.support) == len(detection.hits):
+            support = np.maximum(detection.support, 1)
+        ij = np.floor((behind - np.array(self.origin)) / self.resolution_m).astype(np.int64)
+        inside = (ij[:, 0] >= 0) & (ij[:, 0] < self.width) & (ij[:, 1] >= 0) & (ij[:, 1] < self.height)
+        cells = ij[inside, 1] * self.width + ij[inside, 0]
+        levels = support[hit_of[inside]]
+        order = np.lexsort((-levels, cells))  # by cell, the strongest first
+        unique, first = np.unique(cells[order], return_index=True)
+        weights = 1.0 + SUPPORT_WEIGHT * (levels[order][first] - 1)
+        return np.asarray(unique, dtype=np.int64), np.asarray(weights, dtype=np.float64)
+
     def _behind(self, origin: FloatArray, hits: FloatArray) -> FloatArray:
+        """The points _behind_indexed gives, without their hits' indices."""
+        return self._behind_indexed(origin, hits)[0]
+
+    def _behind_indexed(
+        self, origin: FloatArray, hits: FloatArray
+    ) -> tuple[FloatArray, npt.NDArray[np.int64]]:
         """The hits and, behind each, the points into the obstacle as deep as its run of hits is
         long, up to hit_depth_m: a camera sees an obstacle's face, never how deep it is, and a cart
         that plans past a face's ends must not cut through the unseen rest. Free rays from other
-        views clear what is not there."""
+        views clear what is not there. With each point, the index of its hit."""
         if self.hit_depth_m <= 0.0 or len(hits) == 0:
-            return hits
+            return hits, np.arange(len(hits), dtype=np.int64)
         directions = self._into_obstacle(origin, hits)
         depths = np.minimum(run_lengths(hits), self.hit_depth_m)
         t = np.arange(0.0, self.hit_depth_m + 1e-9, self.resolution_m / 2)
         points = hits[:, None, :] + directions[:, None, :] * t[None, :, None]
-        return np.asarray(points[t[None, :] <= depths[:, None] + 1e-9], dtype=np.float64)
+        inside = t[None, :] <= depths[:, None] + 1e-9
+        index = np.broadcast_to(np.arange(len(hits))[:, None], inside.shape)
+        return np.asarray(points[inside], dtype=np.float64), np.asarray(index[inside], dtype=np.int64)
 
     @staticmethod
     def _into_obstacle(origin: FloatArray, hits: FloatArray) -> FloatArray:

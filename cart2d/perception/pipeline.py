@@ -20,6 +20,7 @@ from cart2d.perception.calibration import CameraCalibration, load_calibration
 from cart2d.perception.camera_model import FloatArray, Mount
 from cart2d.perception.detection import Detection, DetectorConfig, ObstacleDetector, draw_detection
 from cart2d.perception.occupancy import LogOddsGrid, Pose
+from cart2d.perception.parallax import ParallaxCue
 
 
 @dataclass
@@ -52,12 +53,15 @@ class Perception:
         self.mount = mount or Mount.from_robot()
         self.calibration = calibration or load_calibration(mount=self.mount)
         self.detector = ObstacleDetector(self.calibration, self.mount, config)
+        self.parallax = ParallaxCue(self.calibration)
         self.grid = grid
         self.fov_base = self.detector.field_of_view()
 
     def process(self, bgr: npt.NDArray[np.uint8], pose: Pose) -> Perceived:
-        """A decoded frame and the cart's pose (x, y, theta in the map) when it was captured."""
-        detection = self.detector.detect(bgr)
+        """A decoded frame and the cart's pose (x, y, theta in the map) when it was captured: the
+        parallax cue compares it with an earlier frame through the floor's homography the two
+        poses give (cart2d/perception/parallax.py)."""
+        detection = self.detector.detect(bgr, self.parallax.observe(bgr, pose))
         self.grid.integrate(pose, detection)
         return Perceived(to_map(detection.hits, pose), to_map(self.fov_base, pose), detection)
 
@@ -73,3 +77,4 @@ class Perception:
 
     def clear(self) -> None:
         self.grid.clear()
+        self.parallax.reset()

@@ -1,6 +1,7 @@
 """The `cart2d` command line: `sim` (simulator + gateway), `serve` (a real robot on a serial
 port), `mission` (a headless mission run with a report), `calibrate` (odometry, UMBmark),
-`camera calibrate` (the camera's lens and ground homography)."""
+`camera calibrate` (the camera's lens and ground homography), `camera detect` (the obstacle
+detector on pictures)."""
 
 from __future__ import annotations
 
@@ -21,6 +22,8 @@ from cart2d.tools import localisation as localisation_cli
 from cart2d.tools import recording_args as recording_cli
 from cart2d.tools.camera_calibration.command import add_arguments as add_camera_calibrate_arguments
 from cart2d.tools.camera_calibration.command import main_camera_calibrate
+from cart2d.tools.camera_detect import add_arguments as add_camera_detect_arguments
+from cart2d.tools.camera_detect import main_camera_detect
 from cart2d.tools.ros2_args import add_ros2_arguments
 from cart2d.tools.umbmark.command import add_arguments as add_calibrate_arguments
 from cart2d.tools.umbmark.command import main_calibrate
@@ -141,13 +144,16 @@ def build_parser() -> argparse.ArgumentParser:
     add_calibrate_arguments(calibrate)
     calibrate.set_defaults(run=main_calibrate)
 
-    camera = sub.add_parser("camera", help="the cart's camera: calibrate")
+    camera = sub.add_parser("camera", help="the cart's camera: calibrate, detect")
     camera_sub = camera.add_subparsers(dest="camera_command", required=True)
     camera_calibrate = camera_sub.add_parser(
         "calibrate", help="the camera's lens and ground homography from checkerboard views"
     )
     add_camera_calibrate_arguments(camera_calibrate)
     camera_calibrate.set_defaults(run=main_camera_calibrate)
+    camera_detect = camera_sub.add_parser("detect", help="the obstacle detector on pictures, with no cart")
+    add_camera_detect_arguments(camera_detect)
+    camera_detect.set_defaults(run=main_camera_detect)
 
     tags = sub.add_parser("tags", help="AprilTag markers for localisation: print")
     tags_sub = tags.add_subparsers(dest="tags_command", required=True)
