@@ -21,6 +21,7 @@ fitted, the earlier frame warped and compared) on every frame, the worst case.
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from collections import defaultdict
@@ -31,6 +32,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from bench import real_calibration
 from bench.common import Section, table, write_json
 from cart2d.perception.annotations import Evaluated, annotated, evaluate
 from cart2d.perception.calibration import CameraCalibration
@@ -40,6 +42,15 @@ from cart2d.perception.parallax import ParallaxCue, floor_homography
 from cart2d.perception.synthetic import Box, SyntheticCamera
 
 REAL = Path(__file__).resolve().parents[1] / "tests" / "data" / "real"
+# The photographs themselves are not in the repository (tests/data/real/README.md says where they
+# come from and why): the folder that holds them, beside the annotations unless named.
+PICTURES_VARIABLE = "CART2D_REAL_PHOTOS"
+
+
+def pictures() -> Path:
+    return Path(os.environ.get(PICTURES_VARIABLE) or REAL)
+
+
 FOUND_TARGET = 0.9
 FALSE_HIT_TARGET = 0.03
 FRAME_TARGET_MS = 10.0
@@ -124,13 +135,13 @@ def mark(ok: bool) -> str:
 
 
 def run(out: Path, quick: bool) -> Section:
-    notes = annotated(REAL)
+    notes = annotated(REAL, pictures())
     if not notes or not all(n.image.exists() for n in notes):
         markdown = (
-            "## Real photographs\n\n**MISSED**: the pictures are not in tests/data/real/ "
-            "(see its README for where they come from).\n"
+            f"## Real photographs\n\n**MISSED**: the pictures are not in {pictures()} (set "
+            f"{PICTURES_VARIABLE} to their folder; tests/data/real/README.md says where they come from).\n"
         )
-        return Section("real_photographs", markdown, {}, targets_met=False)
+        return with_calibration(Section("real_photographs", markdown, {}, targets_met=False), quick)
     s = summarise([evaluate(n) for n in notes])
     alone = summarise([evaluate(n, with_before=False) for n in notes])
     costs = frame_cost(40 if quick else 200)
@@ -206,7 +217,15 @@ def run(out: Path, quick: bool) -> Section:
     wall_clock = (
         [] if median_ms <= FRAME_TARGET_MS else [f"median CPU ms per QVGA frame <= {FRAME_TARGET_MS:.0f}"]
     )
-    return Section("real_photographs", markdown, data, all(ok for _, ok in checks), wall_clock)
+    return with_calibration(
+        Section("real_photographs", markdown, data, all(ok for _, ok in checks), wall_clock), quick
+    )
+
+
+def with_calibration(section: Section, quick: bool) -> Section:
+    """The calibration on real chessboard photographs (bench/real_calibration.py) in this section."""
+    real_calibration.add_to(section, quick)
+    return section
 
 
 if __name__ == "__main__":

@@ -50,15 +50,17 @@ class Annotation:
     shadows: list[npt.NDArray[np.float64]] = field(default_factory=list)
 
     @classmethod
-    def load(cls, path: Path) -> Annotation:
-        """ValueError with a sentence if `path` is not an annotation."""
+    def load(cls, path: Path, pictures: Path | None = None) -> Annotation:
+        """ValueError with a sentence if `path` is not an annotation. `pictures`: the folder of
+        the pictures it names (None: beside it)."""
         try:
             d: dict[str, Any] = json.loads(path.read_text(encoding="utf-8"))
             here = path.parent
+            shown = here if pictures is None else pictures
             return cls(
                 path=path,
-                image=here / str(d["image"]),
-                before=None if d.get("before") is None else here / str(d["before"]),
+                image=shown / str(d["image"]),
+                before=None if d.get("before") is None else shown / str(d["before"]),
                 camera=here / str(d["camera"]),
                 source=str(d["source"]),
                 floor_kind=str(d["floor"]["kind"]),
@@ -170,6 +172,11 @@ def evaluate(annotation: Annotation, with_before: bool = True) -> Evaluated:
     return Evaluated(annotation, score(detection, annotation, size), cpu_ms, detection)
 
 
-def annotated(directory: Path) -> list[Annotation]:
-    """Every annotation (*.json but the camera files) in `directory`, by name."""
-    return [Annotation.load(p) for p in sorted(directory.glob("*.json")) if not p.stem.endswith("_camera")]
+def annotated(directory: Path, pictures: Path | None = None) -> list[Annotation]:
+    """Every annotation (*.json but the camera files) in `directory`, by name; `pictures`: the
+    folder of their pictures (None: beside them)."""
+    return [
+        Annotation.load(p, pictures)
+        for p in sorted(directory.glob("*.json"))
+        if not p.stem.endswith("_camera")
+    ]
