@@ -4,6 +4,7 @@ tests/support/)."""
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -11,6 +12,7 @@ import pytest
 
 from cart2d.gateway import Gateway
 from cart2d.link import Link
+from cart2d.server.serving import RepeatFilter
 from cart2d.simulation.simulator import Simulator
 from cart2d.store import Store
 from tests.support.fake_firmware import FakeFirmware
@@ -53,3 +55,14 @@ def gateway(cart: FakeFirmware, tmp_path: Path) -> Iterator[Gateway]:
     gateway.read_status()  # the baseline a restart is told from, as start() reads it
     yield gateway
     gateway.close()
+
+
+@pytest.fixture(autouse=True)
+def no_repeat_filter_left_behind() -> Iterator[None]:
+    """A test running `cart2d` in-process (cli.main) installs the gateway's RepeatFilter on the root
+    logger's handlers, pytest's capture among them: left there, it would drop a later test's
+    expected log line as a repeat."""
+    yield
+    for handler in logging.getLogger().handlers:
+        for f in [f for f in handler.filters if isinstance(f, RepeatFilter)]:
+            handler.removeFilter(f)
