@@ -1,0 +1,229 @@
+"""Exploration as a gateway service (issue 26): POST /api/explore and `cart2d explore` start
+exploration.py's loop on its own thread, driving goal after goal through the mission (go_to),
+until no reachable frontier is left, a STOP (the bus's StopAsked, published before the STOP
+goes), or the gateway closes; the map is saved at the end. Its progress is published on the bus
+as an `exploration` viewer message and answered by GET /api/explore.
+
+Everything it drives with is given as callables (wired in core.py), so it is tested with fakes."""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from cart2d.gateway import messages
+from cart2d.gateway.bus import Closing, EventBus, MissionEnded, StopAsked, ViewerMessage
+from cart2d.gateway.exploration import Explorer, Progress
+from cart2d.gateway.map_saving import NothingSeen, checked_name, seen_map
+from cart2d.gateway.seeing import Seeing
+from cart2d.gateway.state import Mission, PathTooLong, PoseUntrusted
+from cart2d.link import CommandRefused, LinkError, MotionCancelled
+from cart2d.maps.frontiers import Point
+from cart2d.maps.occupancy import OccupancyMap
+from cart2d.planning import PlanError, Planner
+
+log = logging.getLogger(__name__)
+
+DEFAULT_NAME = "explored"
+GOAL_WAIT_S = 600.0  # wall seconds a goal may take before exploration gives it up (a stuck mission)
+STOPPED_BY_USER = "exploration stopped by the user"
+
+
+def seen_if_seeing(seeing: Seeing | None) -> OccupancyMap | None:
+    """What perception has seen, None without perception or before its first frame."""
+    try:
+        return seen_map(seeing)
+    except NothingSeen:
+        return None
+
+
+class ExplorationRefused(Exception):
+    """Exploration cannot start now (the sentence says why): a 409."""
+
+
+@dataclass
+class ExplorationDrive:
+    """What exploration drives with: the gateway's, wired in core.py."""
+
+    go_to: Callable[[float, float, int | None], object]  # plans and sends; raises if it cannot
+    mission: Callable[[], Mission]  # the mission now
+    motion_token: Callable[[], int]  # the link's stop generation now
+    planner: Callable[[], Planner]  # the routes' planner now
+    pose: Callable[[], tuple[float, float, float]]  # the cart's pose in map
+    seen: Callable[[], OccupancyMap | None]  # what the camera has seen; None: no camera or nothing yet
+    save: Callable[[str], dict[str, Any]]  # writes the seen map as NAME (map_saving.save_seen_map)
+    arena: Callable[[], dict[str, float]]  # the walls round the map
+    sim_time: Callable[[], float | None]  # simulated s, None on a real cart
+
+
+class Exploration:
+    def __init__(self, bus: EventBus, drive: ExplorationDrive) -> None:
+        self.bus = bus
+        self.drive = drive
+        self._lock = threading.Lock()
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()  # a STOP or the gateway's close since the start
+        self._stopped_why = ""
+        self._mission_ended = threading.Event()
+        self._view = self._message("idle", Progress(), None, None, None)
+        bus.subscribe(StopAsked, lambda e: self._stopping(STOPPED_BY_USER))
+        bus.subscribe(Closing, lambda _: self._stopping("exploration stopped: the gateway closed"))
+        bus.subscribe(MissionEnded, lambda _: self._mission_ended.set())
+
+    # -- the API's -----------------------------------------------------------------------------
+    def start(self, name: str = DEFAULT_NAME) -> dict[str, Any]:
+        """Starts exploring; the map is saved as `name` at the end. ValueError for a bad name,
+        ExplorationRefused when it cannot start now; nothing is changed then."""
+        checked_name(name)
+        with self._lock:
+            if self._thread is not None and self._thread.is_alive():
+                raise ExplorationRefused("the cart is exploring already: stop it first")
+            if self.drive.mission().state == "driving":
+                raise ExplorationRefused("a mission is running: stop it or wait for its end, then explore")
+            if self.drive.seen() is None:
+                raise ExplorationRefused(
+                    "exploring needs the camera and perception: attach a camera (--camera) with "
+                    "perception on, and let it see a frame"
+                )
+            self._stop.clear()
+            self._stopped_why = ""
+            started = (time.monotonic(), self.drive.sim_time())
+            self._publish(self._message("exploring", Progress(), started, None, None))
+            self._thread = threading.Thread(
+                target=self._run, args=(name, started), name="exploration", daemon=True
+            )
+            self._thread.start()
+        return self.view()
+
+    def view(self) -> dict[str, Any]:
+        return messages.wire(self._view)
+
+    def wait(self, timeout_s: float | None = None) -> bool:
+        """Until the exploration running ends (tests, benches); whether it has."""
+        thread = self._thread
+        if thread is not None:
+            thread.join(timeout_s)
+            return not thread.is_alive()
+        return True
+
+    # -- the loop ------------------------------------------------------------------------------
+    def _stopping(self, why: str) -> None:
+        if not self._stop.is_set():
+            self._stopped_why = why
+        self._stop.set()
+
+    def _run(self, name: str, started: tuple[float, float | None]) -> None:
+        saved: list[str] = []
+
+        def save() -> str:
+            try:
+                answer = self.drive.save(name)
+            except (NothingSeen, OSError) as exc:
+                return f"the map could not be saved: {exc}"
+            saved.append(str(answer["yaml"]))
+            return f"map saved as {answer['yaml']}"
+
+        def tell(progress: Progress) -> None:
+            self._publish(self._message("exploring", progress, started, None, None))
+
+        explorer = Explorer(
+            seen=self._seen,
+            path_length=self._path_length,
+            go_to=self._go_to,
+            stopped=self._stop.is_set,
+            save=save,
+            tell=tell,
+        )
+        try:
+            progress = explorer.run()
+        except Exception as exc:  # a fault must not leave the state "exploring" for ever
+            log.exception("exploration failed")
+            progress = Progress(sentence=f"exploration failed: {exc}; {save()}")
+        state = "failed"
+        if progress.sentence.startswith(STOPPED_BY_USER):
+            state = "stopped"
+            progress.sentence = progress.sentence.replace(STOPPED_BY_USER, self._stopped_why, 1)
+        elif progress.sentence.startswith("exploration finished"):
+            state = "finished"
+        log.info("%s", progress.sentence)
+        self._publish(self._message(state, progress, started, progress.sentence, saved[0] if saved else None))
+
+    def _seen(self) -> OccupancyMap:
+        seen = self.drive.seen()
+        if seen is None:
+            raise NothingSeen("the camera was taken away while the cart explored")
+        return seen
+
+    def _path_length(self, goal: Point) -> float | None:
+        try:
+            x, y, _ = self.drive.pose()
+            return self.drive.planner().plan((x, y), goal).length_m
+        except PlanError:
+            return None
+
+    def _go_to(self, goal: Point) -> str:
+        """Drives to `goal`: "" once there (or stopped: the loop ends then, nothing set aside),
+        else why not."""
+        token = self.drive.motion_token()  # before the flag: a STOP after it cancels the path
+        if self._stop.is_set():
+            return ""
+        self._mission_ended.clear()
+        try:
+            self.drive.go_to(goal[0], goal[1], token)
+        except MotionCancelled:
+            return ""
+        except (PlanError, PathTooLong) as exc:
+            return f"no way there: {exc}"
+        except PoseUntrusted as exc:
+            self._stopping(f"exploration stopped: {exc}")
+            return ""
+        except (LinkError, CommandRefused) as exc:
+            self._stopping(f"exploration stopped: the cart did not take its goal ({exc})")
+            return ""
+        mission = self.drive.mission()
+        deadline = time.monotonic() + GOAL_WAIT_S
+        while mission.state == "driving" and time.monotonic() < deadline:
+            self._mission_ended.wait(0.2)
+        if self._stop.is_set():
+            return ""
+        if mission.state == "driving":
+            return f"not reached in {GOAL_WAIT_S:.0f} s"
+        return "" if mission.state == "arrived" else mission.reason or "the mission failed"
+
+    # -- progress ------------------------------------------------------------------------------
+    def _message(
+        self,
+        state: str,
+        progress: Progress,
+        started: tuple[float, float | None] | None,
+        sentence: str | None,
+        saved: str | None,
+    ) -> messages.ExplorationMessage:
+        wall_s, sim_s = 0.0, None
+        if started is not None:
+            wall_s = time.monotonic() - started[0]
+            now_sim = self.drive.sim_time()
+            if started[1] is not None and now_sim is not None:
+                sim_s = round(now_sim - started[1], 2)
+        a = self.drive.arena()
+        area = max((a["x_max"] - a["x_min"]) * (a["y_max"] - a["y_min"]), 1e-9)
+        return messages.ExplorationMessage(
+            state=state,
+            seen_m2=round(progress.seen_free_m2, 2),
+            seen_percent=round(min(100.0, 100.0 * progress.seen_free_m2 / area), 1),
+            frontiers=progress.frontiers,
+            goals=progress.goals,
+            set_aside=[messages.SetAside(x=p[0], y=p[1], reason=r) for p, r in progress.set_aside.items()],
+            elapsed_s=round(wall_s, 2),
+            elapsed_sim_s=sim_s,
+            sentence=sentence or "",
+            saved=saved,
+        )
+
+    def _publish(self, message: messages.ExplorationMessage) -> None:
+        self._view = message
+        self.bus.publish(ViewerMessage(message))
