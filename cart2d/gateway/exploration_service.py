@@ -9,6 +9,7 @@ Everything it drives with is given as callables (wired in core.py), so it is tes
 from __future__ import annotations
 
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable
@@ -24,13 +25,25 @@ from cart2d.gateway.state import Mission, PathTooLong, PoseUntrusted
 from cart2d.link import CommandRefused, LinkError, MotionCancelled
 from cart2d.maps.frontiers import Point
 from cart2d.maps.occupancy import OccupancyMap
-from cart2d.planning import PlanError, Planner
+from cart2d.planning import PlanError, Planner, StartBlocked
 
 log = logging.getLogger(__name__)
 
 DEFAULT_NAME = "explored"
 GOAL_WAIT_S = 600.0  # wall seconds a goal may take before exploration gives it up (a stuck mission)
 STOPPED_BY_USER = "exploration stopped by the user"
+# A frontier's cell is often too near a wall or a box for the cart's centre: it drives to the
+# nearest place it may stand within VIEW_M of it (the camera sees 0.3 to ~1.2 m ahead).
+VIEW_M = 0.6
+RING_STEP_M = 0.05
+RING_POINTS = 16
+# and with this much room round it: a goal at the very edge of the free space is blocked by the
+# next few cells perception marks on the way there, and the cart, stopped, cannot plan from it
+ROOM_M = 0.06
+
+
+def _stopped_because(reason: str) -> str:
+    return STOPPED_BY_USER if reason == "stopped by the user" else f"exploration stopped: {reason}"
 
 
 def seen_if_seeing(seeing: Seeing | None) -> OccupancyMap | None:
@@ -70,7 +83,7 @@ class Exploration:
         self._stopped_why = ""
         self._mission_ended = threading.Event()
         self._view = self._message("idle", Progress(), None, None, None)
-        bus.subscribe(StopAsked, lambda e: self._stopping(STOPPED_BY_USER))
+        bus.subscribe(StopAsked, lambda e: self._stopping(_stopped_because(e.reason)))
         bus.subscribe(Closing, lambda _: self._stopping("exploration stopped: the gateway closed"))
         bus.subscribe(MissionEnded, lambda _: self._mission_ended.set())
 
@@ -158,23 +171,56 @@ class Exploration:
             raise NothingSeen("the camera was taken away while the cart explored")
         return seen
 
-    def _path_length(self, goal: Point) -> float | None:
+    def _goal_for(self, frontier: Point, planner: Planner, here: Point) -> Point | None:
+        """Where the cart may stand nearest the frontier (within VIEW_M), the nearer to it of
+        equally near places; None if there is none."""
+        graph = planner.graph
+
+        def roomy(p: Point) -> bool:
+            return graph.point_free(*p) and all(
+                graph.point_free(p[0] + ROOM_M * math.cos(a), p[1] + ROOM_M * math.sin(a))
+                for a in (math.tau * n / 8 for n in range(8))
+            )
+
+        if roomy(frontier):
+            return frontier
+        for k in range(1, round(VIEW_M / RING_STEP_M) + 1):
+            r = k * RING_STEP_M
+            ring = [
+                (frontier[0] + r * math.cos(a), frontier[1] + r * math.sin(a))
+                for a in (math.tau * n / RING_POINTS for n in range(RING_POINTS))
+            ]
+            free = [p for p in ring if roomy(p)]
+            if free:
+                return min(free, key=lambda p: math.dist(p, here))
+        return None
+
+    def _path_length(self, frontier: Point) -> float | None:
         try:
             x, y, _ = self.drive.pose()
-            return self.drive.planner().plan((x, y), goal).length_m
-        except PlanError:
+            planner = self.drive.planner()
+            goal = self._goal_for(frontier, planner, (x, y))
+            return None if goal is None else planner.plan((x, y), goal).length_m
+        except (PlanError, LinkError, CommandRefused):
             return None
 
-    def _go_to(self, goal: Point) -> str:
-        """Drives to `goal`: "" once there (or stopped: the loop ends then, nothing set aside),
-        else why not."""
+    def _go_to(self, frontier: Point) -> str:
+        """Drives to the frontier (the nearest place to it the cart may stand): "" once there
+        (or stopped: the loop ends then, nothing set aside), else why not."""
         token = self.drive.motion_token()  # before the flag: a STOP after it cancels the path
         if self._stop.is_set():
             return ""
         self._mission_ended.clear()
         try:
+            x, y, _ = self.drive.pose()
+            goal = self._goal_for(frontier, self.drive.planner(), (x, y))
+            if goal is None:
+                return f"no place the cart may stand within {VIEW_M} m of it"
             self.drive.go_to(goal[0], goal[1], token)
         except MotionCancelled:
+            return ""
+        except StartBlocked as exc:  # no frontier's fault: every goal would fail from here
+            self._stopping(f"exploration stopped: {exc}")
             return ""
         except (PlanError, PathTooLong) as exc:
             return f"no way there: {exc}"

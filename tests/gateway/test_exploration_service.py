@@ -53,6 +53,8 @@ class FakeGateway:
         self.token += 1
         self.mission.state, self.mission.reason = "failed", "stopped by the user"
 
+    graph = SimpleNamespace(point_free=lambda x, y: True)  # the planner's: any place will do
+
     def plan(self, start: Point, goal: Point) -> SimpleNamespace:
         """The planner's: the fake world's path length, PlanError where it has none."""
         assert self.world is not None
