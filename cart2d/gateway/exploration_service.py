@@ -16,6 +16,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from cart2d.gateway import messages
 from cart2d.gateway.bus import Closing, EventBus, MissionEnded, StopAsked, ViewerMessage
 from cart2d.gateway.exploration import Explorer, Progress
@@ -23,8 +25,8 @@ from cart2d.gateway.map_saving import NothingSeen, checked_name, seen_map
 from cart2d.gateway.seeing import Seeing
 from cart2d.gateway.state import Mission, PathTooLong, PoseUntrusted
 from cart2d.link import CommandRefused, LinkError, MotionCancelled
-from cart2d.maps.frontiers import Point
-from cart2d.maps.occupancy import OccupancyMap
+from cart2d.maps.frontiers import Point, frontiers
+from cart2d.maps.occupancy import OCCUPIED, OccupancyMap
 from cart2d.planning import PlanError, Planner, StartBlocked
 
 log = logging.getLogger(__name__)
@@ -40,6 +42,9 @@ RING_POINTS = 16
 # and with this much room round it: a goal at the very edge of the free space is blocked by the
 # next few cells perception marks on the way there, and the cart, stopped, cannot plan from it
 ROOM_M = 0.06
+# How the firmware's stops for a contact begin (cart2d/link/firmware.py, Status.path_outcome)
+NEAR_M = 0.2  # a frontier this near one driven to is the same (frontiers.choose's near_m)
+RAN_INTO = ("the cart touched something", "a wheel stalled")
 
 
 def _stopped_because(reason: str) -> str:
@@ -166,10 +171,23 @@ class Exploration:
         self._publish(self._message(state, progress, started, progress.sentence, saved[0] if saved else None))
 
     def _seen(self) -> OccupancyMap:
+        """What the camera has seen, the far side of the arena's walls taken as wall: never
+        seen, it is no floor to explore."""
         seen = self.drive.seen()
         if seen is None:
             raise NothingSeen("the camera was taken away while the cart explored")
-        return seen
+        a = self.drive.arena()
+        r = seen.resolution_m
+        xs = seen.origin_m[0] + (np.arange(seen.width) + 0.5) * r
+        ys = seen.origin_m[1] + (np.arange(seen.height) + 0.5) * r
+        outside_x = (xs < a["x_min"]) | (xs > a["x_max"])
+        outside_y = (ys < a["y_min"]) | (ys > a["y_max"])
+        cells = seen.cells.copy()
+        cells[outside_y[:, None] | outside_x[None, :]] = OCCUPIED
+        return OccupancyMap(seen.origin_m, r, cells)
+
+    def _still_a_frontier(self, frontier: Point) -> bool:
+        return any(math.dist(f.centre, frontier) < NEAR_M for f in frontiers(self._seen()))
 
     def _goal_for(self, frontier: Point, planner: Planner, here: Point) -> Point | None:
         """Where the cart may stand nearest the frontier (within VIEW_M), the nearer to it of
@@ -238,7 +256,14 @@ class Exploration:
             return ""
         if mission.state == "driving":
             return f"not reached in {GOAL_WAIT_S:.0f} s"
-        return "" if mission.state == "arrived" else mission.reason or "the mission failed"
+        if mission.reason.startswith(RAN_INTO):  # perception missed something: no more goals
+            self._stopping(f"exploration stopped: {mission.reason}")
+            return ""
+        if mission.state != "arrived":
+            return mission.reason or "the mission failed"
+        if self._still_a_frontier(frontier):  # explore_lite's goal sent again and again
+            return f"looked at from ({goal[0]:.2f}, {goal[1]:.2f}), and still unseen beyond"
+        return ""
 
     # -- progress ------------------------------------------------------------------------------
     def _message(
