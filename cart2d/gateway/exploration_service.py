@@ -8,6 +8,7 @@ Everything it drives with is given as callables (wired in core.py), so it is tes
 
 from __future__ import annotations
 
+import itertools
 import logging
 import math
 import threading
@@ -17,6 +18,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from scipy import ndimage
 
 from cart2d.gateway import messages
 from cart2d.gateway.bus import Closing, EventBus, MissionEnded, StopAsked, ViewerMessage
@@ -26,8 +28,9 @@ from cart2d.gateway.seeing import Seeing
 from cart2d.gateway.state import Mission, PathTooLong, PoseUntrusted
 from cart2d.link import CommandRefused, LinkError, MotionCancelled
 from cart2d.maps.frontiers import Point, frontiers
-from cart2d.maps.occupancy import OCCUPIED, OccupancyMap
-from cart2d.planning import PlanError, Planner, StartBlocked
+from cart2d.maps.occupancy import FREE, OCCUPIED, UNKNOWN, OccupancyMap
+from cart2d.params import robot
+from cart2d.planning import Plan, PlanError, Planner, StartBlocked
 
 log = logging.getLogger(__name__)
 
@@ -42,6 +45,7 @@ RING_POINTS = 16
 # and with this much room round it: a goal at the very edge of the free space is blocked by the
 # next few cells perception marks on the way there, and the cart, stopped, cannot plan from it
 ROOM_M = 0.06
+SUSPECT_M = 0.05  # unknown floor this near an occupied cell may be the same obstacle
 # How the firmware's stops for a contact begin (cart2d/link/firmware.py, Status.path_outcome)
 NEAR_M = 0.2  # a frontier this near one driven to is the same (frontiers.choose's near_m)
 RAN_INTO = ("the cart touched something", "a wheel stalled")
@@ -88,6 +92,11 @@ class Exploration:
         self._stopped_why = ""
         self._mission_ended = threading.Event()
         self._view = self._message("idle", Progress(), None, None, None)
+        self._deferred = 0  # frontiers left out of the last choice: their way passes unseen sides
+        self._last_seen: OccupancyMap | None = None  # _seen()'s, and what it makes
+        self._suspect_m = np.zeros((0, 0))
+        body = robot()["body"]
+        self.footprint_m = float(body["footprint_radius_m"]) + float(body["clearance_m"])
         bus.subscribe(StopAsked, lambda e: self._stopping(_stopped_because(e.reason)))
         bus.subscribe(Closing, lambda _: self._stopping("exploration stopped: the gateway closed"))
         bus.subscribe(MissionEnded, lambda _: self._mission_ended.set())
@@ -167,6 +176,11 @@ class Exploration:
             progress.sentence = progress.sentence.replace(STOPPED_BY_USER, self._stopped_why, 1)
         elif progress.sentence.startswith("exploration finished"):
             state = "finished"
+            if self._deferred:
+                unsafe = f"{self._deferred} whose way passes unseen floor beside an obstacle"
+                progress.sentence = progress.sentence.replace(
+                    "no reachable frontier left", f"no reachable frontier left but {unsafe}", 1
+                )
         log.info("%s", progress.sentence)
         self._publish(self._message(state, progress, started, progress.sentence, saved[0] if saved else None))
 
@@ -184,20 +198,57 @@ class Exploration:
         outside_y = (ys < a["y_min"]) | (ys > a["y_max"])
         cells = seen.cells.copy()
         cells[outside_y[:, None] | outside_x[None, :]] = OCCUPIED
-        return OccupancyMap(seen.origin_m, r, cells)
+        self._last_seen = OccupancyMap(seen.origin_m, r, cells)
+        self._deferred = 0  # a new look, a new choice
+        # unknown floor beside what is seen occupied is likely more of it (a box's unseen side)
+        suspect = (cells == UNKNOWN) & ndimage.binary_dilation(
+            cells == OCCUPIED, iterations=max(1, round(SUSPECT_M / r))
+        )
+        self._suspect_m = ndimage.distance_transform_edt(~suspect) * r
+        return self._last_seen
+
+    def _passes_unseen_sides(self, plan: Plan) -> bool:
+        """Whether the plan's way comes within the cart's footprint and clearance of floor unseen
+        beside an obstacle: a box's side the camera has not seen may be there."""
+        seen = self._last_seen
+        if seen is None:
+            return False
+        keep = self.footprint_m
+        points = [plan.start, *plan.waypoints]
+        for a, b in itertools.pairwise(points):
+            n = max(1, math.ceil(math.dist(a, b) / seen.resolution_m))
+            for k in range(n + 1):
+                x = a[0] + (b[0] - a[0]) * k / n
+                y = a[1] + (b[1] - a[1]) * k / n
+                i = math.floor((x - seen.origin_m[0]) / seen.resolution_m)
+                j = math.floor((y - seen.origin_m[1]) / seen.resolution_m)
+                if 0 <= i < seen.width and 0 <= j < seen.height and self._suspect_m[j, i] < keep:
+                    return True
+        return False
 
     def _still_a_frontier(self, frontier: Point) -> bool:
         return any(math.dist(f.centre, frontier) < NEAR_M for f in frontiers(self._seen()))
 
     def _goal_for(self, frontier: Point, planner: Planner, here: Point) -> Point | None:
         """Where the cart may stand nearest the frontier (within VIEW_M), the nearer to it of
-        equally near places; None if there is none."""
+        equally near places; None if there is none. Only on floor the camera saw free: the
+        planner takes unknown floor as free, and a goal there may be inside a box not yet seen."""
         graph = planner.graph
+        seen = self._last_seen or self._seen()
+
+        def seen_free(p: Point) -> bool:
+            i = math.floor((p[0] - seen.origin_m[0]) / seen.resolution_m)
+            j = math.floor((p[1] - seen.origin_m[1]) / seen.resolution_m)
+            return 0 <= i < seen.width and 0 <= j < seen.height and seen.cells[j, i] == FREE
 
         def roomy(p: Point) -> bool:
-            return graph.point_free(*p) and all(
-                graph.point_free(p[0] + ROOM_M * math.cos(a), p[1] + ROOM_M * math.sin(a))
-                for a in (math.tau * n / 8 for n in range(8))
+            return (
+                seen_free(p)
+                and graph.point_free(*p)
+                and all(
+                    graph.point_free(p[0] + ROOM_M * math.cos(a), p[1] + ROOM_M * math.sin(a))
+                    for a in (math.tau * n / 8 for n in range(8))
+                )
             )
 
         if roomy(frontier):
@@ -218,9 +269,15 @@ class Exploration:
             x, y, _ = self.drive.pose()
             planner = self.drive.planner()
             goal = self._goal_for(frontier, planner, (x, y))
-            return None if goal is None else planner.plan((x, y), goal).length_m
+            if goal is None:
+                return None
+            plan = planner.plan((x, y), goal)
         except (PlanError, LinkError, CommandRefused):
             return None
+        if self._passes_unseen_sides(plan):
+            self._deferred += 1
+            return math.inf  # not now: a later view may show the side (frontiers.choose)
+        return plan.length_m
 
     def _go_to(self, frontier: Point) -> str:
         """Drives to the frontier (the nearest place to it the cart may stand): "" once there

@@ -93,7 +93,10 @@ def compare(m: OccupancyMap, bounds: Bounds, boxes: tuple[Box, ...], walls: bool
     union = np.count_nonzero(true_grown | believed_grown)
     iou = float(np.count_nonzero(true_grown & believed_grown)) / max(1, int(union))
     false_cells = int(np.count_nonzero(believed & ~true_grown))
+    x, y = _centres(m)
+    found = sum(bool(np.any(believed & _in_box(x, y, box, m.resolution_m))) for box in boxes)
     return {
+        "boxes_found": found,  # boxes with a cell believed occupied on them or a cell from them
         "iou_grown": round(iou, 3),
         "false_occupied_cells": false_cells,
         "false_occupied_m2": round(false_cells * m.resolution_m**2, 4),

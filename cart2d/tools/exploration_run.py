@@ -46,7 +46,7 @@ def explore_in_simulator(run: Exploring, name: str = "explored", keep: Path | No
     """Explores; the report. `keep`: a folder the saved map is copied to."""
     settings = GatewaySettings(map=MapSettings(cols=run.grid[0], rows=run.grid[1], step_m=run.grid[2]))
     bounds = arena_bounds(run.grid)
-    report: dict[str, Any] = {"seen_share": []}
+    report: dict[str, Any] = {"seen_share": [], "contacts_at": []}
     with tempfile.TemporaryDirectory() as tmp:
         options = SimOptions(
             speed=run.speed,
@@ -66,7 +66,7 @@ def explore_in_simulator(run: Exploring, name: str = "explored", keep: Path | No
                 with mission_camera(gateway, sim, None):
                     t0 = sim.truth()["t"]
                     gateway.exploration.start(name)
-                    _follow(gateway, sim, run, bounds, t0, report["seen_share"])
+                    _follow(gateway, sim, run, bounds, t0, report)
                     report["exploration"] = gateway.exploration.view()
             finally:
                 gateway.close()
@@ -97,14 +97,22 @@ def _follow(
     run: Exploring,
     bounds: tuple[float, float, float, float],
     t0: float,
-    shares: list[list[float]],
+    report: dict[str, Any],
 ) -> None:
     """Until exploration ends (a STOP after run.timeout_s simulated): [simulated s, share of the
-    reachable floor seen] every SAMPLE_EVERY_S of wall time."""
+    reachable floor seen] every SAMPLE_EVERY_S of wall time in report["seen_share"], and where
+    the cart was when the simulator counted a contact in report["contacts_at"]."""
     floor = None
     stopped = threading.Event()
+    shares: list[list[float]] = report["seen_share"]
+    contacts = 0
     while not gateway.exploration.wait(SAMPLE_EVERY_S):
-        t = sim.truth()["t"] - t0
+        truth = sim.truth()
+        t = truth["t"] - t0
+        if truth["box_contacts"] + truth["collisions"] > contacts:
+            contacts = truth["box_contacts"] + truth["collisions"]
+            where = [round(truth[k], 3) for k in ("x", "y", "theta")]
+            report["contacts_at"].append([round(t, 2), *where, gateway.mission_view()["reason"]])
         seen = seen_if_seeing(gateway.seeing)
         if seen is not None:
             if floor is None:

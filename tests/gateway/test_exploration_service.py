@@ -12,10 +12,14 @@ from typing import Any
 import pytest
 
 from cart2d.gateway.bus import EventBus, MissionEnded, StopAsked, ViewerMessage
-from cart2d.gateway.exploration_service import Exploration, ExplorationDrive, ExplorationRefused
+from cart2d.gateway.exploration_service import (
+    Exploration,
+    ExplorationDrive,
+    ExplorationRefused,
+)
 from cart2d.gateway.state import Mission
 from cart2d.maps.frontiers import Point
-from cart2d.maps.occupancy import OccupancyMap
+from cart2d.maps.occupancy import FREE, OCCUPIED, UNKNOWN, OccupancyMap
 from cart2d.planning import PlanError
 from tests.gateway.test_exploration import FakeWorld
 
@@ -61,7 +65,7 @@ class FakeGateway:
         length = self.world.path_length(goal)
         if length is None:
             raise PlanError("no path")
-        return SimpleNamespace(length_m=length)
+        return SimpleNamespace(start=start, waypoints=(goal,), length_m=length)
 
     def seen(self) -> OccupancyMap | None:
         return self.world.seen() if self.world is not None else None
@@ -148,3 +152,17 @@ def test_a_stop_ends_it_with_no_goal_after_it_and_the_map_saved() -> None:
     assert view["sentence"] == "exploration stopped by the user; map saved as /maps/half.yaml"
     assert len(gateway.goals) == 2 and view["set_aside"] == []  # the stopped goal is not set aside
     assert gateway.saved == ["half"]
+
+
+def test_a_way_past_unseen_floor_beside_an_obstacle_is_not_taken() -> None:
+    """A box seen by its face only: the floor beyond the face, unseen, may be the box's side."""
+    world = FakeWorld()
+    world.seen_cells[:, :] = FREE
+    world.seen_cells[10, 10:13] = OCCUPIED  # the face seen, y 1.0-1.1 m, x 1.0-1.3 m
+    world.seen_cells[11:14, 10:13] = UNKNOWN  # behind it, never seen
+    exploration = FakeGateway(world).exploration()
+    exploration._seen()
+    beside = SimpleNamespace(start=(1.4, 0.5), waypoints=((1.4, 1.6),))  # 0.1 m from the unseen side
+    clear = SimpleNamespace(start=(1.9, 0.5), waypoints=((1.9, 1.6),))  # 0.6 m from it
+    assert exploration._passes_unseen_sides(beside)  # type: ignore[arg-type]
+    assert not exploration._passes_unseen_sides(clear)  # type: ignore[arg-type]
