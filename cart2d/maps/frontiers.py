@@ -1,7 +1,7 @@
 """Frontiers for exploration (issue 26): where floor seen free meets floor never seen, grouped
 into connected runs of cells, each chosen by what it would show (its size) against the way to
 it; a frontier the planner cannot reach is set aside with the reason, not tried again and again
-(explore_lite's users' complaint). The driving loop (`cart2d explore`) is not built yet."""
+(explore_lite's users' complaint). The driving loop: cart2d/gateway/exploration.py."""
 
 from __future__ import annotations
 
