@@ -21,7 +21,7 @@ from cart2d.gateway.state import Mission
 from cart2d.maps.frontiers import Point
 from cart2d.maps.occupancy import FREE, OCCUPIED, UNKNOWN, OccupancyMap
 from cart2d.planning import PlanError
-from tests.gateway.test_exploration import FakeWorld
+from tests.support.exploration_world import FakeWorld
 
 
 class FakeGateway:
