@@ -91,6 +91,14 @@ class MissionEnded(Event):
 
 
 @dataclass(frozen=True)
+class StopAsked(Event):
+    """A stop was asked for (Missions.stop), published before the STOP goes: what runs goal
+    after goal (exploration) sends none after it."""
+
+    reason: str
+
+
+@dataclass(frozen=True)
 class RoutineStarted(Event):
     """The firmware took RESET_ROUTINE through the gateway: a mission driving ends (replaced)."""
 

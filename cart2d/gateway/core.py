@@ -37,9 +37,11 @@ from cart2d.gateway.camera import CameraFeed, Shown
 from cart2d.gateway.camera_service import CameraService
 from cart2d.gateway.collaborators import GroundTruth, ResetButton, SimulatedWorld
 from cart2d.gateway.commands import Commands
+from cart2d.gateway.exploration_service import Exploration, ExplorationDrive, seen_if_seeing
 from cart2d.gateway.live_map import world_for
 from cart2d.gateway.localisation import Frames, Localisation
 from cart2d.gateway.look import look_before_driving
+from cart2d.gateway.map_saving import save_seen_map
 from cart2d.gateway.map_service import LiveMap
 from cart2d.gateway.missions import Missions, plan_view
 from cart2d.gateway.monitor import Monitor
@@ -135,6 +137,20 @@ class Gateway:
         self.monitor.follow(self.reset_routine)
         self.commands = Commands(  # commands.py: the generic command form
             link, self.restarts, self.missions, self.reset_routine, self._pose, self.monitor.wake
+        )
+        self.exploration = Exploration(  # exploration_service.py: frontier after frontier
+            self.bus,
+            ExplorationDrive(
+                go_to=self.go_to,
+                mission=lambda: self.mission,
+                motion_token=link.motion_token,
+                planner=lambda: self.planner,
+                pose=lambda: self.frames.to_map(self._pose()),
+                seen=lambda: seen_if_seeing(self.seeing if self.sees() else None),
+                save=lambda name: save_seen_map(self.seeing, store.directory, name),
+                arena=lambda: self.map_view()["arena"],
+                sim_time=lambda: truth.time_s() if truth is not None else None,
+            ),
         )
         self.settings_cache = firmware.SettingsCache(link)
         self.flasher = Flasher(

@@ -3,8 +3,7 @@
 cannot reach or fails to reach is set aside with the reason, never sent again; a STOP ends it;
 it ends with a sentence and the map saved. What it drives with is given (the gateway's go-to,
 the planner's path length, the seen map), so the loop is tested without a simulator.
-
-Not wired yet: `cart2d explore`, its API route and the panel's button (docs/localisation.md)."""
+exploration_service.py runs it in the gateway (POST /api/explore, `cart2d explore`, the panel)."""
 
 from __future__ import annotations
 

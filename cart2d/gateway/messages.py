@@ -286,6 +286,32 @@ class SimWorldMessage(_Message):
     boxes: list[SimBox]
 
 
+class SetAside(_Strict):
+    """A frontier exploration will not drive to again, and why."""
+
+    x: Number
+    y: Number
+    reason: str
+
+
+class ExplorationMessage(_Message):
+    """Exploration's progress (cart2d/gateway/exploration_service.py; GET /api/explore): the
+    floor seen free (m², and % of the arena's), frontiers left, those set aside with why, time
+    spent (simulated: None on a real cart), and the sentence it ended with."""
+
+    type: Literal["exploration"] = "exploration"
+    state: Literal["idle", "exploring", "stopped", "finished", "failed"]
+    seen_m2: Number
+    seen_percent: Number
+    frontiers: int
+    goals: int
+    set_aside: list[SetAside]
+    elapsed_s: Number
+    elapsed_sim_s: Number | None
+    sentence: str
+    saved: str | None  # the saved map's YAML
+
+
 # -- recordings -----------------------------------------------------------------------------------
 class ReplayMessage(_Message):
     """`cart2d replay`'s state changed; after a seek (and to a panel that opens) also the cart's
@@ -328,7 +354,8 @@ LiveMessage = Annotated[
     | CameraMessage
     | SimWorldMessage
     | ReplayMessage
-    | GoalMessage,
+    | GoalMessage
+    | ExplorationMessage,
     Field(discriminator="type"),
 ]
 LIVE_MESSAGE: TypeAdapter[LiveMessage] = TypeAdapter(LiveMessage)

@@ -39,6 +39,7 @@ from cart2d.gateway.bus import (
     PerceivedChanged,
     PoseCorrected,
     RoutineStarted,
+    StopAsked,
     ViewerMessage,
 )
 from cart2d.gateway.live_map import Replan, RouteAhead
@@ -216,6 +217,7 @@ class Missions:
         it, held stops 0.1-0.5 s with 20 clients): the mission and the routine it ends are
         recorded at once if the lock is free, else by a thread as soon as it is."""
         self.stop_reason = reason
+        self.bus.publish(StopAsked(reason))  # its handlers set a flag: the STOP is not held
         try:
             with self.link.stopping():
                 self._wait_for_the_program()

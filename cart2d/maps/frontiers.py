@@ -1,7 +1,7 @@
 """Frontiers for exploration (issue 26): where floor seen free meets floor never seen, grouped
 into connected runs of cells, each chosen by what it would show (its size) against the way to
 it; a frontier the planner cannot reach is set aside with the reason, not tried again and again
-(explore_lite's users' complaint). The driving loop (`cart2d explore`) is not built yet."""
+(explore_lite's users' complaint). The driving loop: cart2d/gateway/exploration.py."""
 
 from __future__ import annotations
 
@@ -82,12 +82,15 @@ def choose(
 ) -> Frontier | None:
     """The frontier with the most gain per metre of driving (its size over 0.5 m plus the path's
     length), leaving out those within `near_m` of a blacklisted place; one without a path
-    (path_length None) goes on the blacklist with why."""
+    (path_length None) goes on the blacklist with why; one whose path_length is infinite is left
+    out of this choice only."""
     best: tuple[float, Frontier] | None = None
     for f in found:
         if any(math.dist(f.centre, p) < near_m for p in blacklist):
             continue
         length = path_length(f.centre)
+        if length is not None and math.isinf(length):
+            continue  # not now (a way not safe yet): looked at again on the next choice
         if length is None:
             blacklist[f.centre] = f"no path to the frontier at ({f.centre[0]:.2f}, {f.centre[1]:.2f})"
             continue

@@ -16,7 +16,7 @@ from types import FrameType
 
 from cart2d.server import serving
 from cart2d.simulation import faults as fault_table
-from cart2d.tools import cli_args, fleet_args, live, map_command
+from cart2d.tools import cli_args, explore_command, fleet_args, live, map_command
 from cart2d.tools import fleet as fleet_cli
 from cart2d.tools import localisation as localisation_cli
 from cart2d.tools import recording_args as recording_cli
@@ -166,6 +166,10 @@ def build_parser() -> argparse.ArgumentParser:
     map_save = maps_sub.add_parser("save", help="the running gateway's seen map as a ROS map_server map")
     map_command.add_save_arguments(map_save)
     map_save.set_defaults(run=map_command.cmd_map_save)
+
+    explore = sub.add_parser("explore", help="the running gateway's cart explores the room and saves the map")
+    explore_command.add_explore_arguments(explore)
+    explore.set_defaults(run=explore_command.cmd_explore)
     return parser
 
 

@@ -42,3 +42,13 @@ def test_the_choice_weighs_gain_against_the_way_and_blacklists_the_unreachable()
     assert chosen == far_big  # 4 m of edge for 4.5 m against 0.5 m for 1.5 m
     assert blacklist == {cut_off.centre: "no path to the frontier at (2.00, 2.00)"}
     assert choose([cut_off, near_small], 0.1, lengths.__getitem__, blacklist) == near_small
+
+
+def test_a_frontier_whose_way_is_not_safe_yet_is_left_out_of_this_choice_only() -> None:
+    near, far = Frontier((1.0, 0.0), 10), Frontier((3.0, 0.0), 10)
+    lengths = {near.centre: float("inf"), far.centre: 3.0}
+    blacklist: dict[tuple[float, float], str] = {}
+    assert choose([near, far], 0.1, lengths.get, blacklist) == far
+    assert blacklist == {}  # not set aside: the next choice looks at it again
+    lengths[near.centre] = 1.0
+    assert choose([near, far], 0.1, lengths.get, blacklist) == near

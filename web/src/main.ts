@@ -38,6 +38,7 @@ import { Toasts } from "./toasts";
 import { Trajectory } from "./trajectory";
 import { Tuning, type PanelContext } from "./tuning";
 import { initMapSave } from "./map_save";
+import { ExploreButton } from "./explore";
 
 // -- messages ----------------------------------------------------------------------------------
 const toasts = new Toasts($("messages"), [".segmented", "#cmd-form", "#estop"], document.querySelector("header") ?? document.body);
@@ -53,6 +54,7 @@ function errorText(err: unknown): string {
 
 const ctx: PanelContext = { notify, errorText };
 initMapSave(ctx);
+const exploreButton = new ExploreButton(ctx);
 let tokenRefused = false; // the live stream was refused for the token: wait for a new one
 const tokenForm = new TokenForm(ctx, () => {
   tokenRefused = false;
@@ -410,6 +412,9 @@ function onMessage(msg: LiveMessage): void {
       break;
     case "sim_world":
       simWorld.show(msg);
+      break;
+    case "exploration":
+      exploreButton.show(msg);
       break;
     case "replay":
     case "goal":

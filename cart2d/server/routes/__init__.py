@@ -8,12 +8,24 @@ from fastapi.dependencies.models import Dependant
 from fastapi.routing import APIRoute
 
 from cart2d.server.deps import source_of
-from cart2d.server.routes import camera, firmware, live, map, map_save, motion, perception, pose, status
+from cart2d.server.routes import (
+    camera,
+    explore,
+    firmware,
+    live,
+    map,
+    map_save,
+    motion,
+    perception,
+    pose,
+    status,
+)
 
 ROUTERS = (
     status.router,
     map.router,
     map_save.router,
+    explore.router,
     motion.router,
     firmware.router,
     pose.router,

@@ -16,7 +16,8 @@ export type LiveMessage =
   | CameraMessage
   | SimWorldMessage
   | ReplayMessage
-  | GoalMessage;
+  | GoalMessage
+  | ExplorationMessage;
 
 /**
  * A telemetry frame of the firmware (docs/protocol.md, Telemetry), with its mode and flags
@@ -290,4 +291,30 @@ export interface GoalMessage {
   goal: [number, number];
   state: "started" | "reached" | "failed";
   reason?: string | null;
+}
+/**
+ * Exploration's progress (cart2d/gateway/exploration_service.py; GET /api/explore): the
+ * floor seen free (m², and % of the arena's), frontiers left, those set aside with why, time
+ * spent (simulated: None on a real cart), and the sentence it ended with.
+ */
+export interface ExplorationMessage {
+  type: "exploration";
+  state: "idle" | "exploring" | "stopped" | "finished" | "failed";
+  seen_m2: number;
+  seen_percent: number;
+  frontiers: number;
+  goals: number;
+  set_aside: SetAside[];
+  elapsed_s: number;
+  elapsed_sim_s: number | null;
+  sentence: string;
+  saved: string | null;
+}
+/**
+ * A frontier exploration will not drive to again, and why.
+ */
+export interface SetAside {
+  x: number;
+  y: number;
+  reason: string;
 }
