@@ -28,6 +28,7 @@ SECTIONS = (
     "live_map",
     "perception",
     "real_photographs",
+    "hard_rooms",
     "localisation",
     "camera_stream",
     "recording",
