@@ -2,8 +2,9 @@
 a chair, looking past two of its grey legs at the beige step and the off-white wall, its frames
 taken one by one in simulated time (the simulator paused between them) and perceived with the
 simulator's own lens. The open tiled floor in front of it, with the legs' shadows, must stay free;
-the step is seen; the legs and the wall are what a real room asks of it (bench/hard_rooms.py
-measures the same over whole missions)."""
+the step is seen. The grey legs and the off-white wall are not seen yet (standing, no cue decides
+them: docs/perception.md, "Hard rooms"); bench/hard_rooms.py measures that over whole missions
+and says MISSED."""
 
 from __future__ import annotations
 
@@ -87,19 +88,3 @@ def test_the_open_tiled_floor_in_front_stays_free_and_the_step_is_seen(
     assert false == [], f"cells on open floor: {false}"
     step = next(b for b in boxes if b.id == "step")
     assert any(_distance_to(step, x, y) <= RESOLUTION_M for x, y in cells), cells
-
-
-@pytest.mark.xfail(
-    strict=True,
-    reason="standing, no cue decides them: the legs' and the wall's colour is the lit floor's "
-    "(appearance), and the parallax cue needs the cart to move (issue 24; bench: hard rooms)",
-)
-def test_a_chair_leg_and_the_off_white_wall_are_seen(
-    seen: tuple[list[Box], list[tuple[float, float]]],
-) -> None:
-    boxes, cells = seen
-    legs = [b for b in boxes if b.id in ("chair-1-leg-3", "chair-1-leg-4")]
-    assert any(_distance_to(leg, x, y) <= RESOLUTION_M for leg in legs for x, y in cells), cells
-    wall_y = arena(MapSettings())["y_max"]
-    # the north wall beside the step (which ends at x = 1.1) and short of the cupboard (x >= 1.75)
-    assert any(1.15 <= x <= 1.7 and abs(y - wall_y) <= 2 * RESOLUTION_M for x, y in cells), cells
