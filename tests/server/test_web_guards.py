@@ -103,6 +103,7 @@ ATTACKS: dict[str, bytes] = {
     "PUT /api/perception": b'{"enabled": false, "cells": [[1.0, 0.0, 1.0], [1.0, 0.2, 1.0]]}',
     "POST /api/perception/clear": b"",
     "POST /api/map/save": b'{"name": "attack"}',  # a file written in the gateway's folder
+    "POST /api/explore": b'{"save": "attack"}',  # the cart driven round the room, a map written
     "PUT /api/settings/camera": b'{"stream_url": "http://127.0.0.1:9/stream"}',  # a camera of theirs
     # a 4 x 4 m floor plan with a wall (a PGM of 40 x 40 cells at 0.1 m)
     "POST /api/map": b'{"resolution_m": 0.1, "image": "'
