@@ -10,8 +10,8 @@
   accepted;
 - a WebSocket message is at most WS_MAX_BYTES;
 - repeated log lines are rate-limited (RepeatFilter);
-- a Ctrl-C before uvicorn has taken the signals waits until it has (Server): one that landed
-  inside asyncio's loop construction printed a traceback of its half-built loop.
+- a Ctrl-C before uvicorn has taken the signals waits until it has (HeldSignals): one that
+  landed inside asyncio's loop construction printed a traceback of its half-built loop.
 
 uvicorn (pinned with h11 in pyproject.toml) has no header timeout: the protocol below is its h11
 protocol, subclassed with the few methods it needs."""
@@ -221,7 +221,7 @@ def listening_socket(host: str, port: int, backlog: int = BACKLOG) -> socket.soc
     return sock
 
 
-def server(app: Any, connections: int = MAX_CONNECTIONS) -> uvicorn.Server:
+def server(app: Any, connections: int = MAX_CONNECTIONS) -> Server:
     """A uvicorn server for `app` with the bounds of this module's docstring; run it on
     listening_socket()."""
     config = uvicorn.Config(
@@ -239,33 +239,61 @@ def server(app: Any, connections: int = MAX_CONNECTIONS) -> uvicorn.Server:
     return Server(config)
 
 
-HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+HELD_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+class HeldSignals:
+    """Ctrl-C and SIGTERM noted, not acted on, from serve()'s start until uvicorn's handlers take
+    them. A handler, not a blocked mask: Python runs a signal's handler at its next bytecode
+    check, so one that arrived just before a mask was set still raised KeyboardInterrupt later,
+    inside asyncio's loop construction, and printed a traceback of its half-built loop."""
+
+    def __init__(self) -> None:
+        self.pending: list[int] = []
+        self._originals = {sig: signal.signal(sig, self._note) for sig in HELD_SIGNALS}
+
+    def _note(self, sig: int, _frame: object) -> None:
+        self.pending.append(sig)
+
+    def take(self) -> list[int]:
+        taken, self.pending = self.pending, []
+        return taken
+
+    def release(self) -> None:
+        """The handlers of before serve(); a signal noted since (uvicorn re-raises the one that
+        stopped it) is raised again for them: Ctrl-C ends as KeyboardInterrupt, as before."""
+        for original, handler in self._originals.items():
+            signal.signal(original, handler)
+        for sig in self.take():
+            signal.raise_signal(sig)
 
 
 class Server(uvicorn.Server):
-    """uvicorn's server, taking the signals serve() held back once its own handlers are in place
-    (a pending Ctrl-C is then uvicorn's graceful shutdown, re-raised as KeyboardInterrupt after)."""
+    """uvicorn's server, taking the signals serve() held once its own handlers are in place (a
+    pending Ctrl-C is then uvicorn's graceful shutdown)."""
+
+    held: HeldSignals | None = None
 
     @contextlib.contextmanager
     def capture_signals(self) -> Iterator[None]:
         with super().capture_signals():
-            if threading.current_thread() is threading.main_thread():
-                signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD_SIGNALS)
+            for sig in self.held.take() if self.held else ():
+                self.handle_exit(sig, None)
             yield
 
 
 def serve(app: Any, sock: socket.socket, connections: int = MAX_CONNECTIONS) -> None:
     """Runs `app` on the listening socket `sock` (listening_socket(), with the backlog of
-    descriptor_budget()) until Ctrl-C or SIGTERM. The signals wait, blocked, from here until
-    uvicorn's handlers take them (Server.capture_signals)."""
-    main = threading.current_thread() is threading.main_thread()
-    if main:
-        signal.pthread_sigmask(signal.SIG_BLOCK, HELD_SIGNALS)
+    descriptor_budget()) until Ctrl-C or SIGTERM, which wait (HeldSignals) from here until
+    uvicorn's handlers take them."""
+    held = HeldSignals() if threading.current_thread() is threading.main_thread() else None
     try:
-        server(app, connections).run(sockets=[sock])
+        running = server(app, connections)
+        running.held = held
+        running.run(sockets=[sock])
     finally:
-        if main:
-            signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD_SIGNALS)
+        if held is not None:
+            held.release()
 
 
 class RepeatFilter(logging.Filter):
