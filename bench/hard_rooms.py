@@ -23,16 +23,10 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from bench.common import Section, missed, spread, table
-from bench.missions import run_one
-from bench.perception_missions import _goal, _see, _waited, calibration_file, mapping_quality
-from cart2d.gateway.live_map import arena
+from bench.seeing_runs import calibration_file, paired_run
 from cart2d.perception.camera_model import Mount
 from cart2d.spec import repo_file
-from cart2d.tools.missions.run import mission_map
-from cart2d.tools.missions.spec import MissionSpec
 
 TIME_TARGET = 1.3  # unknown map / known map
 PRECISION_TARGET = 0.9  # against the boxes grown by a cell
@@ -87,39 +81,8 @@ def missions(name: str) -> tuple[dict[str, Any], dict[str, Any]]:
 
 def room_run(name: str, calibration: Path, seed: int) -> dict[str, Any]:
     unknown_mission, known_mission = missions(name)
-    unknown = _see(unknown_mission, calibration, seed)
-    known = run_one(known_mission, seed=seed)
-    g, k = _goal(unknown), _goal(known)
-    walls = arena(mission_map(MissionSpec.model_validate_json(json.dumps(unknown_mission))))
-    trace = np.array([p[1:] for p in g.get("trace", [])], dtype=float).reshape(-1, 2)
-    perception = unknown.get("perception", {})
-    quality = mapping_quality(
-        perception.get("cells", []),
-        perception.get("resolution_m", 0.05),
-        unknown_mission["world"]["boxes"],
-        walls,
-        trace,
-    )
-    reached = bool(g.get("reached")) and bool(k.get("reached"))
-    ratio = (g["start_s"] + g["time_s"]) / (k["start_s"] + k["time_s"]) if reached else None
-    return {
-        "room": name,
-        "seed": seed,
-        "reached": bool(g.get("reached")),
-        "reason": g.get("reason", unknown.get("error", "")),
-        "known_reached": bool(k.get("reached")),
-        "collisions": unknown.get("collisions"),
-        "box_contacts": unknown.get("box_contacts"),
-        "time_s": g.get("time_s"),
-        "start_s": g.get("start_s"),
-        "known_time_s": k.get("time_s"),
-        "known_start_s": k.get("start_s"),
-        "time_ratio": ratio,
-        "frames": perception.get("frames", 0),
-        "perception_wait_s": _waited(unknown),
-        "real_time_factor": unknown.get("real_time_factor"),
-        "mapping": quality,
-    }
+    run = paired_run(unknown_mission, known_mission, unknown_mission["world"]["boxes"], calibration, seed)
+    return {"room": name, "seed": seed, **run.row()}
 
 
 def _fmt(value: float | None, fmt: str = ".2f") -> str:

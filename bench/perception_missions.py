@@ -50,46 +50,32 @@ reverses to a waypoint behind it): driven blind, the camera looks ahead.
 
 from __future__ import annotations
 
-import json
 import math
 import tempfile
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
-import numpy.typing as npt
 from matplotlib.patches import Rectangle
 
 from bench.common import spread, table
-from bench.missions import run_one
-from bench.perception_sim import FLOOR_BOARDS, HELD
 from bench.scenes import Scene, scenes
-from cart2d.gateway.live_map import arena
-from cart2d.perception.calibration import save_calibration
-from cart2d.perception.camera_model import FloatArray, Mount
+from bench.seeing_runs import calibration_file, first_goal, paired_run, see, waited
+from cart2d.perception.camera_model import Mount
 from cart2d.perception.detection import DetectorConfig
 from cart2d.perception.synthetic import true_pixels
-from cart2d.tools.camera_calibration.simulated import calibrate_in_simulator, sim_options, simulated_lens
-from cart2d.tools.camera_calibration.views import SIM_VIEWS
-from cart2d.tools.missions.run import mission_map, run_mission
-from cart2d.tools.missions.spec import MissionSpec
+from cart2d.tools.camera_calibration.simulated import simulated_lens
 
 TIME_TARGET = 1.3  # unknown map / known map
 SEEDS = (1, 2, 3)  # simulator seeds each unknown-arena scene runs with (its noise and the camera's)
 BOX_HEIGHT_M = 0.3
 BOX_COLOUR = "#b8742f"  # cardboard
-RECALL_RANGE_M = DetectorConfig().max_range_m
-FALSE_MARGIN_M = 0.1
 # A foot at the range's end is placed up to ~7 cm nearer (JPEG, the calibration): it is hit while
 # its true distance is up to that much beyond the detector's range.
 RANGE_SLACK_M = 0.1
 LATENCY_BOX = {"x": 2.4, "y": 2.0, "sx": 0.2, "sy": 0.6, "height": 0.3, "colour": "#3050c0"}
-
-Rect = tuple[float, float, float, float]  # centre x, y and half sizes
-Mask = npt.NDArray[np.bool_]
 
 
 # A box stands inside its node's cell, 1 cm in from each edge: real obstacles do not sit on the
@@ -116,126 +102,6 @@ def unknown_mission(scene: Scene) -> dict[str, Any]:
     return mission
 
 
-def _rects(boxes: list[dict[str, Any]], grow_m: float = 0.0) -> list[Rect]:
-    return [(b["x"], b["y"], b["sx"] / 2 + grow_m, b["sy"] / 2 + grow_m) for b in boxes]
-
-
-def _overlaps(cells: FloatArray, half: float, rects: list[Rect]) -> Mask:
-    """Whether each cell's square (centre, half side) overlaps one of the rectangles (not touching)."""
-    hit = np.zeros(len(cells), dtype=bool)
-    for x, y, hx, hy in rects:
-        hit |= (np.abs(cells[:, 0] - x) < hx + half - 1e-6) & (np.abs(cells[:, 1] - y) < hy + half - 1e-6)
-    return hit
-
-
-def _beyond_walls(cells: FloatArray, half: float, walls: dict[str, float]) -> Mask:
-    out: Mask = (
-        (cells[:, 0] - half < walls["x_min"] - 1e-6)
-        | (cells[:, 0] + half > walls["x_max"] + 1e-6)
-        | (cells[:, 1] - half < walls["y_min"] - 1e-6)
-        | (cells[:, 1] + half > walls["y_max"] + 1e-6)
-    )
-    return out
-
-
-def _distance_to_obstacles(cells: FloatArray, rects: list[Rect], walls: dict[str, float]) -> FloatArray:
-    """Each point's distance to the nearest box or to the region beyond the walls."""
-    x, y = cells[:, 0], cells[:, 1]
-    inside = np.minimum.reduce(
-        [x - walls["x_min"], walls["x_max"] - x, y - walls["y_min"], walls["y_max"] - y]
-    )
-    best = np.maximum(inside, 0.0)
-    for bx, by, hx, hy in rects:
-        dx = np.maximum(np.abs(x - bx) - hx, 0.0)
-        dy = np.maximum(np.abs(y - by) - hy, 0.0)
-        best = np.minimum(best, np.hypot(dx, dy))
-    return np.asarray(best, dtype=np.float64)
-
-
-def face_cells(
-    boxes: list[dict[str, Any]], walls: dict[str, float], r: float
-) -> list[tuple[FloatArray, FloatArray]]:
-    """(cell centres N x 2, outward normal) of each box face not against another box or a wall."""
-    rects = _rects(boxes)
-    faces = []
-    for x, y, hx, hy in rects:
-        for normal, half_along, along_axis in (
-            ((1.0, 0.0), hy, 1),
-            ((-1.0, 0.0), hy, 1),
-            ((0.0, 1.0), hx, 0),
-            ((0.0, -1.0), hx, 0),
-        ):
-            n = np.array(normal)
-            k = max(1, round(2 * half_along / r))
-            offsets = -half_along + r / 2 + r * np.arange(k)
-            depth = (hx if along_axis == 1 else hy) - r / 2
-            centres = np.tile([x, y], (k, 1)) + n * depth
-            centres[:, along_axis] += offsets
-            beyond = centres + n * r
-            against = _overlaps(beyond, r / 4, rects) | _beyond_walls(beyond, r / 4, walls)
-            if (~against).any():
-                faces.append((centres[~against], n))
-    return faces
-
-
-def mapping_quality(
-    cells_xyp: list[list[float]],
-    resolution_m: float,
-    boxes: list[dict[str, Any]],
-    walls: dict[str, float],
-    trace_xy: FloatArray,
-) -> dict[str, Any]:
-    cells = np.array([c[:2] for c in cells_xyp], dtype=float).reshape(-1, 2)
-    half = resolution_m / 2
-    wall_cells = _beyond_walls(cells, half, walls)
-    on_box = _overlaps(cells, half, _rects(boxes))
-    on_grown = _overlaps(cells, half, _rects(boxes, resolution_m))
-    n = len(cells)
-    false = _distance_to_obstacles(cells, _rects(boxes), walls) > FALSE_MARGIN_M
-    visible, found = 0, 0
-    trace = trace_xy[:: max(1, len(trace_xy) // 400)]
-    for centres, normal in face_cells(boxes, walls, resolution_m):
-        face_points = centres + normal * half
-        for centre, face_point in zip(centres, face_points, strict=True):
-            ahead = (trace - face_point) @ normal > 0
-            near = np.hypot(*(trace - centre).T) <= RECALL_RANGE_M
-            if not (ahead & near).any():
-                continue
-            visible += 1
-            if n and (np.max(np.abs(cells - centre), axis=1) <= resolution_m + 1e-6).any():
-                found += 1
-    return {
-        "cells": n,
-        "wall_cells": int(wall_cells.sum()),
-        "precision": float((on_box | wall_cells).sum() / n) if n else None,
-        "precision_cell": float((on_grown | wall_cells).sum() / n) if n else None,
-        "visible_box_cells": visible,
-        "found_box_cells": found,
-        "recall": found / visible if visible else None,
-        "false_cells": int(false.sum()),
-    }
-
-
-def calibration_file(directory: Path, mount: Mount) -> tuple[Path, float]:
-    """The calibration made once in the simulator, saved; and how long it took (s)."""
-    start = time.perf_counter()
-    result = calibrate_in_simulator(
-        HELD, next(iter(FLOOR_BOARDS.values())), SIM_VIEWS, mount, sim_options(seed=1), say=lambda _: None
-    )
-    return save_calibration(result, directory / "camera_calibration.json"), time.perf_counter() - start
-
-
-def _see(mission: dict[str, Any], calibration: Path, seed: int) -> dict[str, Any]:
-    return run_mission(
-        MissionSpec.model_validate_json(json.dumps(mission)), seed=seed, camera_calibration=calibration
-    )
-
-
-def _goal(report: dict[str, Any]) -> dict[str, Any]:
-    goals = report.get("goals") or [{}]
-    return dict(goals[0])
-
-
 def camera_replans(report: dict[str, Any]) -> list[dict[str, Any]]:
     return [r for r in report.get("perception", {}).get("replan_frames", []) if r["outcome"] == "replanned"]
 
@@ -253,61 +119,31 @@ def driven_backwards_m(frame_log: list[list[float]]) -> float:
 
 
 def scene_row(scene: Scene, calibration: Path, seed: int) -> dict[str, Any]:
-    mission = unknown_mission(scene)
-    unknown = _see(mission, calibration, seed)
-    known = run_one(scene.mission("cart2d"), seed=seed)
-    g, k = _goal(unknown), _goal(known)
-    walls = arena(mission_map(MissionSpec.model_validate_json(json.dumps(mission))))
-    trace = np.array([p[1:] for p in g.get("trace", [])], dtype=float).reshape(-1, 2)
+    run = paired_run(unknown_mission(scene), scene.mission("cart2d"), boxes_of(scene), calibration, seed)
+    unknown, g, k = run.unknown, run.goal, run.known_goal
     perception = unknown.get("perception", {})
-    quality = mapping_quality(
-        perception.get("cells", []), perception.get("resolution_m", 0.05), boxes_of(scene), walls, trace
-    )
     latencies = [r["sim_t"] - r["frame_stamp_s"] for r in camera_replans(unknown) if r["sim_t"] is not None]
-    # from the request: the look before driving off counts, and so does the known map's planning
-    unknown_s, known_s = g["start_s"] + g["time_s"], k["start_s"] + k["time_s"]
-    ratio = unknown_s / known_s if g.get("reached") and k.get("reached") else None
     return {
         "arena": scene.arena,
         "scene": scene.name,
         "seed": seed,
         "boxes": len(scene.obstacles),
-        "reached": bool(g.get("reached")),
-        "reason": g.get("reason", unknown.get("error", "")),
-        "known_reached": bool(k.get("reached")),
-        "collisions": unknown.get("collisions"),
-        "box_contacts": unknown.get("box_contacts"),
+        **run.row(),
         "wall_contacts": unknown.get("wall_contacts"),
-        "time_s": g.get("time_s"),
-        "start_s": g.get("start_s"),
         "look_s": g.get("look_s"),
-        "known_start_s": k.get("start_s"),
-        "known_time_s": k.get("time_s"),
-        "time_ratio": ratio,
         "path_length_m": g.get("path_length_m"),
         "known_path_length_m": k.get("path_length_m"),
         "replans": len(unknown.get("replans", [])),
         "camera_replans": len(camera_replans(unknown)),
-        "frames": perception.get("frames", 0),
         "backwards_m": driven_backwards_m(perception.get("frame_log", [])),
         "calibrated": perception.get("calibrated", False),
-        "real_time_factor": unknown.get("real_time_factor"),
-        "perception_wait_s": _waited(unknown),
         "cause_to_firmware_s": latencies,
-        "mapping": quality,
-        "trace": trace.round(3).tolist(),
+        "trace": run.trace.round(3).tolist(),
         "known_trace": [p[1:] for p in k.get("trace", [])],
         "cells": perception.get("cells", []),
         "box_list": boxes_of(scene),
         "size_m": scene.grid.size_m,
     }
-
-
-def _waited(report: dict[str, Any]) -> float | None:
-    """The wall seconds the simulator waited for perception (the lockstep's report)."""
-    lockstep = (report.get("perception") or {}).get("lockstep") or {}
-    waited: float | None = lockstep.get("perception_wait_s")
-    return waited
 
 
 def in_view(pose: tuple[float, float, float], box: dict[str, Any], mount: Mount) -> bool:
@@ -355,7 +191,7 @@ def latency_run(calibration: Path, seed: int, mount: Mount) -> dict[str, Any]:
         "world": {"boxes": [LATENCY_BOX]},
         "timeout_s": 60.0,
     }
-    report = _see(mission, calibration, seed)
+    report = see(mission, calibration, seed)
     frames = report.get("perception", {}).get("frame_log", [])
     first = next(
         (f[0] for f in frames if f[0] is not None and in_view(tuple(f[1:]), LATENCY_BOX, mount)), None
@@ -364,13 +200,13 @@ def latency_run(calibration: Path, seed: int, mount: Mount) -> dict[str, Any]:
     cause = causes[0] if causes else None
     out: dict[str, Any] = {
         "seed": seed,
-        "reached": bool(_goal(report).get("reached")),
+        "reached": bool(first_goal(report).get("reached")),
         "box_contacts": report.get("box_contacts"),
         "frames": len(frames),
         "in_view_t": first,
         "cause_t": cause["frame_stamp_s"] if cause else None,
         "firmware_t": cause["sim_t"] if cause else None,
-        "perception_wait_s": _waited(report),
+        "perception_wait_s": waited(report),
         "real_time_factor": report.get("real_time_factor"),
     }
     if first is not None and cause is not None and cause["sim_t"] is not None:
