@@ -2,6 +2,6 @@
 (core), and what it keeps about missions, the pose and restarts (state)."""
 
 from cart2d.gateway.core import Gateway
-from cart2d.gateway.state import Mission, PathTooLong, PoseOutsideArena, PoseUntrusted, ResetReport
+from cart2d.gateway.state import Mission, PathTooLong, PoseOutsideArena, PoseUntrusted, Refused, ResetReport
 
-__all__ = ["Gateway", "Mission", "PathTooLong", "PoseOutsideArena", "PoseUntrusted", "ResetReport"]
+__all__ = ["Gateway", "Mission", "PathTooLong", "PoseOutsideArena", "PoseUntrusted", "Refused", "ResetReport"]

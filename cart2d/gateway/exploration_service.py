@@ -25,7 +25,7 @@ from cart2d.gateway.bus import Closing, EventBus, MissionEnded, StopAsked, Viewe
 from cart2d.gateway.exploration import Explorer, Progress
 from cart2d.gateway.map_saving import NothingSeen, checked_name, seen_map
 from cart2d.gateway.seeing import Seeing
-from cart2d.gateway.state import Mission, PathTooLong, PoseUntrusted
+from cart2d.gateway.state import Mission, PathTooLong, PoseUntrusted, Refused
 from cart2d.link import CommandRefused, LinkError, MotionCancelled
 from cart2d.maps.frontiers import Point, frontiers
 from cart2d.maps.occupancy import FREE, OCCUPIED, UNKNOWN, OccupancyMap
@@ -63,7 +63,7 @@ def seen_if_seeing(seeing: Seeing | None) -> OccupancyMap | None:
         return None
 
 
-class ExplorationRefused(Exception):
+class ExplorationRefused(Refused):
     """Exploration cannot start now (the sentence says why): a 409."""
 
 

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from cart2d.gateway.seeing import Seeing
+from cart2d.gateway.state import Refused
 from cart2d.maps.building import built_map
 from cart2d.maps.occupancy import OccupancyMap
 from cart2d.maps.ros import save_ros_map
@@ -20,7 +21,7 @@ NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$")
 MAPS_FOLDER = "maps"
 
 
-class NothingSeen(Exception):
+class NothingSeen(Refused):
     """No camera, or no frame taken in yet: there is no map to save."""
 
 

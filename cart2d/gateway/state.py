@@ -24,7 +24,11 @@ class PoseOutsideArena(PlanError):
     """A pose the user gave that lies beyond the arena's walls."""
 
 
-class PoseUntrusted(RuntimeError):
+class Refused(RuntimeError):
+    """The gateway refuses what it was asked, now, and the sentence says why (the API's 409)."""
+
+
+class PoseUntrusted(Refused):
     """No goal is planned from a pose the gateway knows may be wrong (after an MCU restart)."""
 
 

@@ -18,7 +18,7 @@ from fastapi.responses import HTMLResponse, JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
-from cart2d.gateway import Gateway, PoseUntrusted
+from cart2d.gateway import Gateway, Refused
 from cart2d.link import CommandRefused, LinkError, MotionCancelled
 from cart2d.planning import PlanError
 from cart2d.server import api_docs, guards
@@ -100,8 +100,8 @@ def create_app(
     async def cancelled(_: Request, exc: MotionCancelled) -> JSONResponse:
         return JSONResponse({"detail": str(exc)}, status_code=409)
 
-    @app.exception_handler(PoseUntrusted)
-    async def untrusted(_: Request, exc: PoseUntrusted) -> JSONResponse:
+    @app.exception_handler(Refused)  # a pose untrusted, exploration busy, nothing seen to save, ...
+    async def gateway_refused(_: Request, exc: Refused) -> JSONResponse:
         return JSONResponse({"detail": str(exc)}, status_code=409)
 
     @app.exception_handler(LinkError)

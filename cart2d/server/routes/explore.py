@@ -8,7 +8,7 @@ from typing import Any
 from fastapi import APIRouter, HTTPException
 from pydantic import BaseModel, ConfigDict, Field
 
-from cart2d.gateway.exploration_service import DEFAULT_NAME, ExplorationRefused
+from cart2d.gateway.exploration_service import DEFAULT_NAME
 from cart2d.gateway.map_saving import NAME
 from cart2d.gateway.messages import ExplorationMessage
 from cart2d.server.deps import GatewayDep, Guarded
@@ -39,9 +39,7 @@ class ExploreIn(BaseModel):
 )
 def explore(body: ExploreIn, gateway: GatewayDep) -> dict[str, Any]:
     try:
-        return gateway.exploration.start(body.save)
-    except ExplorationRefused as exc:
-        raise HTTPException(409, str(exc)) from None
+        return gateway.exploration.start(body.save)  # ExplorationRefused: 409 (app.py)
     except ValueError as exc:
         raise HTTPException(400, str(exc)) from None
 

@@ -7,7 +7,7 @@ from typing import Any
 from fastapi import APIRouter, HTTPException
 from pydantic import BaseModel, ConfigDict, Field
 
-from cart2d.gateway.map_saving import NAME, NothingSeen, checked_name, save_seen_map
+from cart2d.gateway.map_saving import NAME, checked_name, save_seen_map
 from cart2d.server.deps import GatewayDep, Guarded
 from cart2d.server.models import errors
 
@@ -42,7 +42,4 @@ def save_map(body: MapSaveIn, gateway: GatewayDep) -> dict[str, Any]:
         name = checked_name(body.name)
     except ValueError as exc:
         raise HTTPException(400, str(exc)) from None
-    try:
-        return save_seen_map(gateway.seeing, gateway.store.directory, name)
-    except NothingSeen as exc:
-        raise HTTPException(409, str(exc)) from None
+    return save_seen_map(gateway.seeing, gateway.store.directory, name)  # NothingSeen: 409 (app.py)
