@@ -11,22 +11,13 @@
 #include "camera_model.hpp"
 #include "camera_render.hpp"
 #include "sim_camera.hpp"
+#include "test_camera.hpp"
 
 namespace cart2d {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kCpuHz = 16e6;
-
-// The contract's example camera (robot.toml's today), fixed here so the expected pixels below
-// stay hand-checked whatever robot.toml says.
-CameraModel test_model() {
-  CameraMount m;
-  m.x_m = 0.10;
-  m.height_m = 0.25;
-  m.pitch_rad = 25.0 * kPi / 180.0;
-  return CameraModel(m, CameraIntrinsics::nominal(320, 240, 55.0 * kPi / 180.0, -0.12, 0.03));
-}
+constexpr double kPi = kCameraTestPi;
+constexpr double kCpuHz = kCameraTestCpuHz;
 
 Rgb pixel(const std::vector<Rgb>& img, const CameraModel& m, double u, double v) {
   const int iu = static_cast<int>(std::lround(u)), iv = static_cast<int>(std::lround(v));
