@@ -6,7 +6,6 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-import signal
 import socket
 import subprocess
 import sys
@@ -27,6 +26,7 @@ from cart2d.server import serving
 from cart2d.server.live import SAMPLE_KINDS
 from cart2d.tools.missions.run import run_mission
 from cart2d.tools.missions.spec import MissionSpec
+from tests.support.cli import running_cart2d
 from tests.support.recording import Read
 from tests.support.server import BASE_URL, JSON
 from tests.support.sockets import free_port
@@ -223,24 +223,14 @@ def test_sim_with_foxglove_serves_the_sdk_websocket_and_records(tmp_path: Path) 
         str(tmp_path / "rec"),
         "--no-camera",
     ]
-    gateway = subprocess.Popen(
-        [sys.executable, "-m", "cart2d.tools.cli", *run],
-        env={**os.environ, "CART2D_HOME": str(tmp_path / "home")},
-        stdout=subprocess.PIPE,
-        stderr=subprocess.DEVNULL,
-        text=True,
-    )
-    try:
+    with running_cart2d(tmp_path / "home", *run) as gateway:
         wait_serving(port)
         with connect(f"ws://127.0.0.1:{fox}", subprotocols=["foxglove.sdk.v1"]) as ws:  # type: ignore[list-item]
             assert ws.subprotocol == "foxglove.sdk.v1"
             first = json.loads(ws.recv(timeout=5.0))
             assert first["op"] == "serverInfo" and first["name"] == "cart2d"
             assert set(SCHEMAS) <= _advertised(ws)
-        gateway.send_signal(signal.SIGTERM)
-        out, _ = gateway.communicate(timeout=30)
-    finally:
-        gateway.kill()
+        out = gateway.stop()
     assert f"ws://127.0.0.1:{fox}" in out
     (recording,) = (tmp_path / "rec").glob("cart2d-*.mcap")
     read = Read(recording)  # a file finished on SIGTERM has its summary

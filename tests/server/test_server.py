@@ -4,11 +4,7 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import signal
 import socket
-import subprocess
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -24,6 +20,7 @@ from cart2d.simulation.side_channel import SimulatorError
 from cart2d.simulation.simulator import Simulator
 from cart2d.simulation.wiring import simulated_gateway
 from cart2d.store import Store
+from tests.support.cli import running_cart2d
 from tests.support.server import BASE_URL, JSON, WS_BASE, Rig
 from tests.support.sim import run_for, start_sim
 from tests.support.waiting import wait_for, wait_serving
@@ -353,27 +350,10 @@ def test_sigterm_stops_cart2d_sim_and_its_simulator_before_it_exits(tmp_path: Pa
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
-    gateway = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "cart2d.tools.cli",
-            "sim",
-            "--port",
-            str(port),
-            "--host",
-            "127.0.0.1",
-            "--no-camera",
-        ],
-        env={**os.environ, "CART2D_HOME": str(tmp_path)},
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    try:
+    run = ["sim", "--port", str(port), "--host", "127.0.0.1", "--no-camera"]
+    with running_cart2d(tmp_path, *run) as gateway:
         wait_serving(port)
-        gateway.send_signal(signal.SIGTERM)
-        assert gateway.wait(30) == 0  # a clean stop, as with Ctrl-C
+        gateway.stop()
+        assert gateway.process.returncode == 0  # a clean stop, as with Ctrl-C
         # The simulator writes its EEPROM image when it exits: it was stopped, not orphaned.
         assert (tmp_path / "sim-eeprom.bin").exists()
-    finally:
-        gateway.kill()

@@ -6,10 +6,6 @@ and a new map, and told to /ws viewers."""
 from __future__ import annotations
 
 import json
-import os
-import signal
-import subprocess
-import sys
 import urllib.request
 from pathlib import Path
 from typing import Any
@@ -20,7 +16,7 @@ from cart2d.gateway import Gateway
 from cart2d.link import Link
 from cart2d.simulation.simulator import Simulator
 from cart2d.store import Store
-from tests.support.cli import cart2d, one_sentence
+from tests.support.cli import cart2d, one_sentence, running_cart2d
 from tests.support.server import Rig
 from tests.support.sim import start_sim
 from tests.support.sockets import free_port
@@ -159,21 +155,11 @@ def test_the_world_file_boxes_stand_in_the_simulator(tmp_path: Path) -> None:
     world.write_text(json.dumps({"boxes": [CRATE, {"x": 0.6, "y": 1.4, "sx": 0.2, "sy": 0.4}]}))
     port = free_port()
     run = ["sim", "--port", str(port), "--world", str(world), "--no-camera"]
-    gateway = subprocess.Popen(
-        [sys.executable, "-m", "cart2d.tools.cli", *run],
-        env={**os.environ, "CART2D_HOME": str(tmp_path)},
-        stdout=subprocess.PIPE,
-        stderr=subprocess.DEVNULL,
-        text=True,
-    )
-    try:
+    with running_cart2d(tmp_path, *run) as gateway:
         wait_serving(port)
         with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/sim/world", timeout=5) as answer:
             boxes = {b["id"]: b for b in json.load(answer)["boxes"]}
-        gateway.send_signal(signal.SIGTERM)
-        out, _ = gateway.communicate(timeout=30)
-    finally:
-        gateway.kill()
+        out = gateway.stop()
     assert set(boxes) == {"crate", "box-1"}
     assert (boxes["crate"]["x"], boxes["crate"]["y"], boxes["crate"]["colour"]) == (1.0, 0.6, "#a0522d")
     assert (boxes["box-1"]["sx"], boxes["box-1"]["sy"]) == (0.2, 0.4)

@@ -8,11 +8,7 @@ from __future__ import annotations
 import http.client
 import itertools
 import math
-import os
 import re
-import signal
-import subprocess
-import sys
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -253,28 +249,19 @@ def test_the_checkerboard_is_found_where_the_model_puts_its_corners(tmp_path: Pa
 
 def test_cart2d_sim_serves_the_camera_and_keeps_its_url(tmp_path: Path) -> None:
     """`cart2d sim --camera-port P` serves the simulated ESP32-CAM beside the panel."""
+    from tests.support.cli import running_cart2d
     from tests.support.sockets import free_port, free_port_pair
     from tests.support.waiting import wait_serving
 
     port = free_port()
     camera_port = free_port_pair(avoid=port)
     run = ["sim", "--port", str(port), "--camera-port", str(camera_port), "--speed", "max"]
-    gateway = subprocess.Popen(
-        [sys.executable, "-m", "cart2d.tools.cli", *run],
-        env={**os.environ, "CART2D_HOME": str(tmp_path)},
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    try:
+    with running_cart2d(tmp_path, *run, keep_stderr=True) as gateway:
         wait_serving(port)
         answer = get(camera_port, "/capture")
         assert answer.status == 200
         assert decode(answer.read()).shape == (240, 320, 3)
-        gateway.send_signal(signal.SIGTERM)
-        out, err = gateway.communicate(timeout=30)
-    finally:
-        gateway.kill()
+        out, err = gateway.stop(), gateway.err
     assert f"simulated ESP32-CAM on 127.0.0.1:{camera_port}" in out, err
 
 

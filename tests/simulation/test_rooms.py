@@ -5,10 +5,6 @@ and its boxes and draws it, and a bad look is refused with one sentence before a
 from __future__ import annotations
 
 import json
-import os
-import signal
-import subprocess
-import sys
 import urllib.request
 from pathlib import Path
 
@@ -18,7 +14,7 @@ import numpy as np
 from cart2d.maps.world import World, arena_world
 from cart2d.simulation.world import world_file
 from cart2d.spec import repo_file
-from tests.support.cli import cart2d, one_sentence
+from tests.support.cli import cart2d, one_sentence, running_cart2d
 from tests.support.sim import start_sim
 from tests.support.sockets import free_port
 from tests.support.waiting import wait_serving
@@ -72,21 +68,11 @@ def test_cart2d_sim_loads_the_kitchen(tmp_path: Path) -> None:
     name = "kitchen"
     port = free_port()
     run = ["sim", "--port", str(port), "--world", str(room(name)), "--no-camera", "--speed", "max"]
-    gateway = subprocess.Popen(
-        [sys.executable, "-m", "cart2d.tools.cli", *run],
-        env={**os.environ, "CART2D_HOME": str(tmp_path)},
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    try:
+    with running_cart2d(tmp_path, *run, keep_stderr=True) as gateway:
         wait_serving(port)
         with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/sim/world", timeout=5) as answer:
             ids = {b["id"] for b in json.load(answer)["boxes"]}
-        gateway.send_signal(signal.SIGTERM)
-        out, err = gateway.communicate(timeout=30)
-    finally:
-        gateway.kill()
+        out, err = gateway.stop(), gateway.err
     expected = {b["id"] for b in json.loads(room(name).read_text())["boxes"]}
     assert ids == expected, err
     assert f"{len(expected)} boxes from {room(name)}" in out

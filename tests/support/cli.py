@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 from tests.support.sockets import free_port
@@ -18,6 +21,39 @@ def cart2d(home: Path, *args: str, timeout_s: float = 60.0) -> subprocess.Comple
         text=True,
         timeout=timeout_s,
     )
+
+
+class Running:
+    """A `cart2d` process started by running_cart2d()."""
+
+    def __init__(self, process: subprocess.Popen[str]) -> None:
+        self.process = process
+        self.err = ""  # stderr, when kept
+
+    def stop(self, sig: int = signal.SIGTERM) -> str:
+        """Ends it as a user would (SIGTERM, or SIGINT: Ctrl-C); what it printed on stdout."""
+        self.process.send_signal(sig)
+        out, err = self.process.communicate(timeout=30)
+        self.err = err or ""
+        return out or ""
+
+
+@contextlib.contextmanager
+def running_cart2d(home: Path, *args: str, keep_stderr: bool = False) -> Iterator[Running]:
+    """`cart2d ARGS` running in its own process with its own CART2D_HOME, killed at the end if
+    still running; stderr (its log) is dropped unless kept."""
+    process = subprocess.Popen(
+        [sys.executable, "-m", "cart2d.tools.cli", *args],
+        env={**os.environ, "CART2D_HOME": str(home)},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE if keep_stderr else subprocess.DEVNULL,
+        text=True,
+    )
+    try:
+        yield Running(process)
+    finally:
+        process.kill()
+        process.communicate()
 
 
 def one_sentence(stderr: str) -> str:

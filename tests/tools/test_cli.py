@@ -21,7 +21,7 @@ from cart2d import __version__
 from cart2d.server.addresses import panel_urls
 from cart2d.server.guards import machine_addresses
 from cart2d.spec import load_spec
-from tests.support.cli import cart2d, fake_ports_and_serve, one_sentence
+from tests.support.cli import cart2d, fake_ports_and_serve, one_sentence, running_cart2d
 from tests.support.sockets import free_port
 from tests.support.waiting import wait_for, wait_serving
 
@@ -138,21 +138,11 @@ def test_host_and_port_given_apply_to_that_run_only(tmp_path: Path) -> None:
     token is kept)."""
     port = free_port()
     run = ["sim", "--host", "0.0.0.0", "--port", str(port), "--fault", "enc_slip_l=0.05", "--no-camera"]
-    gateway = subprocess.Popen(
-        [sys.executable, "-m", "cart2d.tools.cli", *run],
-        env={**os.environ, "CART2D_HOME": str(tmp_path)},
-        stdout=subprocess.PIPE,
-        stderr=subprocess.DEVNULL,
-        text=True,
-    )
-    try:
+    with running_cart2d(tmp_path, *run) as gateway:
         wait_serving(port)
         with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/sim/faults", timeout=5) as answer:
             assert json.load(answer)["faults"]["enc_slip_l"] == 0.05  # --fault applies from the start
-        gateway.send_signal(signal.SIGTERM)
-        out, _ = gateway.communicate(timeout=30)
-    finally:
-        gateway.kill()
+        out = gateway.stop()
     saved = json.loads((tmp_path / "settings.json").read_text())
     assert saved["network"] == {"host": "127.0.0.1", "port": 8080}
     assert saved["token"]
@@ -200,24 +190,8 @@ def test_any_loopback_address_needs_no_token_as_the_readme_says(tmp_path: Path) 
     """127.0.0.2 is loopback: only this machine reaches it, so no token, like 127.0.0.1 (issue
     22: the README said every address but 127.0.0.1 needed one)."""
     port = free_port()
-    gateway = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "cart2d.tools.cli",
-            "sim",
-            "--host",
-            "127.0.0.2",
-            "--port",
-            str(port),
-            "--no-camera",
-        ],
-        env={**os.environ, "CART2D_HOME": str(tmp_path)},
-        stdout=subprocess.PIPE,
-        stderr=subprocess.DEVNULL,
-        text=True,
-    )
-    try:
+    run = ["sim", "--host", "127.0.0.2", "--port", str(port), "--no-camera"]
+    with running_cart2d(tmp_path, *run) as gateway:
         wait_for(lambda: _answers(f"http://127.0.0.2:{port}/api/status"), 60, 0.2)
         change = urllib.request.Request(
             f"http://127.0.0.2:{port}/api/map/obstacle",
@@ -227,10 +201,7 @@ def test_any_loopback_address_needs_no_token_as_the_readme_says(tmp_path: Path) 
         )
         with urllib.request.urlopen(change, timeout=10) as answer:  # no token
             assert answer.status == 200
-        gateway.send_signal(signal.SIGINT)
-        out, _ = gateway.communicate(timeout=30)
-    finally:
-        gateway.kill()
+        out = gateway.stop(signal.SIGINT)
     assert f"cart2d panel: http://127.0.0.2:{port}/" in out and "access token" not in out
     assert not json.loads((tmp_path / "settings.json").read_text()).get("token")
     readme = (Path(__file__).parents[2] / "README.md").read_text()
