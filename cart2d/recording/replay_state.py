@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from cart2d.gateway.messages import CameraMessage, MissionMessage, PerceivedMessage, SimWorldMessage, wire
 from cart2d.gateway.perceived import DEFAULT_RESOLUTION_M
 from cart2d.recording.channels import TOPIC_MAP_VIEW, TOPIC_WS
 from cart2d.recording.recorded import Entry, Frame, Recorded
@@ -29,20 +30,15 @@ STATE_KINDS = (
     "telemetry",
     "truth",
 )
-# What a kind is before its first message.
+# What a kind is before its first message: the gateway's own messages, checked by their models.
 EMPTY: dict[str, dict[str, Any]] = {
-    "sim_world": {"type": "sim_world", "version": None, "boxes": []},
-    "perceived": {"type": "perceived", "resolution": DEFAULT_RESOLUTION_M, "cells": []},
-    "camera": {"type": "camera", "t": None, "fov": [], "hits": []},
-    "mission": {
-        "type": "mission",
-        "state": "idle",
-        "goal": None,
-        "reason": "",
-        "elapsed_s": 0.0,
-        "plan": None,
-        "replans": [],
-    },
+    m.type: wire(m)
+    for m in (
+        SimWorldMessage(version=None, boxes=[]),
+        PerceivedMessage(resolution=DEFAULT_RESOLUTION_M, cells=[]),
+        CameraMessage(t=None, fov=[], hits=[]),
+        MissionMessage(state="idle", goal=None, reason="", elapsed_s=0.0, plan=None, replans=[]),
+    )
 }
 # The trails sent to a panel that joins: a point where the cart moved this far (the panel's own
 # trails keep a point every 4 mm, 3000 at most: web/src/map.ts), the newest TRAIL_POINTS.
