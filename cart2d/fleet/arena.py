@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 
-from cart2d.fleet.lattice import Lattice
+from cart2d.fleet.lattice import SPACING_M, Lattice
 from cart2d.gateway.live_map import planner_for
 from cart2d.maps.world import Box
 from cart2d.params import footprint_radius_m
@@ -26,8 +26,11 @@ def map_lattice(m: MapSettings, boxes: Iterable[Box] = ()) -> Lattice:
         clear = all(_rectangle_distance(x, y, b) > reach for b in standing)
         return clear and graph.point_free(x, y)
 
+    # the nodes centred on the map: a floor plan's width is seldom a whole number of spacings
+    width, height = width + 1e-9, height + 1e-9
     x0, y0 = grid.node_xy(0, 0)
-    return Lattice.over(width + 1e-9, height + 1e-9, fits, origin=(x0, y0))
+    origin = (x0 + (width % SPACING_M) / 2, y0 + (height % SPACING_M) / 2)
+    return Lattice.over(width, height, fits, origin=origin)
 
 
 def _rectangle_distance(x: float, y: float, box: Box) -> float:

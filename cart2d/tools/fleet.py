@@ -23,6 +23,7 @@ from cart2d.gateway import Gateway
 from cart2d.gateway.camera import CameraFeed
 from cart2d.gateway.live_map import world_for
 from cart2d.link import Link
+from cart2d.maps.occupancy import OccupancyMap
 from cart2d.maps.world import Box, World
 from cart2d.server import addresses, is_loopback, serving
 from cart2d.simulation.camera import SimCameraServer
@@ -31,8 +32,8 @@ from cart2d.simulation.side_channel import SimulatorError
 from cart2d.simulation.simulator import SimOptions, Simulator
 from cart2d.simulation.wiring import simulated_gateway
 from cart2d.simulation.world import with_boxes
-from cart2d.store import GatewaySettings, Store
-from cart2d.tools import cli_args
+from cart2d.store import FloorPlan, GatewaySettings, MapSettings, Store
+from cart2d.tools import cli_args, map_command
 
 MAX_CARTS = 8
 
@@ -53,6 +54,7 @@ def add_parser(sub: argparse._SubParsersAction[cli_args.Parser]) -> None:
         metavar="FILE.json",
         help='{"boxes": [...] as cart2d sim --world, "carts": [{"id", "x", "y", "theta"}, ...]}: start poses',
     )
+    map_command.add_map_argument(sim)
     sim.add_argument(
         "--speed", type=cli_args.speed, default="1", help="simulated seconds per second (default 1)"
     )
@@ -161,8 +163,16 @@ def cmd_fleet_sim(args: argparse.Namespace) -> int:
         print(f"cart2d fleet sim: {problem}", file=sys.stderr)
     if problems:
         return 2
+    floor_plan, map_problem = map_command.floor_plan_of(args)
+    if map_problem:
+        print(f"cart2d fleet sim: {map_problem}", file=sys.stderr)
+        return 2
+    arena_map = FLEET_MAP if floor_plan is None else fleet_map(floor_plan, args.map.stem)
     boxes = [b.box() for b in spec.boxes] if spec else []
-    lattice = map_lattice(FLEET_MAP, boxes)
+    lattice = map_lattice(arena_map, boxes)
+    if not lattice.free:
+        print(f"cart2d fleet sim: --map {args.map}: no free floor for a cart on it", file=sys.stderr)
+        return 2
     starts = (spec.carts if spec and spec.carts else default_starts(lattice, args.carts))[: args.carts]
     if len(starts) < args.carts:
         print(f"cart2d fleet sim: {args.world} places {len(starts)} carts, not {args.carts}", file=sys.stderr)
@@ -172,7 +182,7 @@ def cmd_fleet_sim(args: argparse.Namespace) -> int:
         if broker is None:
             return 2
         try:
-            fleet = SimFleet.start(starts, args.speed, boxes, broker, stack)
+            fleet = SimFleet.start(starts, args.speed, boxes, broker, stack, arena_map=arena_map)
             if args.cameras is not None:
                 fleet.attach_cameras(args.cameras, stack)
         except SimulatorError as exc:
@@ -205,11 +215,12 @@ class SimFleet:
         broker: Broker,
         stack: contextlib.ExitStack,
         home: Path | None = None,
+        arena_map: MapSettings = FLEET_MAP,
     ) -> SimFleet:
         """`home`: where each cart's settings and EEPROM go (HOME/NAME; default the settings'
-        folder's fleet/)."""
+        folder's fleet/); `arena_map`: every cart's map, and its walls every simulator's."""
         home = home or Store().directory / "fleet"
-        carts = [_start_cart(s, speed, boxes, broker, stack, home / s.id) for s in starts]
+        carts = [_start_cart(s, speed, boxes, broker, stack, home / s.id, arena_map) for s in starts]
         arena = SharedArena({c.name: c.sim for c in carts}).start()
         stack.callback(arena.close)
         return cls(carts, arena)
@@ -251,18 +262,30 @@ def _start_broker(args: argparse.Namespace, stack: contextlib.ExitStack) -> Brok
     return mosquitto.broker
 
 
+def fleet_map(occupancy: OccupancyMap, name: str) -> MapSettings:
+    """A floor plan (--map) as the fleet's map: the carts plan on it, the simulators stand its
+    walls, and the lattice's nodes lie on its free floor."""
+    return MapSettings(floor_plan=FloorPlan.of(occupancy, name))
+
+
 def _start_cart(
-    start: CartStart, speed: str, boxes: list[Box], broker: Broker, stack: contextlib.ExitStack, home: Path
+    start: CartStart,
+    speed: str,
+    boxes: list[Box],
+    broker: Broker,
+    stack: contextlib.ExitStack,
+    home: Path,
+    arena_map: MapSettings,
 ) -> SimCart:
     store = Store(home)
     store.directory.mkdir(parents=True, exist_ok=True)
-    settings = GatewaySettings(map=FLEET_MAP)
+    settings = GatewaySettings(map=arena_map)
     pose = (start.x, start.y, start.theta)
     options = SimOptions(
         speed=speed,
         eeprom=store.directory / "sim-eeprom.bin",
         start=pose,
-        world=with_boxes(world_for(FLEET_MAP), World(tuple(boxes))),
+        world=with_boxes(world_for(arena_map), World(tuple(boxes))),
         quiet=True,
     )
     sim = Simulator(options).start()
