@@ -110,10 +110,17 @@ def _sample(gateway: Any, service: Any, truth: dict[str, Any], trace: list[list[
     if frame is None or (trace and truth["t"] - trace[-1][0] < TRACE_EVERY_S):
         return
     odom = (frame.x, frame.y, frame.theta)
-    estimate = service.filter.pose if service is not None and service.filter.pose else odom
+    estimate = _gateway_pose(service, odom)
     error = math.hypot(estimate[0] - truth["x"], estimate[1] - truth["y"])
     odom_error = math.hypot(odom[0] - truth["x"], odom[1] - truth["y"])
     trace.append([truth["t"], truth["x"], truth["y"], error, odom_error])
+
+
+def _gateway_pose(service: Any, odom: tuple[float, ...]) -> Pose:
+    """The pose the gateway plans from and shows now: the odometry's through map -> odom (not
+    the filter's state, which stays where the last fix left it while the cart drives on)."""
+    x, y, theta = odom
+    return service.frames.to_map((x, y, theta)) if service is not None else (x, y, theta)
 
 
 def _drive(
@@ -144,7 +151,7 @@ def _drive(
     view = gateway.mission_view()
     truth = sim.truth()
     odom = tuple(gateway.link.call("POSE"))
-    estimate = service.filter.pose if service is not None and service.filter.pose else odom
+    estimate = _gateway_pose(service, odom)
     out.update(
         reached=view["state"] == "arrived", reason=view.get("reason") or "", replans=len(view["replans"])
     )
