@@ -18,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from cart2d.fleet import vda5050
+from cart2d.fleet import vda5050, views
 from cart2d.fleet.lattice import Cell, Lattice, node_id
 from cart2d.fleet.mqtt import Broker, Connection
 from cart2d.fleet.traffic import Traffic, TrafficError
@@ -52,7 +52,7 @@ class Goal:
     ordered_s: float | None = None  # its order sent
     accepted_s: float | None = None  # the cart's state shows the order
     reached_s: float | None = None
-    status: str = "waiting"  # waiting | driving | reached | cancelled | failed
+    status: views.GoalStatus = "waiting"
     waited_s: float = 0.0  # for reservations, on its way
 
 
@@ -314,41 +314,69 @@ class FleetManager:
                 sent.goal.status = "cancelled"
 
     # -- views ---------------------------------------------------------------------------------
-    def view(self) -> dict[str, Any]:
+    def view(self) -> views.FleetView:
         with self._lock:
-            return {
-                "lattice": {
-                    "spacing_m": self.lattice.spacing_m,
-                    "nodes": sorted(self.lattice.position(c) for c in self.lattice.free),
-                },
-                "carts": [self._cart_view(c) for c in self.carts.values()],
-                "goals": [self._goal_view(g) for g in self.goals[-200:]],
-                "deadlocks": self.traffic.deadlocks,
-            }
+            return views.FleetView(
+                lattice=views.LatticeView(
+                    spacing_m=self.lattice.spacing_m,
+                    nodes=sorted(self.lattice.position(c) for c in self.lattice.free),
+                ),
+                carts=[self._cart_view(c) for c in self.carts.values()],
+                goals=[self._goal_view(g) for g in self.goals[-200:]],
+                deadlocks=self.traffic.deadlocks,
+            )
 
-    def _cart_view(self, cart: CartView) -> dict[str, Any]:
+    def _cart_view(self, cart: CartView) -> views.CartView:
         journey = self.traffic.journeys.get(cart.name)
         held = sorted(self.lattice.position(c) for c, h in self.traffic.holds.items() if h == cart.name)
-        return {
-            "name": cart.name,
-            "connection": cart.connection,
-            "position": cart.position,
-            "driving": bool(cart.state.get("driving")),
-            "paused": bool(cart.state.get("paused")),
-            "errors": cart.state.get("errors", []),
-            "held": held,
-            "route": [self.lattice.position(c) for c in journey.route[journey.passed :]] if journey else [],
-            "waiting_for": journey.waiting_for if journey else None,
-        }
+        sent = self.sent.get(cart.name)
+        errors = [_error_view(e) for e in cart.state.get("errors", [])]
+        waiting_for = journey.waiting_for if journey else None
+        return views.CartView(
+            name=cart.name,
+            connection=cart.connection,
+            state=_cart_state(cart, errors, journey is not None, waiting_for),
+            position=cart.position,
+            order_id=sent.order_id if sent else None,
+            goal=sent.goal.goal_id if sent else None,
+            errors=errors,
+            held=held,
+            route=[self.lattice.position(c) for c in journey.route[journey.passed :]] if journey else [],
+            waiting_for=waiting_for,
+        )
 
-    def _goal_view(self, goal: Goal) -> dict[str, Any]:
-        return {
-            "id": goal.goal_id,
-            "at": self.lattice.position(goal.cell),
-            "cart": goal.cart,
-            "status": goal.status,
-            "waited_s": round(goal.waited_s, 3),
-        }
+    def _goal_view(self, goal: Goal) -> views.GoalView:
+        return views.GoalView(
+            id=goal.goal_id,
+            at=self.lattice.position(goal.cell),
+            cart=goal.cart,
+            status=goal.status,
+            waited_s=round(goal.waited_s, 3),
+        )
+
+
+def _cart_state(
+    cart: CartView, errors: list[views.CartError], routed: bool, waiting_for: str | None
+) -> views.CartState:
+    """One word for the cart (views.CartState says the precedence)."""
+    driving = bool(cart.state.get("driving"))
+    if not cart.online:
+        return "offline"
+    if cart.state.get("paused"):
+        return "paused"
+    if errors and not driving:
+        return "error"
+    if waiting_for is not None and not driving:
+        return "waiting"
+    return "driving" if driving or routed else "idle"
+
+
+def _error_view(entry: dict[str, Any]) -> views.CartError:
+    return views.CartError(
+        type=str(entry.get("errorType", "")),
+        level=str(entry.get("errorLevel", "")),
+        description=str(entry.get("errorDescription") or ""),
+    )
 
 
 def _references(state: dict[str, Any]) -> set[str]:
