@@ -16,9 +16,11 @@ from fastapi.staticfiles import StaticFiles
 
 from cart2d.fleet.manager import FleetManager
 from cart2d.fleet.views import (
+    CartAnswer,
     FleetView,
     GoalAccepted,
     GoalRequest,
+    PauseRequest,
     RemovedAnswer,
     StopAnswer,
     TruthView,
@@ -71,6 +73,18 @@ def fleet_app(
         manager.stop_all()
         return StopAnswer(stopped="all")
 
+    @app.post("/api/fleet/carts/{name}/cancel")
+    def cancel_order(name: str) -> CartAnswer:
+        """cancelOrder to one cart: its goal cancelled; it keeps the nodes it stands on."""
+        _to_cart(lambda: manager.cancel(name))
+        return CartAnswer(cart=name, sent="cancelOrder")
+
+    @app.post("/api/fleet/carts/{name}/pause")
+    def pause(name: str, request: PauseRequest) -> CartAnswer:
+        """startPause (paused: true) or stopPause to one cart; it keeps its order and its nodes."""
+        _to_cart(lambda: manager.pause(name, request.paused))
+        return CartAnswer(cart=name, sent="startPause" if request.paused else "stopPause")
+
     @app.delete("/api/fleet/carts/{name}")
     def remove_cart(name: str) -> RemovedAnswer:
         """Forgets a cart: the nodes an OFFLINE cart held are free again."""
@@ -79,6 +93,16 @@ def fleet_app(
         manager.remove(name)
         return RemovedAnswer(removed=name)
 
-    if (panel / "assets").is_dir():
+    if (panel / "assets").is_dir():  # the page's scripts and styles, as the gateway serves them
         app.mount("/assets", StaticFiles(directory=panel / "assets"), name="assets")
     return app
+
+
+def _to_cart(act: Callable[[], None]) -> None:
+    """The manager's refusals as the API's: a cart unknown 404, one that cannot do it 409."""
+    try:
+        act()
+    except KeyError as exc:
+        raise HTTPException(404, str(exc.args[0])) from exc
+    except ValueError as exc:
+        raise HTTPException(409, str(exc)) from exc

@@ -187,9 +187,7 @@ class FleetManager:
         ValueError (a sentence) for an unknown cart or a point off the lattice."""
         with self._lock:
             if cart is not None and cart not in self.carts:
-                raise ValueError(
-                    f"there is no cart {cart!r} (carts: {', '.join(sorted(self.carts)) or 'none'})"
-                )
+                raise ValueError(f"there is no cart {cart!r} ({self._names()})")
             cell = self.lattice.nearest(x, y)
             if math.dist(self.lattice.position(cell), (x, y)) > self.lattice.spacing_m:
                 raise ValueError(f"({x:.2f}, {y:.2f}) is not in the arena's free space")
@@ -274,14 +272,9 @@ class FleetManager:
         broker was away, or before this manager subscribed again, is not lost for 30 s)."""
         with self._lock:
             for name in self.carts:
-                action = {
-                    "actionId": f"ask-{time.time_ns()}",
-                    "actionType": "stateRequest",
-                    "blockingType": "NONE",
-                }
-                self._send(name, "instantActions", {"actions": [action]})
+                self._instant(name, "stateRequest", "NONE")
 
-    # -- STOP ALL -----------------------------------------------------------------------------
+    # -- STOP ALL, and one cart's cancel and pause --------------------------------------------
     def stop_all(self) -> None:
         """Every gateway's own stop first (where it runs beside us), then cancelOrder to each
         vehicle; goals not reached are cancelled, and the carts keep the nodes they hold."""
@@ -292,17 +285,50 @@ class FleetManager:
                 log.exception("a gateway's stop failed")
         with self._lock:
             for name in self.carts:
-                action = {
-                    "actionId": f"stop-{time.time_ns()}",
-                    "actionType": "cancelOrder",
-                    "blockingType": "HARD",
-                }
-                self._send(name, "instantActions", {"actions": [action]})
-                self.traffic.cancel(name)
+                self._cancel(name)
             for goal in self.goals:
                 if goal.status in ("waiting", "driving"):
                     goal.status = "cancelled"
-            self.sent.clear()
+
+    def cancel(self, name: str) -> None:
+        """cancelOrder to one cart: its goal cancelled, the nodes it stands on still held;
+        ValueError (a sentence) for a cart unknown or driving no order, and nothing sent."""
+        with self._lock:
+            self._known(name)
+            if name not in self.sent:
+                raise ValueError(f"there is nothing to cancel: {name} drives no order")
+            self.sent[name].goal.status = "cancelled"
+            self._cancel(name)
+
+    def pause(self, name: str, paused: bool) -> None:
+        """startPause (or stopPause) to one cart, which keeps its order and the nodes it holds;
+        ValueError (a sentence) for a cart unknown or not ONLINE, and nothing sent."""
+        with self._lock:
+            cart = self._known(name)
+            if not cart.online:
+                raise ValueError(f"cart {name} is {cart.connection}: it hears no pause until it is back")
+            self._instant(name, "startPause" if paused else "stopPause", "HARD")
+
+    def _known(self, name: str) -> CartView:
+        if name not in self.carts:
+            raise KeyError(f"there is no cart {name!r} ({self._names()})")
+        return self.carts[name]
+
+    def _names(self) -> str:
+        return f"carts: {', '.join(sorted(self.carts)) or 'none'}"
+
+    def _cancel(self, name: str) -> None:
+        self._instant(name, "cancelOrder", "HARD")
+        self.traffic.cancel(name)
+        self.sent.pop(name, None)
+
+    def _instant(self, name: str, action_type: str, blocking: str) -> None:
+        action = {
+            "actionId": f"{action_type}-{time.time_ns()}",
+            "actionType": action_type,
+            "blockingType": blocking,
+        }
+        self._send(name, "instantActions", {"actions": [action]})
 
     def remove(self, name: str) -> None:
         """Forgets a cart (an OFFLINE one's nodes are free again)."""

@@ -108,6 +108,20 @@ class GoalAccepted(_View):
     cart: str | None
 
 
+class PauseRequest(_View):
+    """POST /api/fleet/carts/NAME/pause: startPause (true) or stopPause (false)."""
+
+    model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
+    paused: bool
+
+
+class CartAnswer(_View):
+    """What was sent to one cart (POST /api/fleet/carts/NAME/cancel or /pause)."""
+
+    cart: str
+    sent: Literal["cancelOrder", "startPause", "stopPause"]
+
+
 class StopAnswer(_View):
     stopped: Literal["all"]
 
@@ -116,7 +130,7 @@ class RemovedAnswer(_View):
     removed: str
 
 
-FleetAnswer = FleetView | GoalRequest | GoalAccepted | StopAnswer | RemovedAnswer
+FleetAnswer = FleetView | GoalRequest | GoalAccepted | PauseRequest | CartAnswer | StopAnswer | RemovedAnswer
 
 
 def json_schema() -> dict[str, Any]:

@@ -14,6 +14,7 @@ from cart2d.fleet.lattice import Lattice
 from cart2d.fleet.manager import FleetManager
 from cart2d.fleet.views import CartView
 
+JSON = {"Content-Type": "application/json"}  # a change says what it carries (guards.py)
 LATTICE = Lattice((0.25, 0.25), 0.5, frozenset((i, j) for i in range(4) for j in range(4)))
 
 
@@ -85,3 +86,46 @@ def test_the_view_carries_the_simulators_truth() -> None:
     view = client.get("/api/fleet").json()
     assert view["truth"]["cart_contacts"] == 1 and view["truth"]["touching"] == [["c1", "c2"]]
     assert view["carts"][0]["state"] == "idle" and view["lattice"]["spacing_m"] == 0.5
+
+
+def test_one_carts_cancel_and_pause_and_the_refusals_in_a_sentence() -> None:
+    sent: list[tuple[str, dict[str, Any]]] = []
+    manager = _manager(("c1", 0.25, 0.25), ("c2", 1.75, 1.75))
+    manager._publish = lambda topic, message: sent.append((topic, message))
+    client = TestClient(fleet_app(manager, "127.0.0.1"), base_url="http://127.0.0.1")
+
+    def actions(cart: str) -> list[str]:
+        return [
+            a["actionType"]
+            for topic, m in sent
+            if topic.endswith(f"/{cart}/instantActions")
+            for a in m["actions"]
+        ]
+
+    refused = client.post("/api/fleet/carts/c1/cancel", headers=JSON)
+    assert (
+        refused.status_code == 409
+        and refused.json()["detail"] == "there is nothing to cancel: c1 drives no order"
+    )
+    unknown = client.post("/api/fleet/carts/c9/pause", json={"paused": True})
+    assert unknown.status_code == 404 and unknown.json()["detail"] == "there is no cart 'c9' (carts: c1, c2)"
+    assert client.post("/api/fleet/carts/c1/pause", json={"paused": "yes"}).status_code == 422
+    assert actions("c1") == [] and actions("c9") == []
+
+    goal = manager.add_goal(0.25, 1.25, cart="c1")
+    manager.step()
+    paused = client.post("/api/fleet/carts/c1/pause", json={"paused": True})
+    assert paused.json() == {"cart": "c1", "sent": "startPause"}
+    assert client.post("/api/fleet/carts/c1/pause", json={"paused": False}).json()["sent"] == "stopPause"
+    assert client.post("/api/fleet/carts/c1/cancel", headers=JSON).json() == {
+        "cart": "c1",
+        "sent": "cancelOrder",
+    }
+    assert actions("c1") == ["startPause", "stopPause", "cancelOrder"] and actions("c2") == []
+    assert goal.status == "cancelled" and _cart(manager, "c1").order_id is None
+    assert (0.25, 0.25) in _cart(manager, "c1").held  # where it stands stays its own
+
+    _say(manager, "c2", "connection", connectionState="CONNECTIONBROKEN")
+    offline = client.post("/api/fleet/carts/c2/pause", json={"paused": True})
+    assert offline.status_code == 409 and "cart c2 is CONNECTIONBROKEN" in offline.json()["detail"]
+    assert actions("c2") == []

@@ -1,14 +1,15 @@
 // The fleet page (`cart2d fleet`, fleet.html): every cart on one live map with its state, a
-// click on the map a goal (for the nearest idle cart or the one chosen), STOP ALL, and what the
-// manager refuses said in a sentence. Its data is the manager's JSON (cart2d/fleet/views.py,
+// click on the map a goal (for the nearest idle cart or the one chosen), a pause and a cancel per
+// cart, STOP ALL, and what the manager refuses said in a sentence. Its data is the manager's JSON (cart2d/fleet/views.py,
 // generated into ./generated/fleet.ts), polled: the manager has no /ws.
 
 import "./style.css";
 import "./fleet.css";
 import { api, ApiError, type Point } from "./api";
 import { byId as $, say } from "./dom";
-import type { CartView, FleetView, GoalAccepted, GoalRequest, GoalView, StopAnswer } from "./generated/fleet";
-import { colourOf, FleetMap } from "./fleet_map";
+import { CartTable } from "./fleet_carts";
+import { FleetMap } from "./fleet_map";
+import type { CartAnswer, FleetView, GoalAccepted, GoalRequest, GoalView, PauseRequest, StopAnswer } from "./generated/fleet";
 
 const REFRESH_MS = 250;
 const SHOWN_GOALS = 30;
@@ -43,41 +44,6 @@ async function stopAll(): Promise<void> {
   }
 }
 
-const cell = (text: string, className = ""): HTMLTableCellElement => {
-  const td = document.createElement("td");
-  td.textContent = text;
-  if (className) td.className = className;
-  return td;
-};
-
-function poseText(cart: CartView): string {
-  if (!cart.position) return "–";
-  const [x, y, theta] = cart.position;
-  return `${x.toFixed(2)}, ${y.toFixed(2)} m, ${Math.round((theta * 180) / Math.PI)}°`;
-}
-
-function cartRow(cart: CartView, names: string[]): HTMLTableRowElement {
-  const row = document.createElement("tr");
-  row.dataset["cart"] = cart.name;
-  row.dataset["state"] = cart.state;
-  const name = cell("");
-  const swatch = document.createElement("span");
-  swatch.className = "sw";
-  swatch.style.background = colourOf(cart.name, names);
-  name.append(swatch, cart.name);
-  const state = cell(cart.state, `cart-state state-${cart.state}`);
-  state.title = `connection ${cart.connection}`;
-  if (cart.errors.length > 0) {
-    const errors = document.createElement("span");
-    errors.className = "cart-errors";
-    errors.textContent = cart.errors.map((e) => `${e.type}: ${e.description}`).join("; ");
-    state.append(errors);
-  }
-  const order = cart.order_id ? `${cart.order_id} (goal ${cart.goal ?? "–"})` : "–";
-  row.append(name, state, cell(poseText(cart)), cell(order), cell(String(cart.held.length)), cell(cart.waiting_for ?? "–"));
-  return row;
-}
-
 function goalItem(goal: GoalView): HTMLLIElement {
   const item = document.createElement("li");
   item.value = goal.id;
@@ -99,10 +65,24 @@ function showChoices(names: string[]): void {
   for (const name of names) chooser.append(new Option(name, name, false, name === chosen));
 }
 
+async function toCart(cart: string, action: "cancel" | "pause", body?: PauseRequest): Promise<void> {
+  try {
+    const answer = await api<CartAnswer>("POST", `/api/fleet/carts/${encodeURIComponent(cart)}/${action}`, body);
+    say(message, `${answer.sent} sent to ${answer.cart}.`);
+  } catch (err) {
+    say(message, refusal(err), true);
+  }
+}
+
+const table = new CartTable($("carts"), {
+  pause: (cart, paused) => void toCart(cart, "pause", { paused }),
+  cancel: (cart) => void toCart(cart, "cancel"),
+});
+
 function show(fleet: FleetView, map: FleetMap): void {
   const names = fleet.carts.map((c) => c.name).sort();
   map.show(fleet);
-  $("carts").replaceChildren(...[...fleet.carts].sort((a, b) => a.name.localeCompare(b.name)).map((c) => cartRow(c, names)));
+  table.show(fleet.carts);
   $("no-carts").hidden = fleet.carts.length > 0;
   $("goals").replaceChildren(...fleet.goals.slice(-SHOWN_GOALS).reverse().map(goalItem));
   showChoices(names);

@@ -1,7 +1,7 @@
 // The fleet page (web/fleet.html) against a real `cart2d fleet sim --carts 2`: two simulated
 // carts (the real firmware each) on a mosquitto it starts, the manager serving the built page.
-// A click on the map is a goal a cart reaches; STOP ALL stops a cart on its way; what the
-// manager refuses is said in a sentence.
+// A click on the map is a goal a cart reaches; a cart is paused, resumed and cancelled on its way;
+// STOP ALL stops one; what the manager refuses is said in a sentence.
 
 import { type ChildProcess, spawn } from "node:child_process";
 import { mkdtempSync, rmSync } from "node:fs";
@@ -101,29 +101,51 @@ test("a click on the map is a goal: for the cart chosen, or the nearest idle one
   expect(errors).toEqual([]);
 });
 
-test("STOP ALL stops a cart on its way and cancels its goal", async ({ page }) => {
+test("a cart paused, resumed and cancelled on its way; STOP ALL stops the other", async ({ page }) => {
   await openFleet(page);
+  const speed = async (name: string): Promise<number> => Math.abs((await fleetView()).truth?.carts[name]?.v ?? 1);
   const [x1, y1] = await place("cart1");
   const goal: Point = [x1, y1 + 2.5];
   await page.locator("#goal-cart").selectOption("cart1");
   await clickMap(page, goal);
   const row = page.locator('tr[data-cart="cart1"]');
   await expect(row).toHaveAttribute("data-state", "driving", { timeout: 10_000 });
+  await expect.poll(async () => distance(await place("cart1"), [x1, y1])).toBeGreaterThan(0.05);
   await page.screenshot({ path: `${SHOTS}/fleet-driving.png` });
-  await expect.poll(async () => distance((await cart("cart1")).position ?? [], [x1, y1])).toBeGreaterThan(0.05);
+
+  await row.getByRole("button", { name: "Pause" }).click();
+  await expect(page.locator("#fleet-msg")).toHaveText("startPause sent to cart1.");
+  await expect(row).toHaveAttribute("data-state", "paused");
+  await expect.poll(() => speed("cart1"), { timeout: 10_000 }).toBeLessThan(0.005);
+  const held = await place("cart1");
+  await row.getByRole("button", { name: "Resume" }).click();
+  await expect(page.locator("#fleet-msg")).toHaveText("stopPause sent to cart1.");
+  await expect(row).toHaveAttribute("data-state", "driving");
+  await expect.poll(async () => distance(await place("cart1"), held)).toBeGreaterThan(0.05);
+
+  await row.getByRole("button", { name: "Cancel" }).click();
+  await expect(page.locator("#fleet-msg")).toHaveText("cancelOrder sent to cart1.");
+  await expect(page.locator("#goals li").first()).toHaveAttribute("data-status", "cancelled");
+  await expect(row.locator('[data-field="order"]')).toHaveText("–");
+  await expect.poll(() => speed("cart1"), { timeout: 10_000 }).toBeLessThan(0.005);
+  expect(distance(await place("cart1"), goal)).toBeGreaterThan(1.0);
+
+  const [x2, y2] = await place("cart2");
+  await page.locator("#goal-cart").selectOption("cart2");
+  await clickMap(page, [x2, y2 + 2.5]);
+  const row2 = page.locator('tr[data-cart="cart2"]');
+  await expect(row2).toHaveAttribute("data-state", "driving", { timeout: 10_000 });
   await page.locator("#stop-all").click();
   await expect(page.locator("#fleet-msg")).toHaveText("STOP ALL: every cart stopped, its order cancelled.");
   await expect(page.locator("#goals li").first()).toHaveAttribute("data-status", "cancelled");
   // stopped: idle, or "error" when the gateway's own stop (which comes first) ended the node it
   // drove to (the vehicle's navigationError, in its state until its next order)
-  await expect(row).toHaveAttribute("data-state", /^(idle|error)$/);
-  // the simulator's truth: the cart stands still, short of the goal
-  const truth = async (): Promise<number> => Math.abs((await fleetView()).truth?.carts["cart1"]?.v ?? 1);
-  await expect.poll(truth, { timeout: 10_000 }).toBeLessThan(0.005);
-  expect(distance((await cart("cart1")).position ?? [], goal)).toBeGreaterThan(1.0);
+  await expect(row2).toHaveAttribute("data-state", /^(idle|error)$/);
+  await expect.poll(() => speed("cart2"), { timeout: 10_000 }).toBeLessThan(0.005);
+  expect(distance(await place("cart2"), [x2, y2 + 2.5])).toBeGreaterThan(1.0);
 });
 
-test("a goal off the arena's free space is refused in a sentence, and nothing is sent", async ({ page }) => {
+test("what the manager refuses is said in a sentence, and nothing is sent", async ({ page }) => {
   await openFleet(page);
   const goals = (await fleetView()).goals.length;
   const nodes = (await fleetView()).lattice.nodes;
@@ -133,4 +155,9 @@ test("a goal off the arena's free space is refused in a sentence, and nothing is
   await expect(msg).toHaveText(/^\(-0\.\d\d, -0\.\d\d\) is not in the arena's free space\.$/);
   await expect(msg).toHaveClass(/form-error/);
   expect((await fleetView()).goals.length).toBe(goals);
+
+  await expect(page.locator('tr[data-cart="cart1"]')).toHaveAttribute("data-state", /^(idle|error)$/);
+  await page.locator('tr[data-cart="cart1"]').getByRole("button", { name: "Cancel" }).click();
+  await expect(msg).toHaveText("There is nothing to cancel: cart1 drives no order.");
+  await expect(msg).toHaveClass(/form-error/);
 });
