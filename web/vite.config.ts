@@ -33,6 +33,13 @@ export default defineConfig({
     emptyOutDir: true,
     target: "es2022",
     chunkSizeWarningLimit: 200,
+    // the control panel and the fleet manager's page (`cart2d fleet` serves fleet.html)
+    rollupOptions: {
+      input: {
+        panel: fileURLToPath(new URL("index.html", import.meta.url)),
+        fleet: fileURLToPath(new URL("fleet.html", import.meta.url)),
+      },
+    },
   },
   server: {
     proxy: {

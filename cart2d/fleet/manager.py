@@ -18,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from cart2d.fleet import vda5050
+from cart2d.fleet import vda5050, views
 from cart2d.fleet.lattice import Cell, Lattice, node_id
 from cart2d.fleet.mqtt import Broker, Connection
 from cart2d.fleet.traffic import Traffic, TrafficError
@@ -52,7 +52,7 @@ class Goal:
     ordered_s: float | None = None  # its order sent
     accepted_s: float | None = None  # the cart's state shows the order
     reached_s: float | None = None
-    status: str = "waiting"  # waiting | driving | reached | cancelled | failed
+    status: views.GoalStatus = "waiting"
     waited_s: float = 0.0  # for reservations, on its way
 
 
@@ -187,9 +187,7 @@ class FleetManager:
         ValueError (a sentence) for an unknown cart or a point off the lattice."""
         with self._lock:
             if cart is not None and cart not in self.carts:
-                raise ValueError(
-                    f"there is no cart {cart!r} (carts: {', '.join(sorted(self.carts)) or 'none'})"
-                )
+                raise ValueError(f"there is no cart {cart!r} ({self._names()})")
             cell = self.lattice.nearest(x, y)
             if math.dist(self.lattice.position(cell), (x, y)) > self.lattice.spacing_m:
                 raise ValueError(f"({x:.2f}, {y:.2f}) is not in the arena's free space")
@@ -274,14 +272,9 @@ class FleetManager:
         broker was away, or before this manager subscribed again, is not lost for 30 s)."""
         with self._lock:
             for name in self.carts:
-                action = {
-                    "actionId": f"ask-{time.time_ns()}",
-                    "actionType": "stateRequest",
-                    "blockingType": "NONE",
-                }
-                self._send(name, "instantActions", {"actions": [action]})
+                self._instant(name, "stateRequest", "NONE")
 
-    # -- STOP ALL -----------------------------------------------------------------------------
+    # -- STOP ALL, and one cart's cancel and pause --------------------------------------------
     def stop_all(self) -> None:
         """Every gateway's own stop first (where it runs beside us), then cancelOrder to each
         vehicle; goals not reached are cancelled, and the carts keep the nodes they hold."""
@@ -292,17 +285,50 @@ class FleetManager:
                 log.exception("a gateway's stop failed")
         with self._lock:
             for name in self.carts:
-                action = {
-                    "actionId": f"stop-{time.time_ns()}",
-                    "actionType": "cancelOrder",
-                    "blockingType": "HARD",
-                }
-                self._send(name, "instantActions", {"actions": [action]})
-                self.traffic.cancel(name)
+                self._cancel(name)
             for goal in self.goals:
                 if goal.status in ("waiting", "driving"):
                     goal.status = "cancelled"
-            self.sent.clear()
+
+    def cancel(self, name: str) -> None:
+        """cancelOrder to one cart: its goal cancelled, the nodes it stands on still held;
+        ValueError (a sentence) for a cart unknown or driving no order, and nothing sent."""
+        with self._lock:
+            self._known(name)
+            if name not in self.sent:
+                raise ValueError(f"there is nothing to cancel: {name} drives no order")
+            self.sent[name].goal.status = "cancelled"
+            self._cancel(name)
+
+    def pause(self, name: str, paused: bool) -> None:
+        """startPause (or stopPause) to one cart, which keeps its order and the nodes it holds;
+        ValueError (a sentence) for a cart unknown or not ONLINE, and nothing sent."""
+        with self._lock:
+            cart = self._known(name)
+            if not cart.online:
+                raise ValueError(f"cart {name} is {cart.connection}: it hears no pause until it is back")
+            self._instant(name, "startPause" if paused else "stopPause", "HARD")
+
+    def _known(self, name: str) -> CartView:
+        if name not in self.carts:
+            raise KeyError(f"there is no cart {name!r} ({self._names()})")
+        return self.carts[name]
+
+    def _names(self) -> str:
+        return f"carts: {', '.join(sorted(self.carts)) or 'none'}"
+
+    def _cancel(self, name: str) -> None:
+        self._instant(name, "cancelOrder", "HARD")
+        self.traffic.cancel(name)
+        self.sent.pop(name, None)
+
+    def _instant(self, name: str, action_type: str, blocking: str) -> None:
+        action = {
+            "actionId": f"{action_type}-{time.time_ns()}",
+            "actionType": action_type,
+            "blockingType": blocking,
+        }
+        self._send(name, "instantActions", {"actions": [action]})
 
     def remove(self, name: str) -> None:
         """Forgets a cart (an OFFLINE one's nodes are free again)."""
@@ -314,41 +340,69 @@ class FleetManager:
                 sent.goal.status = "cancelled"
 
     # -- views ---------------------------------------------------------------------------------
-    def view(self) -> dict[str, Any]:
+    def view(self) -> views.FleetView:
         with self._lock:
-            return {
-                "lattice": {
-                    "spacing_m": self.lattice.spacing_m,
-                    "nodes": sorted(self.lattice.position(c) for c in self.lattice.free),
-                },
-                "carts": [self._cart_view(c) for c in self.carts.values()],
-                "goals": [self._goal_view(g) for g in self.goals[-200:]],
-                "deadlocks": self.traffic.deadlocks,
-            }
+            return views.FleetView(
+                lattice=views.LatticeView(
+                    spacing_m=self.lattice.spacing_m,
+                    nodes=sorted(self.lattice.position(c) for c in self.lattice.free),
+                ),
+                carts=[self._cart_view(c) for c in self.carts.values()],
+                goals=[self._goal_view(g) for g in self.goals[-200:]],
+                deadlocks=self.traffic.deadlocks,
+            )
 
-    def _cart_view(self, cart: CartView) -> dict[str, Any]:
+    def _cart_view(self, cart: CartView) -> views.CartView:
         journey = self.traffic.journeys.get(cart.name)
         held = sorted(self.lattice.position(c) for c, h in self.traffic.holds.items() if h == cart.name)
-        return {
-            "name": cart.name,
-            "connection": cart.connection,
-            "position": cart.position,
-            "driving": bool(cart.state.get("driving")),
-            "paused": bool(cart.state.get("paused")),
-            "errors": cart.state.get("errors", []),
-            "held": held,
-            "route": [self.lattice.position(c) for c in journey.route[journey.passed :]] if journey else [],
-            "waiting_for": journey.waiting_for if journey else None,
-        }
+        sent = self.sent.get(cart.name)
+        errors = [_error_view(e) for e in cart.state.get("errors", [])]
+        waiting_for = journey.waiting_for if journey else None
+        return views.CartView(
+            name=cart.name,
+            connection=cart.connection,
+            state=_cart_state(cart, errors, journey is not None, waiting_for),
+            position=cart.position,
+            order_id=sent.order_id if sent else None,
+            goal=sent.goal.goal_id if sent else None,
+            errors=errors,
+            held=held,
+            route=[self.lattice.position(c) for c in journey.route[journey.passed :]] if journey else [],
+            waiting_for=waiting_for,
+        )
 
-    def _goal_view(self, goal: Goal) -> dict[str, Any]:
-        return {
-            "id": goal.goal_id,
-            "at": self.lattice.position(goal.cell),
-            "cart": goal.cart,
-            "status": goal.status,
-            "waited_s": round(goal.waited_s, 3),
-        }
+    def _goal_view(self, goal: Goal) -> views.GoalView:
+        return views.GoalView(
+            id=goal.goal_id,
+            at=self.lattice.position(goal.cell),
+            cart=goal.cart,
+            status=goal.status,
+            waited_s=round(goal.waited_s, 3),
+        )
+
+
+def _cart_state(
+    cart: CartView, errors: list[views.CartError], routed: bool, waiting_for: str | None
+) -> views.CartState:
+    """One word for the cart (views.CartState says the precedence)."""
+    driving = bool(cart.state.get("driving"))
+    if not cart.online:
+        return "offline"
+    if cart.state.get("paused"):
+        return "paused"
+    if errors and not driving:
+        return "error"
+    if waiting_for is not None and not driving:
+        return "waiting"
+    return "driving" if driving or routed else "idle"
+
+
+def _error_view(entry: dict[str, Any]) -> views.CartError:
+    return views.CartError(
+        type=str(entry.get("errorType", "")),
+        level=str(entry.get("errorLevel", "")),
+        description=str(entry.get("errorDescription") or ""),
+    )
 
 
 def _references(state: dict[str, Any]) -> set[str]:

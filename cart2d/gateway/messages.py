@@ -370,17 +370,17 @@ def json_schema() -> dict[str, Any]:
     """The union's JSON schema, as the JSON the viewers get (serialization), titled LiveMessage,
     in the draft json-schema-to-typescript reads (web/src/generated/live.ts)."""
     schema = LIVE_MESSAGE.json_schema(mode="serialization")
-    return {"title": "LiveMessage", **_for_typescript(schema)}
+    return {"title": "LiveMessage", **for_typescript(schema)}
 
 
-def _for_typescript(schema: Any) -> Any:
+def for_typescript(schema: Any) -> Any:
     """A tuple's `prefixItems` (2020-12) as `items` (draft 7, which the generator reads); a
     field's title dropped (the generator would name a type after each), a model's kept."""
     if isinstance(schema, list):
-        return [_for_typescript(item) for item in schema]
+        return [for_typescript(item) for item in schema]
     if not isinstance(schema, dict):
         return schema
-    out = {key: _for_typescript(value) for key, value in schema.items()}
+    out = {key: for_typescript(value) for key, value in schema.items()}
     if "prefixItems" in out:
         out["items"] = out.pop("prefixItems")
     if "properties" in out:

@@ -37,7 +37,7 @@ def test_two_carts_pass_through_one_corridor_without_contact(tmp_path: Path) -> 
         try:
             wait_for(lambda: all(g.status == "reached" for g in manager.goals), 120)
         except AssertionError as exc:
-            raise AssertionError(f"{exc}: {manager.view()['carts']}, {fleet.arena.view()}") from None
+            raise AssertionError(f"{exc}: {manager.view().carts}, {fleet.arena.view()}") from None
         truth = fleet.arena.view()
         assert truth["cart_contacts"] == 0, fleet.arena.contact_log
         for name, cart in truth["carts"].items():

@@ -45,7 +45,7 @@ async function freePortPair(): Promise<number> {
   }
 }
 
-async function stopChild(child: ChildProcess): Promise<void> {
+export async function stopChild(child: ChildProcess): Promise<void> {
   const exited = new Promise<void>((ok) => {
     if (child.exitCode !== null) ok();
     else child.once("exit", () => ok());
