@@ -137,11 +137,15 @@ def mark(ok: bool) -> str:
 def run(out: Path, quick: bool) -> Section:
     notes = annotated(REAL, pictures())
     if not notes or not all(n.image.exists() for n in notes):
+        # The pictures may not be in the repository (tests/data/real/README.md): a machine without
+        # them (CI's) measures the calibration part only, and says so; the full bench fails.
+        verdict = "not measured in the quick run" if quick else "**MISSED**"
         markdown = (
-            f"## Real photographs\n\n**MISSED**: the pictures are not in {pictures()} (set "
+            f"## Real photographs\n\n{verdict}: the pictures are not in {pictures()} (set "
             f"{PICTURES_VARIABLE} to their folder; tests/data/real/README.md says where they come from).\n"
         )
-        return with_calibration(Section("real_photographs", markdown, {}, targets_met=False), quick)
+        data = {"pictures": "absent"}
+        return with_calibration(Section("real_photographs", markdown, data, targets_met=quick), quick)
     s = summarise([evaluate(n) for n in notes])
     alone = summarise([evaluate(n, with_before=False) for n in notes])
     costs = frame_cost(40 if quick else 200)
