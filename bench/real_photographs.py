@@ -144,8 +144,8 @@ def run(out: Path, quick: bool) -> Section:
             f"## Real photographs\n\n{verdict}: the pictures are not in {pictures()} (set "
             f"{PICTURES_VARIABLE} to their folder; tests/data/real/README.md says where they come from).\n"
         )
-        data = {"pictures": "absent"}
-        return with_calibration(Section("real_photographs", markdown, data, targets_met=quick), quick)
+        absent: dict[str, Any] = {"pictures": "absent"}
+        return with_calibration(Section("real_photographs", markdown, absent, targets_met=quick), quick)
     s = summarise([evaluate(n) for n in notes])
     alone = summarise([evaluate(n, with_before=False) for n in notes])
     costs = frame_cost(40 if quick else 200)
