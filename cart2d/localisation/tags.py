@@ -1,10 +1,11 @@
 """AprilTag 36h11 sightings and the cart's pose in `map` they give (docs/localisation.md).
 
-Detection is OpenCV's (cv2.aruco, DICT_APRILTAG_36h11, CORNER_REFINE_APRILTAG). Its corners come
-in the order of the bitmap cv2.aruco.generateImageMarker draws (top-left, top-right,
-bottom-right, bottom-left), the order SOLVEPNP_IPPE_SQUARE wants; the AprilTag refinement places
-them on pixel edges counted from the pixel's corner, half a pixel off this project's convention
-(pixel centres at integers, cart2d/perception/camera_model.py), which CORNER_OFFSET_PX undoes.
+Detection is OpenCV's (cv2.aruco, DICT_APRILTAG_36h11, CORNER_REFINE_APRILTAG), run only in crops
+round the candidates a cheap search found (TagDetector). Its corners come in the order of the
+bitmap cv2.aruco.generateImageMarker draws (top-left, top-right, bottom-right, bottom-left), the
+order SOLVEPNP_IPPE_SQUARE wants; the AprilTag detection places them on pixel edges counted from
+the pixel's corner, half a pixel off this project's convention (pixel centres at integers,
+cart2d/perception/camera_model.py), which CORNER_OFFSET_PX undoes, with the crop's origin added.
 
 The pose: solvePnPGeneric with SOLVEPNP_IPPE_SQUARE gives the marker in the camera, both of a
 planar square's two solutions; the one whose camera stands where the cart carries it (height and
@@ -96,14 +97,10 @@ class TagDetector:
         gray = image if image.ndim == 2 else np.asarray(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), np.uint8)
         if not self._crops:
             return _sightings(self._precise, gray, (0, 0))
-        out: list[Sighting] = []
-        for quad in self._candidates(gray):
-            if any(_inside(quad.mean(axis=0), s.corners_px) for s in out):
-                continue  # the inner or outer contour of a tag already found
-            found = self._in_crop(gray, quad)
-            if found is not None:
-                out.append(found)
-        return out
+        # one candidate per tag: OpenCV's search keeps one of the concentric quads (a tag's inner
+        # and outer contours, its sheet's edge) before decoding, the rejected ones as the decoded
+        found = (self._in_crop(gray, quad) for quad in self._candidates(gray))
+        return [s for s in found if s is not None]
 
     def _candidates(self, gray: npt.NDArray[np.uint8]) -> list[FloatArray]:
         """Pass 1's quads: the decoded ones first, then the rejected ones, the largest first."""
@@ -163,15 +160,6 @@ def _sightings(
 
 def _perimeter(quad: FloatArray) -> float:
     return float(sum(np.linalg.norm(quad[i] - quad[(i + 1) % 4]) for i in range(4)))
-
-
-def _inside(point: FloatArray, quad: FloatArray) -> bool:
-    return (
-        cv2.pointPolygonTest(
-            quad.astype(np.float32).reshape(4, 1, 2), (float(point[0]), float(point[1])), False
-        )
-        >= 0
-    )
 
 
 def _homogeneous(r: FloatArray, t: FloatArray) -> FloatArray:
