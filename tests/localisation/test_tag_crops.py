@@ -8,8 +8,9 @@ import cv2
 import numpy as np
 import pytest
 
+from cart2d.localisation import tags
 from cart2d.localisation.markers import Marker, dictionary
-from cart2d.localisation.tags import TagDetector
+from cart2d.localisation.tags import Sighting, TagDetector
 from tests.localisation.test_tags import CASES, Pose, draw
 
 
@@ -59,3 +60,25 @@ def test_a_picture_without_tags_gives_no_sighting() -> None:
     picture = np.clip(170 + rng.normal(0, 2, (240, 320)), 0, 255).astype(np.uint8)
     cv2.rectangle(picture, (40, 40), (120, 120), 30, -1)  # a dark square with no code in it
     assert TagDetector().detect(picture) == []
+
+
+def test_a_cluttered_picture_costs_at_most_max_crops_crops(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Twelve dark squares with no code beside a tag: the tag is found, and the AprilTag
+    detection runs in MAX_CROPS crops at most (each costs: the frame's cost stays bounded)."""
+    pose, marker = CASES[0]
+    picture, _ = draw(marker, pose)
+    for k in range(12):
+        x, y = 5 + 80 * (k % 4), 150 + 30 * (k // 4)
+        cv2.rectangle(picture, (x, y), (x + 25, y + 25), 30, -1)
+    crops = []
+    in_frame = tags._sightings
+
+    def counted(
+        detector: cv2.aruco.ArucoDetector, gray: np.ndarray, origin: tuple[int, int]
+    ) -> list[Sighting]:
+        crops.append(origin)
+        return in_frame(detector, gray, origin)
+
+    monkeypatch.setattr(tags, "_sightings", counted)
+    assert [s.tag_id for s in TagDetector().detect(picture)] == [marker.id]
+    assert 1 < len(crops) <= tags.MAX_CROPS
