@@ -1,10 +1,11 @@
 """AprilTag 36h11 sightings and the cart's pose in `map` they give (docs/localisation.md).
 
-Detection is OpenCV's (cv2.aruco, DICT_APRILTAG_36h11, CORNER_REFINE_APRILTAG). Its corners come
-in the order of the bitmap cv2.aruco.generateImageMarker draws (top-left, top-right,
-bottom-right, bottom-left), the order SOLVEPNP_IPPE_SQUARE wants; the AprilTag refinement places
-them on pixel edges counted from the pixel's corner, half a pixel off this project's convention
-(pixel centres at integers, cart2d/perception/camera_model.py), which CORNER_OFFSET_PX undoes.
+Detection is OpenCV's (cv2.aruco, DICT_APRILTAG_36h11, CORNER_REFINE_APRILTAG), run only in crops
+round the candidates a cheap search found (TagDetector). Its corners come in the order of the
+bitmap cv2.aruco.generateImageMarker draws (top-left, top-right, bottom-right, bottom-left), the
+order SOLVEPNP_IPPE_SQUARE wants; the AprilTag detection places them on pixel edges counted from
+the pixel's corner, half a pixel off this project's convention (pixel centres at integers,
+cart2d/perception/camera_model.py), which CORNER_OFFSET_PX undoes, with the crop's origin added.
 
 The pose: solvePnPGeneric with SOLVEPNP_IPPE_SQUARE gives the marker in the camera, both of a
 planar square's two solutions; the one whose camera stands where the cart carries it (height and
@@ -49,6 +50,9 @@ SURVEY_SIGMA_M = 0.003  # a marker's place as a tape measure gives it
 SURVEY_SIGMA_RAD = math.radians(0.5)
 MIN_SIDE_PX = 12.0  # smaller than this the bits are a pixel or two: no pose is trusted from it
 MAX_CAMERA_MISFIT_M = 0.08  # a solution whose camera is this far from the mount's height is wrong
+MAX_CROPS = 8  # pass 2's crops per frame at most (~0.2 ms each at QVGA): a cluttered frame's bound
+CROP_MARGIN_RATE = 0.3  # a crop's margin round a candidate, in its sides: the tag's white border in it
+CROP_MARGIN_MIN_PX = 6.0
 
 
 @dataclass(frozen=True)
@@ -73,24 +77,89 @@ class TagFix:
 
 
 class TagDetector:
-    """`refinement`: OpenCV's corner refinement; the AprilTag one by default, SUBPIX a fraction
-    of its cost with corners as good on the simulator's pictures (bench/localisation.py)."""
+    """AprilTag 36h11 sightings in a picture, in two passes (bench/localisation.py measures both):
 
-    def __init__(self, refinement: int = cv2.aruco.CORNER_REFINE_APRILTAG) -> None:
-        params = cv2.aruco.DetectorParameters()
-        params.cornerRefinementMethod = refinement
-        self._offset = CORNER_OFFSET_PX if refinement == cv2.aruco.CORNER_REFINE_APRILTAG else 0.0
-        self._detector = cv2.aruco.ArucoDetector(dictionary(), params)
+    1. OpenCV's ArUco candidate search over the whole frame (adaptive threshold, contours, no
+       refinement): ~0.5 ms at QVGA; quads too small to give a trusted pose are not looked for.
+    2. OpenCV's AprilTag detection (CORNER_REFINE_APRILTAG, which is its own quad search and line
+       fit, not a refinement of pass 1's corners) in a small crop round each candidate, decoded
+       or not (pass 1 rejects some foreshortened tags its integer corners cannot decode).
+
+    The AprilTag detection over the whole frame (`crops=False`) costs 5-30 ms per QVGA frame and
+    gives the same corners: it stays as the bench's reference."""
+
+    def __init__(self, crops: bool = True) -> None:
+        self._crops = crops
+        self._precise = _aruco_detector(cv2.aruco.CORNER_REFINE_APRILTAG)
+        self._searches: dict[int, cv2.aruco.ArucoDetector] = {}
 
     def detect(self, image: npt.NDArray[np.uint8]) -> list[Sighting]:
-        gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        corners, ids, _ = self._detector.detectMarkers(gray)
-        if ids is None:
-            return []
-        return [
-            Sighting(int(i), np.asarray(c, dtype=np.float64).reshape(4, 2) - self._offset)
-            for c, i in zip(corners, ids.ravel(), strict=True)
-        ]
+        gray = image if image.ndim == 2 else np.asarray(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), np.uint8)
+        if not self._crops:
+            return _sightings(self._precise, gray, (0, 0))
+        # one candidate per tag: OpenCV's search keeps one of the concentric quads (a tag's inner
+        # and outer contours, its sheet's edge) before decoding, the rejected ones as the decoded
+        found = (self._in_crop(gray, quad) for quad in self._candidates(gray))
+        return [s for s in found if s is not None]
+
+    def _candidates(self, gray: npt.NDArray[np.uint8]) -> list[FloatArray]:
+        """Pass 1's quads: the decoded ones first, then the rejected ones, the largest first."""
+        longest = max(gray.shape)
+        search = self._searches.get(longest)
+        if search is None:
+            search = _aruco_detector(
+                cv2.aruco.CORNER_REFINE_NONE, min_perimeter_rate=4 * MIN_SIDE_PX / longest
+            )
+            self._searches[longest] = search
+        corners, ids, rejected = search.detectMarkers(gray)
+        decoded = [np.asarray(c, np.float64).reshape(4, 2) for c in corners] if ids is not None else []
+        others = sorted(
+            (np.asarray(c, np.float64).reshape(4, 2) for c in rejected),
+            key=lambda q: -_perimeter(q),
+        )
+        plausible = [q for q in others if _perimeter(q) >= 4 * MIN_SIDE_PX]
+        return (decoded + plausible)[:MAX_CROPS]
+
+    def _in_crop(self, gray: npt.NDArray[np.uint8], quad: FloatArray) -> Sighting | None:
+        """The AprilTag detection in the quad's bounding box and a margin; the tag nearest the
+        quad's centre, within half its side."""
+        margin = max(CROP_MARGIN_MIN_PX, CROP_MARGIN_RATE * _perimeter(quad) / 4)
+        h, w = gray.shape
+        x0, y0 = (max(0, math.floor(v - margin)) for v in quad.min(axis=0))
+        x1 = min(w, math.ceil(quad[:, 0].max() + margin) + 1)
+        y1 = min(h, math.ceil(quad[:, 1].max() + margin) + 1)
+        found = _sightings(self._precise, gray[y0:y1, x0:x1], (x0, y0))
+        centre = quad.mean(axis=0)
+        near = [s for s in found if np.linalg.norm(s.corners_px.mean(axis=0) - centre) <= s.side_px() / 2]
+        return min(
+            near, key=lambda s: float(np.linalg.norm(s.corners_px.mean(axis=0) - centre)), default=None
+        )
+
+
+def _aruco_detector(refinement: int, min_perimeter_rate: float | None = None) -> cv2.aruco.ArucoDetector:
+    params = cv2.aruco.DetectorParameters()
+    params.cornerRefinementMethod = refinement
+    if min_perimeter_rate is not None:
+        params.minMarkerPerimeterRate = min_perimeter_rate
+    return cv2.aruco.ArucoDetector(dictionary(), params)
+
+
+def _sightings(
+    detector: cv2.aruco.ArucoDetector, gray: npt.NDArray[np.uint8], origin: tuple[int, int]
+) -> list[Sighting]:
+    """AprilTag-detected corners, moved from the crop at `origin` to the frame and to pixel centres."""
+    corners, ids, _ = detector.detectMarkers(gray)
+    if ids is None:
+        return []
+    shift = np.array(origin, np.float64) - CORNER_OFFSET_PX
+    return [
+        Sighting(int(i), np.asarray(c, dtype=np.float64).reshape(4, 2) + shift)
+        for c, i in zip(corners, ids.ravel(), strict=True)
+    ]
+
+
+def _perimeter(quad: FloatArray) -> float:
+    return float(sum(np.linalg.norm(quad[i] - quad[(i + 1) % 4]) for i in range(4)))
 
 
 def _homogeneous(r: FloatArray, t: FloatArray) -> FloatArray:
