@@ -16,16 +16,9 @@ line teaches nothing about noise: a Nano in its bootloader, a stalled bridge.
   is also the wait until a reply has been timed.
 - **Back-off**, sized to the measured error rate: the wait doubles after each unanswered try
   beyond the run of losses that the line's noise explains (with 99 % probability, for an
-  exchange of this size), a run of at most FAST_RESEND_S of resends. A clean line backs off from
-  the first timeout (a silence there means a slow peer: a bootloader, a busy bridge); a line
-  losing half its STATUS exchanges to noise resends at the base wait eight times first, since
-  resending at once is what gets through. The bound matters: replies slower than the base wait
-  (a busy host, a simulator behind the wall clock) are lost tries too, so the error rate climbs
-  towards 100 % and would explain any run of losses: the link resent at the base wait for ever
-  while every reply came too late (the noisy-link bench, 299 tries in 6 s).
-- **A backed-off wait is kept** for the next request's first try (RFC 6298, 5.7) until a reply
-  comes at a first try and times the line again: a slow peer is waited for at once, and a
-  noisy line still resends at the base wait after that try.
+  exchange of this size). A clean line backs off from the first timeout (a silence there means
+  a slow peer: a bootloader, a busy bridge); a line losing half its STATUS exchanges to noise
+  resends at the base wait eight times first, since resending at once is what gets through.
 - **A STOP** is resent after at most STOP_RESEND_S: it is answered from the firmware's memory
   if the first one arrived, and only its own resends stop a cart whose STOP was lost.
 """
@@ -41,8 +34,6 @@ from cart2d.link.protocol import BITS_PER_BYTE
 MIN_WAIT_S = 0.02  # the firmware's busiest moment: a tick's wait (8 ms) behind a telemetry frame (6.3 ms)
 EXPLAINED = 0.01  # a run of losses whose probability under the line's noise is below this is not noise
 STOP_RESEND_S = 0.025  # a STOP (15 bytes both ways, 1.3 ms of line) unanswered this long is sent again
-FAST_RESEND_S = 0.5  # resends at the base wait that noise may explain, at most (a third of a round)
-MAX_DOUBLINGS = 16
 RTT_GAIN = 1 / 8  # RFC 6298's alpha and beta
 RTT_VAR_GAIN = 1 / 4
 LOSS_GAIN = 0.05  # the loss rate follows about the last 20 tries (the mean of all, until there are 20)
@@ -81,7 +72,6 @@ class LineStats:
         self._answered_share = 1.0  # EWMA of tries answered, on a live line
         self._bytes = 80.0  # EWMA of the bytes an exchange moves (a STATUS)
         self._counted = 0  # tries the two averages have seen
-        self._carried = 0  # doublings of the wait kept from the last request answered after back-off
         self.tries = 0
         self.answered = 0
         self.timeouts = 0
@@ -91,38 +81,17 @@ class LineStats:
 
     def wait_s(self, request_bytes: int, reply_bytes: int, unanswered: int = 0, stop: bool = False) -> float:
         """How long to wait for the reply to a try, after `unanswered` tries of the same request."""
-        base = self._base_s(request_bytes, reply_bytes)
-        wait = self.ceiling_s
-        if base is not None:
-            doublings = self._doublings(base, request_bytes + reply_bytes, unanswered)
-            wait = min(base * 2.0**doublings, self.ceiling_s)
-        return min(wait, STOP_RESEND_S) if stop else wait
-
-    def _base_s(self, request_bytes: int, reply_bytes: int) -> float | None:
-        """The wait at the first try: the bytes' time and the latency (None until timed)."""
         with self._lock:
             srtt, rttvar = self._srtt, self._rttvar
-        if srtt is None:
-            return None
-        latency = srtt + max(4 * rttvar, srtt / 4)
-        return max(self.line_time(request_bytes, reply_bytes) + latency, MIN_WAIT_S)
-
-    def _doublings(self, base_s: float, exchange_bytes: int, unanswered: int) -> int:
-        """The first try waits as long as the last request's answered one (a slow peer is
-        waited for at once); the resends at the base wait that noise explains follow (resending
-        at once is what gets through noise), then each one more waits twice as long."""
-        if unanswered == 0:
-            return self._carried
-        explained = min(self.losses_explained(exchange_bytes), math.ceil(FAST_RESEND_S / base_s))
-        return min(max(unanswered - explained, 0), MAX_DOUBLINGS)
-
-    def answered_late(self, unanswered: int, request_bytes: int, reply_bytes: int) -> None:
-        """A reply after `unanswered` tries of its request: the doublings its try waited with are
-        kept for the next request (a reply to a retransmission times nothing: Karn's rule)."""
-        base = self._base_s(request_bytes, reply_bytes)
-        if base is None:
-            return
-        self._carried = self._doublings(base, request_bytes + reply_bytes, unanswered)
+        wait = self.ceiling_s
+        if srtt is not None:
+            latency = srtt + max(4 * rttvar, srtt / 4)
+            wait = max(self.line_time(request_bytes, reply_bytes) + latency, MIN_WAIT_S)
+            beyond_noise = unanswered - self.losses_explained(request_bytes + reply_bytes)
+            if beyond_noise > 0:
+                wait *= 2.0 ** min(beyond_noise, 16)
+            wait = min(wait, self.ceiling_s)
+        return min(wait, STOP_RESEND_S) if stop else wait
 
     def losses_explained(self, exchange_bytes: int) -> int:
         """How many tries of an exchange of this size in a row the line's noise loses with a
@@ -142,7 +111,6 @@ class LineStats:
     def answered_at_once(self, round_trip_s: float, request_bytes: int, reply_bytes: int) -> None:
         """A reply that answered a try `round_trip_s` after it was written."""
         sample = max(0.0, round_trip_s - self.line_time(request_bytes, reply_bytes))
-        self._carried = 0  # the line is timed again
         with self._lock:
             if self._srtt is None:
                 self._srtt, self._rttvar = sample, sample / 2

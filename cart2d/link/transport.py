@@ -387,8 +387,6 @@ class Link:
                 if reply is not None:
                     if tries == 1 or not self.line.timed():
                         self.line.answered_at_once(time.monotonic() - written, len(data), reply_bytes)
-                    else:
-                        self.line.answered_late(tries - 1, len(data), reply_bytes)
                     return reply
                 if token is not None:
                     self._refuse_if_stopped(code, token, cut_short=True)  # never retransmitted after a STOP
