@@ -18,8 +18,8 @@ twice a second), on the real firmware in the simulator:
 
 Targets (issue 22): at 1 % every mission completes and the stop's p99 is at most 200 ms; at 5 %
 at least 95 % complete. The full run: 12 missions and 40 stops per line; `--quick` (in `make
-bench-quick`) 1 or 2 missions and 6 stops, and fails only on those targets: completion and
-simulated time, not on how busy the machine is.
+bench-quick`) 1 or 2 missions (none at 5 %: two cannot judge 95 %) and 6 stops, and fails only
+on those targets: completion and simulated time, not on how busy the machine is.
 
 `python -m bench.noisy_link [--quick]`.
 """
@@ -58,7 +58,10 @@ V_MAX = 0.5
 WALL = [[0.8, y] for y in (0.0, 0.2, 0.4, 0.6)] + [[0.8, y] for y in (1.4, 1.6, 1.8)]
 GOALS = [[1.6, 1.4], [0.2, 1.6], [1.6, 0.2], [0.2, 0.4]]
 ENDS = ((0.2, 0.9), (1.6, 0.9))  # the stops' cart drives between these
-QUICK_MISSIONS = {"0 %": 1, "1 %": 2, "5 %": 2, "bursts": 1}
+# The quick run has no 5 % missions: two cannot tell 95 % from less (one failure in twenty, which
+# the target allows, fails one of two missions one time in ten), and at 5 % a mission's STATUS
+# reads (79 bytes, one try in 60 gets through) sometimes all fail for 5 s. Its stops are measured.
+QUICK_MISSIONS = {"0 %": 1, "1 %": 2, "5 %": 0, "bursts": 1}
 
 
 def byte_errors(share: float) -> dict[str, float]:
@@ -237,7 +240,11 @@ def measure(missions: dict[str, int], stops: int, workers: int) -> list[Level]:
 
 def targets_met(levels: list[Level]) -> bool:
     by_name = {level.name: level for level in levels}
-    complete = all(by_name[name].completion >= share for name, share in COMPLETION_TARGETS.items())
+    complete = all(
+        by_name[name].completion >= share
+        for name, share in COMPLETION_TARGETS.items()
+        if by_name[name].missions  # none at 5 % in the quick run
+    )
     p99 = by_name["1 %"].p(99)
     return complete and p99 is not None and p99 <= STOP_P99_BUDGET_S and by_name["1 %"].stops_missed == 0
 
@@ -263,7 +270,9 @@ def _markdown(levels: list[Level], ok: bool) -> str:
     rows = [
         [
             level.name,
-            f"{sum(k for k, _ in level.missions)} of {len(level.missions)} ({level.completion:.0%})",
+            f"{sum(k for k, _ in level.missions)} of {len(level.missions)} ({level.completion:.0%})"
+            if level.missions
+            else "none in the quick run",
             len(level.stops_s),
             _ms(level.p(50)),
             _ms(level.p(99)),
