@@ -208,8 +208,12 @@ class TagLocaliser:
         return float(abs(base[2, 3]) + tilt * self.mount.height_m)
 
     def fix(self, marker: Marker, sighting: Sighting) -> TagFix | None:
+        """The cart's pose from one sighting; None if the corners give no pose a cart can have
+        (off the floor, tilted) or none at all (degenerate, not finite)."""
         obj = object_points(marker.size_m)
         img = sighting.corners_px.reshape(4, 1, 2)
+        if not np.all(np.isfinite(img)):
+            return None  # OpenCV's solver answers NaN corners with a NaN pose, whose covariance raised
         n, rvecs, tvecs, _ = cv2.solvePnPGeneric(
             obj, img, self._k, self._dist, flags=cv2.SOLVEPNP_IPPE_SQUARE
         )
@@ -224,7 +228,12 @@ class TagLocaliser:
         if best is None or best[0] > MAX_CAMERA_MISFIT_M:
             return None
         _, base, rvec, tvec = best
-        covariance = self._covariance(marker, rvec, tvec)
+        try:
+            covariance = self._covariance(marker, rvec, tvec)
+        except np.linalg.LinAlgError:
+            return None
+        if not np.all(np.isfinite(covariance)):
+            return None
         return TagFix(marker.id, planar(base), covariance, float(np.linalg.norm(tvec)), sighting.side_px())
 
     def _covariance(self, marker: Marker, rvec: FloatArray, tvec: FloatArray) -> FloatArray:

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from cart2d.localisation.markers import Marker, MarkerMap, bitmap
-from cart2d.localisation.tags import TagDetector, TagLocaliser
+from cart2d.localisation.tags import Sighting, TagDetector, TagLocaliser
 from cart2d.perception.camera_model import Intrinsics, Mount
 
 MOUNT = Mount.from_robot()
@@ -105,3 +105,22 @@ def test_the_covariance_grows_with_range() -> None:
         (fix,) = TagLocaliser(MarkerMap((marker,)), INTRINSICS, MOUNT).fixes(TagDetector().detect(picture))
         sizes.append(np.trace(fix.covariance[:2, :2]))
     assert sizes[1] > 1.5 * sizes[0]
+
+
+@pytest.mark.parametrize(
+    "corners",
+    [
+        [[100, 100], [120, 100], [140, 100], [160, 100]],  # in a line
+        [[100, 100]] * 4,  # one point
+        [[100, 100], [140, 140], [140, 100], [100, 140]],  # crossed
+        [[math.nan, 100], [140, 100], [140, 140], [100, 140]],  # not finite: its covariance raised
+        [[1e30, 1e30], [-1e30, 1e30], [-1e30, -1e30], [1e30, -1e30]],
+    ],
+    ids=["collinear", "one point", "crossed", "nan", "huge"],
+)
+def test_corners_that_give_no_pose_give_no_fix_and_raise_nothing(corners: list[list[float]]) -> None:
+    marker = CASES[0][1]
+    localiser = TagLocaliser(MarkerMap((marker,)), INTRINSICS, MOUNT)
+    sighting = Sighting(marker.id, np.array(corners, dtype=float))
+    assert localiser.fix(marker, sighting) is None
+    assert localiser.fixes([sighting]) == []
