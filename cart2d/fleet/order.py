@@ -204,6 +204,8 @@ class Executor:
                 raise _OrderError("noOrderToCancel", "there is no order to cancel", self.order_id)
             self.cart.stop("the order was cancelled")
             self.nodes, self.edges, self.driving_to, self.stuck = [], [], None, False
+            # the failure to reach a node of the order goes with it (STOP ALL: a stop, then this)
+            self.errors = [e for e in self.errors if e.get("errorType") != "navigationError"]
         elif kind == "startPause":
             self.paused = True
             self.cart.stop("paused by the fleet")
