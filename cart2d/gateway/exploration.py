@@ -56,6 +56,9 @@ class Explorer:
                 progress.sentence = f"exploration gave up after {max_goals} goals"
                 break
             target = choose(found, seen.resolution_m, self.path_length, progress.set_aside)
+            if target is None and self.stopped():  # the choice found why it cannot go on
+                progress.sentence = "exploration stopped by the user"
+                break
             if target is None:
                 aside = len(progress.set_aside)
                 seen_m2 = f"{progress.seen_free_m2:.1f} m² of floor seen"

@@ -26,6 +26,7 @@ from cart2d.gateway.exploration import Explorer, Progress
 from cart2d.gateway.map_saving import NothingSeen, checked_name, seen_map
 from cart2d.gateway.seeing import Seeing
 from cart2d.gateway.state import Mission, PathTooLong, PoseUntrusted, Refused
+from cart2d.gateway.way_out import clearance_m, plan_from
 from cart2d.link import CommandRefused, LinkError, MotionCancelled
 from cart2d.maps.frontiers import Point, frontiers
 from cart2d.maps.occupancy import FREE, OCCUPIED, UNKNOWN, OccupancyMap
@@ -271,7 +272,10 @@ class Exploration:
             goal = self._goal_for(frontier, planner, (x, y))
             if goal is None:
                 return None
-            plan = planner.plan((x, y), goal)
+            plan = plan_from(planner, (x, y), goal, clearance_m())
+        except StartBlocked as exc:  # the cart's fault, not the frontier's: every plan fails
+            self._stopping(f"exploration stopped: {exc}")
+            return math.inf
         except (PlanError, LinkError, CommandRefused):
             return None
         if self._passes_unseen_sides(plan):

@@ -47,6 +47,7 @@ from cart2d.gateway.localisation import Frames
 from cart2d.gateway.restarts import Restarts
 from cart2d.gateway.routine import ResetRoutine
 from cart2d.gateway.state import Mission, MissionEnd, PathTooLong, PoseUntrusted, Routine
+from cart2d.gateway.way_out import clearance_m, plan_from
 from cart2d.link import CommandRefused, Link, LinkError, MotionCancelled, firmware, path_stream
 from cart2d.link.protocol import Reply
 from cart2d.params import robot
@@ -135,7 +136,9 @@ class Missions:
         with self.lock:
             if not self.restarts.pose_trust.trusted:  # a restart noticed meanwhile
                 raise PoseUntrusted(self.restarts.pose_trust.refusal())
-            plan = self._planner().plan((pose[0], pose[1]), (x, y))
+            # a cart that stopped within its clearance of what the camera marked since plans
+            # from the nearest place it may stand (way_out.py), not refused for good
+            plan = plan_from(self._planner(), (pose[0], pose[1]), (x, y), clearance_m())
             if len(plan.waypoints) > path_stream.MAX_PATH_POINTS:
                 raise PathTooLong(
                     f"the path needs {len(plan.waypoints)} waypoints and a firmware path holds at most "

@@ -5,6 +5,7 @@ with no goal sent after it and the map saved."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from types import SimpleNamespace
 from typing import Any
@@ -20,7 +21,7 @@ from cart2d.gateway.exploration_service import (
 from cart2d.gateway.state import Mission
 from cart2d.maps.frontiers import Point
 from cart2d.maps.occupancy import FREE, OCCUPIED, UNKNOWN, OccupancyMap
-from cart2d.planning import PlanError
+from cart2d.planning import PlanError, StartBlocked
 from tests.support.exploration_world import FakeWorld
 
 
@@ -166,3 +167,24 @@ def test_a_way_past_unseen_floor_beside_an_obstacle_is_not_taken() -> None:
     clear = SimpleNamespace(start=(1.9, 0.5), waypoints=((1.9, 1.6),))  # 0.6 m from it
     assert exploration._passes_unseen_sides(beside)  # type: ignore[arg-type]
     assert not exploration._passes_unseen_sides(clear)  # type: ignore[arg-type]
+
+
+def test_a_cart_too_close_to_an_obstacle_stops_it_and_blames_no_frontier() -> None:
+    """Every plan from where the cart stands is refused (perception marked a face's cells within
+    its clearance): that is no frontier's fault. Before, each was set aside as having no path, and
+    exploration 'finished' with unknown floor left (issue 26's CI failure)."""
+    gateway = FakeGateway(FakeWorld())
+
+    def blocked(start: Point, goal: Point) -> SimpleNamespace:
+        raise StartBlocked("the cart's position (0.500, 0.500) is inside an obstacle")
+
+    gateway.plan = blocked  # type: ignore[method-assign]
+    # no way out either: the cart (at 0.5, 0.5) may stand nowhere near where it is
+    gateway.graph = SimpleNamespace(point_free=lambda x, y: math.dist((x, y), (0.5, 0.5)) > 0.1)
+    exploration = gateway.exploration()
+    exploration.start()
+    assert exploration.wait(30)
+    view = exploration.view()
+    assert view["state"] == "stopped", view
+    assert view["sentence"].startswith("exploration stopped: the cart's position (0.500, 0.500)")
+    assert view["set_aside"] == [] and gateway.goals == [] and gateway.saved == ["explored"]
