@@ -403,7 +403,7 @@ class Missions:
         path with it (WAIT_XY_ARRAY: atomic, the speed carried on through the acceleration
         limits); with no path left, stops the cart and fails the mission with the reason (lock
         held). A cart within its clearance of an obstacle (it follows its path within that) is
-        planned from the nearest point of its route."""
+        planned from the nearest point of its route, or else from the nearest place it may stand."""
         mission = self.mission
         goal = mission.goal
         assert goal is not None
@@ -413,7 +413,10 @@ class Missions:
             try:
                 plan = planner.plan(pose, goal)
             except StartBlocked:
-                plan = planner.plan(entry, goal)
+                try:
+                    plan = planner.plan(entry, goal)
+                except StartBlocked:  # the entry too: from the nearest place the cart may stand
+                    plan = plan_from(planner, pose, goal, clearance_m())
             plan = self._rounded(plan, path_stream.MAX_PATH_POINTS)
         except PlanError as exc:
             self._record_replan(mission, reason, time.perf_counter() - started, None, str(exc))
