@@ -98,6 +98,7 @@ class Exploration:
         self._suspect_m = np.zeros((0, 0))
         self._wary: tuple[Planner, Planner] | None = None  # (the planner, it with suspect cells)
         self._legs: dict[Point, tuple[Point, ...]] = {}  # a frontier's way round unseen sides
+        self._round_m: dict[Point, float] = {}  # and its length
         body = robot()["body"]
         self.footprint_m = float(body["footprint_radius_m"]) + float(body["clearance_m"])
         bus.subscribe(StopAsked, lambda e: self._stopping(_stopped_because(e.reason)))
@@ -163,6 +164,7 @@ class Exploration:
         explorer = Explorer(
             seen=self._seen,
             path_length=self._path_length,
+            last_resort=self._round_length,
             go_to=self._go_to,
             stopped=self._stop.is_set,
             save=save,
@@ -205,6 +207,7 @@ class Exploration:
         self._deferred = 0  # a new look, a new choice
         self._wary = None
         self._legs = {}
+        self._round_m = {}
         # unknown floor beside what is seen occupied is likely more of it (a box's unseen side)
         suspect = (cells == UNKNOWN) & ndimage.binary_dilation(
             cells == OCCUPIED, iterations=max(1, round(SUSPECT_M / r))
@@ -283,13 +286,19 @@ class Exploration:
         except (PlanError, LinkError, CommandRefused):
             return None
         if self._passes_unseen_sides(plan):
+            self._deferred += 1
             wary = self._wary_plan(planner, plan.start, goal)
-            if wary is None:
-                self._deferred += 1
-                return math.inf  # not now: a later view may show the side (frontiers.choose)
-            self._legs[frontier] = tuple(wary.waypoints[:-1])
-            return wary.length_m
+            if wary is not None:  # for _round_length, when nothing else is left
+                self._legs[frontier] = tuple(wary.waypoints[:-1])
+                self._round_m[frontier] = wary.length_m
+            return math.inf  # not now: a later view may show the side (frontiers.choose)
         return plan.length_m
+
+    def _round_length(self, frontier: Point) -> float:
+        """The last resort's path length (Explorer.last_resort): the way round the unseen sides
+        _path_length found for a frontier it left out, infinite for the rest (not chosen, not
+        set aside)."""
+        return self._round_m.get(frontier, math.inf)
 
     def _wary_plan(self, planner: Planner, start: Point, goal: Point) -> Plan | None:
         """A way that keeps the cart's footprint and clearance off the unseen floor beside
