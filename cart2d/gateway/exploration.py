@@ -38,6 +38,9 @@ class Explorer:
     save: Callable[[], str]  # writes the map; where, in words
     tell: Callable[[Progress], None] = lambda progress: None
     clock: Callable[[], float] = time.monotonic
+    # path lengths for a second choice when the first finds none (a way it left out as unsafe
+    # for now, taken rather than ending with floor unseen); None: no second choice
+    last_resort: Callable[[Point], float | None] | None = None
 
     def run(self, max_goals: int = MAX_GOALS) -> Progress:
         progress = Progress()
@@ -56,6 +59,11 @@ class Explorer:
                 progress.sentence = f"exploration gave up after {max_goals} goals"
                 break
             target = choose(found, seen.resolution_m, self.path_length, progress.set_aside)
+            if target is None and self.last_resort is not None:
+                target = choose(found, seen.resolution_m, self.last_resort, progress.set_aside)
+            if target is None and self.stopped():  # the choice found why it cannot go on
+                progress.sentence = "exploration stopped by the user"
+                break
             if target is None:
                 aside = len(progress.set_aside)
                 seen_m2 = f"{progress.seen_free_m2:.1f} m² of floor seen"

@@ -26,6 +26,7 @@ from cart2d.gateway.exploration import Explorer, Progress
 from cart2d.gateway.map_saving import NothingSeen, checked_name, seen_map
 from cart2d.gateway.seeing import Seeing
 from cart2d.gateway.state import Mission, PathTooLong, PoseUntrusted, Refused
+from cart2d.gateway.way_out import clearance_m, plan_from
 from cart2d.link import CommandRefused, LinkError, MotionCancelled
 from cart2d.maps.frontiers import Point, frontiers
 from cart2d.maps.occupancy import FREE, OCCUPIED, UNKNOWN, OccupancyMap
@@ -95,6 +96,9 @@ class Exploration:
         self._deferred = 0  # frontiers left out of the last choice: their way passes unseen sides
         self._last_seen: OccupancyMap | None = None  # _seen()'s, and what it makes
         self._suspect_m = np.zeros((0, 0))
+        self._wary: tuple[Planner, Planner] | None = None  # (the planner, it with suspect cells)
+        self._legs: dict[Point, tuple[Point, ...]] = {}  # a frontier's way round unseen sides
+        self._round_m: dict[Point, float] = {}  # and its length
         body = robot()["body"]
         self.footprint_m = float(body["footprint_radius_m"]) + float(body["clearance_m"])
         bus.subscribe(StopAsked, lambda e: self._stopping(_stopped_because(e.reason)))
@@ -160,6 +164,7 @@ class Exploration:
         explorer = Explorer(
             seen=self._seen,
             path_length=self._path_length,
+            last_resort=self._round_length,
             go_to=self._go_to,
             stopped=self._stop.is_set,
             save=save,
@@ -200,6 +205,9 @@ class Exploration:
         cells[outside_y[:, None] | outside_x[None, :]] = OCCUPIED
         self._last_seen = OccupancyMap(seen.origin_m, r, cells)
         self._deferred = 0  # a new look, a new choice
+        self._wary = None
+        self._legs = {}
+        self._round_m = {}
         # unknown floor beside what is seen occupied is likely more of it (a box's unseen side)
         suspect = (cells == UNKNOWN) & ndimage.binary_dilation(
             cells == OCCUPIED, iterations=max(1, round(SUSPECT_M / r))
@@ -271,13 +279,56 @@ class Exploration:
             goal = self._goal_for(frontier, planner, (x, y))
             if goal is None:
                 return None
-            plan = planner.plan((x, y), goal)
+            plan = plan_from(planner, (x, y), goal, clearance_m())
+        except StartBlocked as exc:  # the cart's fault, not the frontier's: every plan fails
+            self._stopping(f"exploration stopped: {exc}")
+            return math.inf
         except (PlanError, LinkError, CommandRefused):
             return None
         if self._passes_unseen_sides(plan):
             self._deferred += 1
+            wary = self._wary_plan(planner, plan.start, goal)
+            if wary is not None:  # for _round_length, when nothing else is left
+                self._legs[frontier] = tuple(wary.waypoints[:-1])
+                self._round_m[frontier] = wary.length_m
             return math.inf  # not now: a later view may show the side (frontiers.choose)
         return plan.length_m
+
+    def _round_length(self, frontier: Point) -> float:
+        """The last resort's path length (Explorer.last_resort): the way round the unseen sides
+        _path_length found for a frontier it left out, infinite for the rest (not chosen, not
+        set aside)."""
+        return self._round_m.get(frontier, math.inf)
+
+    def _wary_plan(self, planner: Planner, start: Point, goal: Point) -> Plan | None:
+        """A way that keeps the cart's footprint and clearance off the unseen floor beside
+        obstacles too (a box's unseen side may be there), None if there is none: the shortest
+        way hugs every obstacle, so without it a frontier behind a box waited for a view that
+        never came, and exploration ended with the floor behind unseen."""
+        if self._wary is None or self._wary[0] is not planner:
+            wary = Planner(
+                planner.grid,
+                planner.footprint_radius_m,
+                planner.obstacles,
+                planner.blocked,
+                planner.outside_blocked,
+                planner.start_slack_m,
+                planner.kinds,
+            )
+            seen = self._last_seen
+            nodes = set(wary.obstacles)
+            if seen is not None:
+                r = seen.resolution_m
+                for j, i in zip(*np.nonzero(self._suspect_m == 0), strict=True):
+                    x, y = seen.origin_m[0] + (i + 0.5) * r, seen.origin_m[1] + (j + 0.5) * r
+                    if wary.grid.on_map(x, y):
+                        nodes.add(wary.grid.nearest_node(x, y))
+            wary.set_obstacles(nodes)
+            self._wary = (planner, wary)
+        try:
+            return self._wary[1].plan(start, goal)
+        except PlanError:
+            return None
 
     def _go_to(self, frontier: Point) -> str:
         """Drives to the frontier (the nearest place to it the cart may stand): "" once there
@@ -291,6 +342,24 @@ class Exploration:
             goal = self._goal_for(frontier, self.drive.planner(), (x, y))
             if goal is None:
                 return f"no place the cart may stand within {VIEW_M} m of it"
+        except (LinkError, CommandRefused) as exc:
+            self._stopping(f"exploration stopped: the cart did not take its goal ({exc})")
+            return ""
+        for leg in self._legs.get(frontier, ()):  # round the unseen sides, a corner at a time
+            why_not = self._drive_to(leg, token)
+            if why_not or self._stop.is_set():
+                return why_not
+        why_not = self._drive_to(goal, token)
+        if why_not or self._stop.is_set():
+            return why_not
+        if self._still_a_frontier(frontier):  # explore_lite's goal sent again and again
+            return f"looked at from ({goal[0]:.2f}, {goal[1]:.2f}), and still unseen beyond"
+        return ""
+
+    def _drive_to(self, goal: Point, token: int) -> str:
+        """One mission to `goal`: "" once there (or stopped), else why not."""
+        self._mission_ended.clear()
+        try:
             self.drive.go_to(goal[0], goal[1], token)
         except MotionCancelled:
             return ""
@@ -318,8 +387,6 @@ class Exploration:
             return ""
         if mission.state != "arrived":
             return mission.reason or "the mission failed"
-        if self._still_a_frontier(frontier):  # explore_lite's goal sent again and again
-            return f"looked at from ({goal[0]:.2f}, {goal[1]:.2f}), and still unseen beyond"
         return ""
 
     # -- progress ------------------------------------------------------------------------------

@@ -47,6 +47,7 @@ from cart2d.gateway.localisation import Frames
 from cart2d.gateway.restarts import Restarts
 from cart2d.gateway.routine import ResetRoutine
 from cart2d.gateway.state import Mission, MissionEnd, PathTooLong, PoseUntrusted, Routine
+from cart2d.gateway.way_out import clearance_m, plan_from
 from cart2d.link import CommandRefused, Link, LinkError, MotionCancelled, firmware, path_stream
 from cart2d.link.protocol import Reply
 from cart2d.params import robot
@@ -135,7 +136,9 @@ class Missions:
         with self.lock:
             if not self.restarts.pose_trust.trusted:  # a restart noticed meanwhile
                 raise PoseUntrusted(self.restarts.pose_trust.refusal())
-            plan = self._planner().plan((pose[0], pose[1]), (x, y))
+            # a cart that stopped within its clearance of what the camera marked since plans
+            # from the nearest place it may stand (way_out.py), not refused for good
+            plan = plan_from(self._planner(), (pose[0], pose[1]), (x, y), clearance_m())
             if len(plan.waypoints) > path_stream.MAX_PATH_POINTS:
                 raise PathTooLong(
                     f"the path needs {len(plan.waypoints)} waypoints and a firmware path holds at most "
@@ -400,7 +403,7 @@ class Missions:
         path with it (WAIT_XY_ARRAY: atomic, the speed carried on through the acceleration
         limits); with no path left, stops the cart and fails the mission with the reason (lock
         held). A cart within its clearance of an obstacle (it follows its path within that) is
-        planned from the nearest point of its route."""
+        planned from the nearest point of its route, or else from the nearest place it may stand."""
         mission = self.mission
         goal = mission.goal
         assert goal is not None
@@ -410,7 +413,10 @@ class Missions:
             try:
                 plan = planner.plan(pose, goal)
             except StartBlocked:
-                plan = planner.plan(entry, goal)
+                try:
+                    plan = planner.plan(entry, goal)
+                except StartBlocked:  # the entry too: from the nearest place the cart may stand
+                    plan = plan_from(planner, pose, goal, clearance_m())
             plan = self._rounded(plan, path_stream.MAX_PATH_POINTS)
         except PlanError as exc:
             self._record_replan(mission, reason, time.perf_counter() - started, None, str(exc))

@@ -48,3 +48,28 @@ def test_a_goal_the_cart_fails_to_reach_is_not_sent_again() -> None:
     progress = Explorer(world.seen, world.path_length, refuse, lambda: False, lambda: "saved").run()
     assert len(sent) == len(set(sent)) and progress.set_aside
     assert "no reachable frontier left" in progress.sentence
+
+
+def test_a_way_left_out_for_now_is_taken_as_the_last_resort() -> None:
+    """Every way through the door is 'not now' (math.inf: it passes a box's unseen side): the
+    first choice finds nothing, and the last resort's lengths are chosen then, not the end."""
+    world = FakeWorld()
+
+    def not_now_beyond_the_door(p: Point) -> float | None:
+        return float("inf") if p[0] > 1.5 else world.path_length(p)
+
+    progress = Explorer(
+        world.seen,
+        not_now_beyond_the_door,
+        world.go_to,
+        lambda: False,
+        lambda: "saved",
+        last_resort=world.path_length,
+    ).run()
+    beyond = world.truth == FREE
+    beyond[:, :16] = False
+    beyond[20:30, 22:30] = False  # the pocket
+    assert (world.seen_cells[beyond] == FREE).all(), progress.sentence
+    without = FakeWorld()
+    Explorer(without.seen, not_now_beyond_the_door, without.go_to, lambda: False, lambda: "saved").run()
+    assert not (without.seen_cells[beyond] == FREE).all()  # what the last resort adds

@@ -5,6 +5,7 @@ with no goal sent after it and the map saved."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from types import SimpleNamespace
 from typing import Any
@@ -20,7 +21,7 @@ from cart2d.gateway.exploration_service import (
 from cart2d.gateway.state import Mission
 from cart2d.maps.frontiers import Point
 from cart2d.maps.occupancy import FREE, OCCUPIED, UNKNOWN, OccupancyMap
-from cart2d.planning import PlanError
+from cart2d.planning import Grid, PlanError, StartBlocked
 from tests.support.exploration_world import FakeWorld
 
 
@@ -58,6 +59,11 @@ class FakeGateway:
         self.mission.state, self.mission.reason = "failed", "stopped by the user"
 
     graph = SimpleNamespace(point_free=lambda x, y: True)  # the planner's: any place will do
+    # what exploration copies of the planner for a way round unseen sides (a real Planner's)
+    grid = Grid(cols=31, rows=31, step_m=0.1)
+    footprint_radius_m = 0.2
+    obstacles: frozenset[tuple[int, int]] = frozenset()
+    blocked, outside_blocked, start_slack_m, kinds = None, False, 0.0, None
 
     def plan(self, start: Point, goal: Point) -> SimpleNamespace:
         """The planner's: the fake world's path length, PlanError where it has none."""
@@ -166,3 +172,42 @@ def test_a_way_past_unseen_floor_beside_an_obstacle_is_not_taken() -> None:
     clear = SimpleNamespace(start=(1.9, 0.5), waypoints=((1.9, 1.6),))  # 0.6 m from it
     assert exploration._passes_unseen_sides(beside)  # type: ignore[arg-type]
     assert not exploration._passes_unseen_sides(clear)  # type: ignore[arg-type]
+
+
+def test_a_cart_too_close_to_an_obstacle_stops_it_and_blames_no_frontier() -> None:
+    """Every plan from where the cart stands is refused (perception marked a face's cells within
+    its clearance): that is no frontier's fault. Before, each was set aside as having no path, and
+    exploration 'finished' with unknown floor left (issue 26's CI failure)."""
+    gateway = FakeGateway(FakeWorld())
+
+    def blocked(start: Point, goal: Point) -> SimpleNamespace:
+        raise StartBlocked("the cart's position (0.500, 0.500) is inside an obstacle")
+
+    gateway.plan = blocked  # type: ignore[method-assign]
+    # no way out either: the cart (at 0.5, 0.5) may stand nowhere near where it is
+    gateway.graph = SimpleNamespace(point_free=lambda x, y: math.dist((x, y), (0.5, 0.5)) > 0.1)
+    exploration = gateway.exploration()
+    exploration.start()
+    assert exploration.wait(30)
+    view = exploration.view()
+    assert view["state"] == "stopped", view
+    assert view["sentence"].startswith("exploration stopped: the cart's position (0.500, 0.500)")
+    assert view["set_aside"] == [] and gateway.goals == [] and gateway.saved == ["explored"]
+
+
+def test_a_frontier_behind_unseen_sides_is_reached_round_them_when_a_wider_way_exists() -> None:
+    """The shortest way hugs the box; waiting for a view of its side that never came ended
+    exploration with the floor behind the box unseen (issue 26's 0.94 share): when no other
+    frontier is left, the way round it is taken (Explorer.last_resort)."""
+    world = FakeWorld()
+    world.seen_cells[:, :] = FREE
+    world.seen_cells[10, 10:13] = OCCUPIED  # the face seen, y 1.0-1.1 m, x 1.0-1.3 m
+    world.seen_cells[11:14, 10:13] = UNKNOWN  # behind it, never seen
+    world.at = (1.4, 0.5)
+    exploration = FakeGateway(world).exploration()
+    exploration._seen()
+    length = exploration._path_length((1.4, 1.6))  # straight on: 0.1 m past the unseen side
+    assert length == math.inf  # left out of the first choice: another frontier may show the side
+    assert 1.1 < exploration._round_length((1.4, 1.6)) < 2.0  # the last resort's, when none does
+    legs = exploration._legs[(1.4, 1.6)]
+    assert legs and all(x >= 1.45 - 1e-9 for x, _ in legs)  # a corner 0.2 m clear of it

@@ -8,6 +8,7 @@ import pytest
 from cart2d.gateway import Gateway, PoseUntrusted
 from cart2d.gateway.bus import Event, MapChanged, MissionEnded, MissionStarted, PoseCorrected, Restarted
 from cart2d.link import MotionCancelled
+from cart2d.planning import StartBlocked
 from tests.support.fake_firmware import FakeFirmware
 
 ACROSS = [(1.0, 0.6), (1.0, 0.8), (1.0, 1.0)]  # three nodes across the straight route at y = 0.8
@@ -143,3 +144,33 @@ def test_the_plan_stays_an_object_in_the_mission_and_is_rendered_in_its_view(gat
     assert gateway.mission.plan is plan
     view = gateway.mission_view()["plan"]
     assert view["waypoints"] == [list(p) for p in plan.waypoints] and view["length_m"] == pytest.approx(1.4)
+
+
+def test_a_cart_within_its_clearance_of_an_obstacle_still_takes_a_goal(
+    gateway: Gateway, cart: FakeFirmware
+) -> None:
+    """Perception may mark a face a cell nearer than it is after the cart stopped beside it: the
+    cart's body clears it, so the plan starts at the nearest place the cart may stand
+    (way_out.py), a short straight move, and not refused for good; one deeper is refused."""
+    gateway.change_obstacles([(0.6, 0.8)], [], "a box")  # its square spans x 0.5-0.7
+    cart.pose = [0.31, 0.8, 0.0]  # 0.19 m from it: within footprint and clearance (0.2 m)
+    plan = gateway.go_to(0.2, 0.2)
+    assert 0.0 < abs(complex(*plan.start) - complex(0.31, 0.8)) <= 0.03 + 1e-9
+    assert cart.path[-1] == pytest.approx((0.2, 0.2))
+    gateway.stop()
+    cart.pose = [0.36, 0.8, 0.0]  # 0.14 m from it: inside the footprint
+    with pytest.raises(StartBlocked):
+        gateway.go_to(0.2, 0.2)
+
+
+def test_a_replan_from_within_the_clearance_goes_on_from_the_nearest_place_to_stand(
+    gateway: Gateway, cart: FakeFirmware
+) -> None:
+    """The CI's 'no path remains: the cart's position is ... too close' (issue 26): a face marked
+    0.19 m beside the driving cart blocked both its position and its route's entry."""
+    gateway.go_to(1.6, 0.8)
+    cart.pose = [0.31, 0.89, 0.0]  # 0.09 m off its route, 0.19 m from the box's square (y 0.5-0.7)
+    gateway.change_obstacles([(0.4, 0.6), *ACROSS], [], "a box beside, a wall across")
+    (replan,) = gateway.mission.replans
+    assert replan.outcome == "replanned", replan
+    assert gateway.mission_view()["state"] == "driving" and cart.path[-1] == pytest.approx((1.6, 0.8))
