@@ -11,7 +11,7 @@ import pytest
 from cart2d.localisation import tags
 from cart2d.localisation.markers import Marker, dictionary
 from cart2d.localisation.tags import Sighting, TagDetector
-from tests.localisation.test_tags import CASES, Pose, draw
+from tests.support.tags import CASES, Pose, draw
 
 
 @pytest.mark.parametrize(("pose", "marker"), CASES)
