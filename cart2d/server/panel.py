@@ -31,6 +31,9 @@ refresh(); setInterval(refresh, 1000);
 """
 
 
+FLEET_PAGES = ("/fleet.html", "/fleet")  # built with the panel (web/fleet.html), served by `cart2d fleet`
+
+
 class PanelFiles(StaticFiles):
     """The panel's files, mounted at / after the API. The API keeps its own answers: a wrong
     method on an API path is a 405 with its Allow (not a missing file), an unknown /api/ path a
@@ -48,8 +51,8 @@ class PanelFiles(StaticFiles):
         if any(route.matches(scope)[0] is Match.PARTIAL for route in routes):
             raise StarletteHTTPException(405)  # the app's handler lists the allowed methods
         path: str = scope["path"]
-        if path == "/api" or path.startswith("/api/"):
-            raise StarletteHTTPException(404)
+        if path == "/api" or path.startswith("/api/") or path in FLEET_PAGES:
+            raise StarletteHTTPException(404)  # the fleet page is the fleet manager's, not a cart's
         if scope["method"] not in ("GET", "HEAD"):
             response = JSONResponse({"detail": "Method Not Allowed"}, 405, headers={"Allow": "GET, HEAD"})
             await response(scope, receive, send)
