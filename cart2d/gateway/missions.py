@@ -354,7 +354,8 @@ class Missions:
             mission = self.mission
             if mission.state == "driving" and mission.route:
                 # a route the correction hardly moved is only checked (correction_resend.py)
-                moved = worth_resending(mission.route, self._route_sent_with, event.map_to_odom)
+                cart = event.pose[:2] if event.pose is not None else None
+                moved = worth_resending(mission.route, self._route_sent_with, event.map_to_odom, cart)
                 self._check_route(f"the pose was corrected ({event.how})", always=moved)
 
     def _check_route(self, why: str, always: bool = False) -> None:

@@ -16,7 +16,7 @@ from cart2d.gateway.bus import Event, PoseCorrected, ViewerMessage
 from cart2d.gateway.camera import CameraFeed
 from cart2d.gateway.localisation import Localisation
 from cart2d.gateway.messages import LocalisationMessage, TelemetryMessage
-from cart2d.localisation.ekf import Pose2, to_odom
+from cart2d.localisation.ekf import Pose2
 from cart2d.localisation.markers import MarkerMap, arena_markers
 from cart2d.localisation.tags import TagFix
 from cart2d.perception.camera_model import Intrinsics, Mount
@@ -102,20 +102,19 @@ def test_a_correction_during_a_mission_resends_its_route_in_odom(
     sent = cart.requests.count("WAIT_XY_ARRAY")
     cart.mode = "PATH"
     drive(gateway, clock, (0.2, 0.8, 0.0))
-    # a marker says the cart faces 3 degrees further left than odometry counted: the goal, 1.4 m
-    # ahead, is centimetres off in odom
-    assert service.fuse(fix_at((0.2, 0.8, math.radians(3.0))), (0.2, 0.8, 0.0), (0.2, 0.8, 0.0)) == "accepted"
-    m2o = gateway.frames.get()
-    assert math.radians(1.0) < m2o[2] < math.radians(3.0)
+    # a marker says the cart is 4 cm further on than odometry counted
+    assert service.fuse(fix_at((0.24, 0.8, 0.0)), (0.2, 0.8, 0.0), (0.2, 0.8, 0.0)) == "accepted"
+    shift = gateway.frames.get()[0]
+    assert 0.01 < shift < 0.04
     assert cart.requests.count("WAIT_XY_ARRAY") == sent + 1
-    assert cart.path[-1] == pytest.approx(to_odom(m2o, (1.6, 0.8, 0.0))[:2])
+    assert cart.path[-1] == pytest.approx((1.6 - shift, 0.8))
     assert gateway.mission_view()["replans"][-1]["reason"].startswith("the pose was corrected")
 
 
 def test_a_correction_that_moves_the_route_by_a_centimetre_keeps_it(
     gateway: Gateway, cart: FakeFirmware, service: Localisation, clock: Clock
 ) -> None:
-    """Re-sent, the route would turn the cart on the spot to close a centimetre near its goal
+    """Near its goal: re-sent, the route would turn the cart on the spot to close a centimetre
     (cart2d/gateway/correction_resend.py)."""
     drive(gateway, clock, (1.5, 0.8, 0.0))
     gateway.go_to(1.6, 0.8)
