@@ -42,6 +42,7 @@ from cart2d.gateway.bus import (
     StopAsked,
     ViewerMessage,
 )
+from cart2d.gateway.correction_resend import worth_resending
 from cart2d.gateway.live_map import Replan, RouteAhead
 from cart2d.gateway.localisation import Frames
 from cart2d.gateway.restarts import Restarts
@@ -105,6 +106,7 @@ class Missions:
         self.mission = Mission()
         self._stream: path_stream.PathStream | None = None  # the mission's path, streamed to the firmware
         self._frames_at_route = 0  # telemetry frames received when the last route was sent
+        self._route_sent_with = self.frames.get()  # the map -> odom the last route was sent with
         self.looks_turned = 0  # turns on the spot to look before a route left (look.py)
         # (mission, routine) of each stop answered, to record as ended under the lock (stop())
         self._stops_to_record: list[tuple[Mission, Routine, str]] = []
@@ -169,6 +171,7 @@ class Missions:
         new one (docs/protocol.md, Paths and the waypoint window)."""
         self.cancel_stream()
         self._forwards_only(True)
+        self._route_sent_with = self.frames.get()
         waypoints = self.frames.to_odom_points(plan.waypoints)
         self._stream = path_stream.upload_path(self.link, waypoints, token)
         self._frames_at_route = self.link.telemetry_count
@@ -351,8 +354,12 @@ class Missions:
         if event.map_to_odom is None:
             return  # the user's SET_POSE: odometry is map's again, the route's odom points too
         with self.lock:
-            if self.mission.state == "driving" and self.mission.route:
-                self._check_route(f"the pose was corrected ({event.how})", always=True)
+            mission = self.mission
+            if mission.state == "driving" and mission.route:
+                # a route the correction hardly moved is only checked (correction_resend.py)
+                cart = event.pose[:2] if event.pose is not None else None
+                moved = worth_resending(mission.route, self._route_sent_with, event.map_to_odom, cart)
+                self._check_route(f"the pose was corrected ({event.how})", always=moved)
 
     def _check_route(self, why: str, always: bool = False) -> None:
         """Checks the rest of the driven route against the map now (the planner's own check:

@@ -3,7 +3,10 @@ on, the gateway's pose against the simulator's truth at each goal: the test of a
 wheel slip, a kidnapped start, and the bench's "localisation and mapping" (bench/localisation.py).
 
 The camera and the localisation run in wall-clock time, so the simulator runs in real time while
-they see (as `cart2d mission` with perception does), in lockstep with the camera's processing."""
+they see (as `cart2d mission` with perception does), in lockstep with the camera's processing.
+Not at full speed, as exploration does: a fix's capture is the frame's arrival on the gateway's
+clock minus the camera's latency (gateway/localisation.py), so at full speed its odometry pose is
+off by up to the lockstep's two frames of motion (tried: fixes doubted, the pose 33 mm off)."""
 
 from __future__ import annotations
 

@@ -111,6 +111,22 @@ def test_a_correction_during_a_mission_resends_its_route_in_odom(
     assert gateway.mission_view()["replans"][-1]["reason"].startswith("the pose was corrected")
 
 
+def test_a_correction_that_moves_the_route_by_a_centimetre_keeps_it(
+    gateway: Gateway, cart: FakeFirmware, service: Localisation, clock: Clock
+) -> None:
+    """Near its goal: re-sent, the route would turn the cart on the spot to close a centimetre
+    (cart2d/gateway/correction_resend.py)."""
+    drive(gateway, clock, (1.5, 0.8, 0.0))
+    gateway.go_to(1.6, 0.8)
+    sent = cart.requests.count("WAIT_XY_ARRAY")
+    cart.mode = "PATH"
+    drive(gateway, clock, (1.58, 0.8, 0.0))
+    # a marker says the cart is 2 cm further on than odometry counted: the goal lies behind it
+    assert service.fuse(fix_at((1.6, 0.8, 0.0)), (1.58, 0.8, 0.0), (1.58, 0.8, 0.0)) == "accepted"
+    assert 0.005 < gateway.frames.get()[0] < 0.03
+    assert cart.requests.count("WAIT_XY_ARRAY") == sent and not gateway.mission_view()["replans"]
+
+
 def test_a_fix_far_from_the_prediction_is_doubted_and_changes_nothing(
     gateway: Gateway, cart: FakeFirmware, service: Localisation, clock: Clock
 ) -> None:

@@ -24,6 +24,11 @@ def test_goals_with_wheel_slip_end_with_the_pose_at_the_truth() -> None:
     assert all(g["reached"] for g in goals), goals
     assert goals[-1]["odometry_error_m"] > 0.08  # the slip is real: odometry alone is off by this
     for g in goals:
+        # The heading at a goal is the last fix's (under 1 degree at rest) plus 2.5 % of what the
+        # cart turned since (the slipping wheel): at most 4.5 degrees for the half turn a route
+        # re-sent at its goal can make. A correction of under 3 cm there no longer re-sends it
+        # (cart2d/gateway/correction_resend.py): 0.4 to 2.1 degrees in 8 runs on a loaded
+        # machine, where 0.2 to 2.4 were measured before, 3.0 unloaded and 5.1 on CI.
         assert g["pose_error_m"] < 0.03 and g["heading_error_deg"] < 5.0, g
         assert g["goal_error_m"] < 0.05, g
     assert report["collisions"] == 0
