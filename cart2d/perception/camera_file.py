@@ -5,6 +5,10 @@ optionally the detector's maximum range):
 
     {"width_px": 320, "height_px": 240, "hfov_deg": 55, "height_m": 0.25, "pitch_deg": 32,
      "max_range_m": 1.25}
+
+Either kind may also set the floor patch the detector learns the floor from (DETECTOR_KEYS,
+metres: `patch_depth_m`, `patch_half_width_m`): the cart's patch, 0.15 m deep, is a handful of
+rows of a camera a few centimetres above the floor.
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ from cart2d.perception.detection import Detection, DetectorConfig, ObstacleDetec
 from cart2d.perception.parallax import ParallaxCue
 
 NOMINAL_KEYS = ("width_px", "height_px", "hfov_deg", "height_m", "pitch_deg")
+DETECTOR_KEYS = ("max_range_m", "patch_depth_m", "patch_half_width_m")
 
 
 @dataclasses.dataclass
@@ -40,9 +45,13 @@ def load_camera(path: Path) -> Camera:
         raise ValueError(f"{path}: cannot read it as JSON ({exc})") from exc
     if not isinstance(d, dict):
         raise ValueError(f"{path}: a camera file is a JSON object")
-    config = DetectorConfig()
-    if "max_range_m" in d:
-        config = dataclasses.replace(config, max_range_m=float(d["max_range_m"]))
+    try:
+        settings = {k: float(d[k]) for k in DETECTOR_KEYS if k in d}
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{path}: {', '.join(DETECTOR_KEYS)} are numbers ({exc})") from exc
+    if any(not value > 0 for value in settings.values()):
+        raise ValueError(f"{path}: {', '.join(DETECTOR_KEYS)} must be above 0")
+    config = dataclasses.replace(DetectorConfig(), **settings)
     if "version" in d:
         calibration = CameraCalibration.from_json(json.dumps(d))
         robot = Mount.from_robot()
