@@ -51,7 +51,9 @@ def load_camera(path: Path) -> Camera:
         raise ValueError(f"{path}: {', '.join(DETECTOR_KEYS)} are numbers ({exc})") from exc
     if any(not value > 0 for value in settings.values()):
         raise ValueError(f"{path}: {', '.join(DETECTOR_KEYS)} must be above 0")
-    config = dataclasses.replace(DetectorConfig(), **settings)
+    config = DetectorConfig()
+    for key, value in settings.items():
+        config = dataclasses.replace(config, **{key: value})  # type: ignore[arg-type]  # floats all
     if "version" in d:
         calibration = CameraCalibration.from_json(json.dumps(d))
         robot = Mount.from_robot()
