@@ -26,6 +26,10 @@ from cart2d.perception.camera_model import Mount
 from cart2d.perception.detection import Detection, DetectorConfig, ObstacleDetector
 from cart2d.perception.parallax import ParallaxCue
 
+# With no odometry the floor's homography is fitted on corners of the pictures' lower half (the
+# floor nearest the camera): a fit that leaves more than this share of that half unexplained has
+# locked on something else (a periodic mat, motion blur), and the parallax cue then says nothing.
+MAX_UNEXPLAINED_NEAR_FLOOR = 0.1
 NOMINAL_KEYS = ("width_px", "height_px", "hfov_deg", "height_m", "pitch_deg")
 DETECTOR_KEYS = ("max_range_m", "patch_depth_m", "patch_half_width_m")
 
@@ -108,11 +112,15 @@ def detect_pair(
     before: npt.NDArray[np.uint8] | None,
 ) -> Detection:
     """One picture, with the parallax cue against `before` when there is one (the floor's
-    homography fitted on the two pictures)."""
+    homography fitted on the two pictures, and dropped if it does not explain the near floor it
+    was fitted on)."""
     off_plane = None
     if before is not None:
         earlier, later = parallax.prepare(before), parallax.prepare(image)
         fitted = parallax.refine(earlier, later, None)
         if fitted is not None:
             off_plane = parallax.off_plane(earlier, later, fitted)
+            near_floor = off_plane[off_plane.shape[0] // 2 :]
+            if float(near_floor.mean()) > MAX_UNEXPLAINED_NEAR_FLOOR:
+                off_plane = None
     return detector.detect(image, off_plane)

@@ -57,3 +57,30 @@ def test_a_camera_file_may_set_the_floor_patch(tmp_path: Path) -> None:
     path.write_text("{" + nominal + ', "patch_depth_m": -1}', encoding="utf-8")
     with pytest.raises(ValueError, match="must be above 0"):
         load_camera(path)
+
+
+def test_a_fitted_floor_that_does_not_line_up_near_the_camera_is_not_used() -> None:
+    import numpy as np
+
+    from cart2d.perception.camera_file import detect_pair
+
+    class Fit:  # stands for ParallaxCue: a fit that explains all of the floor, or none of it
+        def __init__(self, explains: bool) -> None:
+            self.explains = explains
+
+        def prepare(self, bgr: np.ndarray) -> np.ndarray:
+            return bgr[..., 0]
+
+        def refine(self, earlier: np.ndarray, later: np.ndarray, predicted: None) -> np.ndarray:
+            return np.eye(3)
+
+        def off_plane(self, earlier: np.ndarray, later: np.ndarray, homography: np.ndarray) -> np.ndarray:
+            return np.full(earlier.shape, not self.explains)
+
+    class Detector:
+        def detect(self, image: np.ndarray, off_plane: np.ndarray | None) -> np.ndarray | None:
+            return off_plane
+
+    picture = np.zeros((96, 256, 3), np.uint8)
+    assert detect_pair(Detector(), Fit(True), picture, picture) is not None  # type: ignore[arg-type]
+    assert detect_pair(Detector(), Fit(False), picture, picture) is None  # type: ignore[arg-type]
