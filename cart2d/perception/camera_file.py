@@ -5,6 +5,10 @@ optionally the detector's maximum range):
 
     {"width_px": 320, "height_px": 240, "hfov_deg": 55, "height_m": 0.25, "pitch_deg": 32,
      "max_range_m": 1.25}
+
+Either kind may also set the floor patch the detector learns the floor from (DETECTOR_KEYS,
+metres: `patch_depth_m`, `patch_half_width_m`): the cart's patch, 0.15 m deep, is a handful of
+rows of a camera a few centimetres above the floor.
 """
 
 from __future__ import annotations
@@ -22,7 +26,12 @@ from cart2d.perception.camera_model import Mount
 from cart2d.perception.detection import Detection, DetectorConfig, ObstacleDetector
 from cart2d.perception.parallax import ParallaxCue
 
+# With no odometry the floor's homography is fitted on corners of the pictures' lower half (the
+# floor nearest the camera): a fit that leaves more than this share of that half unexplained has
+# locked on something else (a periodic mat, motion blur), and the parallax cue then says nothing.
+MAX_UNEXPLAINED_NEAR_FLOOR = 0.1
 NOMINAL_KEYS = ("width_px", "height_px", "hfov_deg", "height_m", "pitch_deg")
+DETECTOR_KEYS = ("max_range_m", "patch_depth_m", "patch_half_width_m")
 
 
 @dataclasses.dataclass
@@ -40,9 +49,15 @@ def load_camera(path: Path) -> Camera:
         raise ValueError(f"{path}: cannot read it as JSON ({exc})") from exc
     if not isinstance(d, dict):
         raise ValueError(f"{path}: a camera file is a JSON object")
+    try:
+        settings = {k: float(d[k]) for k in DETECTOR_KEYS if k in d}
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{path}: {', '.join(DETECTOR_KEYS)} are numbers ({exc})") from exc
+    if any(not value > 0 for value in settings.values()):
+        raise ValueError(f"{path}: {', '.join(DETECTOR_KEYS)} must be above 0")
     config = DetectorConfig()
-    if "max_range_m" in d:
-        config = dataclasses.replace(config, max_range_m=float(d["max_range_m"]))
+    for key, value in settings.items():
+        config = dataclasses.replace(config, **{key: value})  # type: ignore[arg-type]  # floats all
     if "version" in d:
         calibration = CameraCalibration.from_json(json.dumps(d))
         robot = Mount.from_robot()
@@ -97,11 +112,15 @@ def detect_pair(
     before: npt.NDArray[np.uint8] | None,
 ) -> Detection:
     """One picture, with the parallax cue against `before` when there is one (the floor's
-    homography fitted on the two pictures)."""
+    homography fitted on the two pictures, and dropped if it does not explain the near floor it
+    was fitted on)."""
     off_plane = None
     if before is not None:
         earlier, later = parallax.prepare(before), parallax.prepare(image)
         fitted = parallax.refine(earlier, later, None)
         if fitted is not None:
             off_plane = parallax.off_plane(earlier, later, fitted)
+            near_floor = off_plane[off_plane.shape[0] // 2 :]
+            if float(near_floor.mean()) > MAX_UNEXPLAINED_NEAR_FLOOR:
+                off_plane = None
     return detector.detect(image, off_plane)

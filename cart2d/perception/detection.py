@@ -40,6 +40,17 @@ from cart2d.perception.floor_model import FloorModel, FloorModelConfig, chromati
 
 BoolImage = npt.NDArray[np.bool_]
 
+# The cleaning's sizes in pixels (open_px, close_px, solid_samples) are given for a picture this
+# tall (QVGA) and scaled with the picture's height: a speck or a thin leg spans fewer rows of a
+# smaller picture, and a 5-row opening would erase a whole obstacle near the horizon of a
+# 96-row one.
+QVGA_HEIGHT = 240
+
+
+def scaled_px(size_px: int, height_px: int, least: int) -> int:
+    """`size_px` (at QVGA_HEIGHT) for a picture `height_px` tall, at least `least`; never larger."""
+    return max(least, min(size_px, round(size_px * height_px / QVGA_HEIGHT)))
+
 
 @dataclass(frozen=True)
 class DetectorConfig:
@@ -107,10 +118,12 @@ class ObstacleDetector:
         self._scan_lines()
         k = self.config
         self.floor_model = FloorModel(k.floor)
-        self.open_kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (1, k.open_px))
-        self.close_kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k.close_px, k.close_px))
+        height = lens.height
+        open_px, close_px = scaled_px(k.open_px, height, 3), scaled_px(k.close_px, height, 3)
+        self.open_kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (1, open_px))
+        self.close_kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (close_px, close_px))
         self.guard_kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (k.guard_px, k.guard_px))
-        self.solid_kernel = np.ones((k.solid_samples, 1), np.uint8)
+        self.solid_kernel = np.ones((scaled_px(k.solid_samples, height, 2), 1), np.uint8)
 
     def _ground_raw(self, u: FloatArray, v: FloatArray) -> tuple[FloatArray, BoolImage]:
         xy, ok = self.calibration.pixels_to_ground(np.column_stack([u.ravel(), v.ravel()]))
