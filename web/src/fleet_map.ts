@@ -6,7 +6,7 @@
 import type { Arena, Point } from "./api";
 import { cssVar } from "./dom";
 import type { CartView, FleetView } from "./generated/fleet";
-import { AXIS_BOTTOM_PX, Viewport } from "./map_view";
+import { Viewport, sizeCanvas } from "./map_view";
 
 const CART_RADIUS_M = 0.17; // config/robot.toml's footprint, as drawn by the panel's map
 const PALETTE = ["#1d4ed8", "#dc2626", "#15803d", "#9333ea", "#ea580c", "#0891b2", "#a16207", "#db2777"];
@@ -58,19 +58,11 @@ export class FleetMap {
   }
 
   private resize(): void {
-    const parent = this.canvas.parentElement;
-    if (!parent || !this.extent) return;
+    if (!this.canvas.parentElement || !this.extent) return;
     const e = this.extent;
-    const cssW = Math.max(200, parent.clientWidth);
-    const aspect = (e.y_max - e.y_min) / (e.x_max - e.x_min);
-    const cssH = Math.min(cssW * aspect + AXIS_BOTTOM_PX, Math.max(260, window.innerHeight * 0.75));
-    const dpr = window.devicePixelRatio || 1;
+    const { cssW, cssH } = sizeCanvas(this.canvas, e, 0.75);
     this.cssW = cssW;
     this.cssH = cssH;
-    this.canvas.style.width = `${cssW}px`;
-    this.canvas.style.height = `${cssH}px`;
-    this.canvas.width = Math.round(cssW * dpr);
-    this.canvas.height = Math.round(cssH * dpr);
     this.view.fit(e, cssW, cssH);
     this.canvas.dataset["originX"] = this.view.ox.toFixed(2);
     this.canvas.dataset["originY"] = this.view.oy.toFixed(2);

@@ -18,7 +18,7 @@
 import type { Arena, MapView, Plan, Point, SimBox } from "./api";
 import { cssVar } from "./dom";
 import { clipFieldOfView, type FloorCells, floorOccupied } from "./field_of_view";
-import { AXIS_BOTTOM_PX, Viewport, drawAxes } from "./map_view";
+import { AXIS_BOTTOM_PX, Viewport, drawAxes, sizeCanvas } from "./map_view";
 import type { LocalisationMessage } from "./generated/live";
 import { drawLocalisation, inMap } from "./localisation";
 
@@ -304,20 +304,11 @@ export class LiveMap {
   }
 
   private resize(): void {
-    const parent = this.canvas.parentElement;
-    if (!parent) return;
+    if (!this.canvas.parentElement) return;
     const e = this.extent();
-    const w = e.x_max - e.x_min;
-    const h = e.y_max - e.y_min;
-    const cssW = Math.max(200, parent.clientWidth);
-    const cssH = Math.min(cssW * (h / w) + AXIS_BOTTOM_PX, Math.max(260, window.innerHeight * 0.7));
-    const dpr = window.devicePixelRatio || 1;
+    const { cssW, cssH } = sizeCanvas(this.canvas, e, 0.7);
     this.cssW = cssW;
     this.cssH = cssH;
-    this.canvas.style.width = `${cssW}px`;
-    this.canvas.style.height = `${cssH}px`;
-    this.canvas.width = Math.round(cssW * dpr);
-    this.canvas.height = Math.round(cssH * dpr);
     if (this.view.fitted) this.view.fit(e, cssW, cssH);
     const a = this.arena();
     this.canvas.dataset["arena"] = [a.x_min, a.y_min, a.x_max, a.y_max].map((v) => v.toFixed(3)).join(" ");

@@ -63,6 +63,21 @@ function clamp(v: number, lo: number, hi: number): number {
 }
 
 /** A tick spacing of 1, 2 or 5 × 10^k metres, at least `minPx` apart on screen. */
+/** Sizes `canvas` to its parent's width and the arena's aspect (plus the x axis), at most
+ * `heightShare` of the window, at the device's pixel ratio; its CSS size. */
+export function sizeCanvas(canvas: HTMLCanvasElement, e: Arena, heightShare: number): { cssW: number; cssH: number } {
+  const parent = canvas.parentElement;
+  const cssW = Math.max(200, parent ? parent.clientWidth : 0);
+  const aspect = (e.y_max - e.y_min) / (e.x_max - e.x_min);
+  const cssH = Math.min(cssW * aspect + AXIS_BOTTOM_PX, Math.max(260, window.innerHeight * heightShare));
+  const dpr = window.devicePixelRatio || 1;
+  canvas.style.width = `${cssW}px`;
+  canvas.style.height = `${cssH}px`;
+  canvas.width = Math.round(cssW * dpr);
+  canvas.height = Math.round(cssH * dpr);
+  return { cssW, cssH };
+}
+
 export function tickStep(scale: number, minPx = 60): number {
   const raw = minPx / scale;
   const base = 10 ** Math.floor(Math.log10(raw));
