@@ -12,6 +12,8 @@ as it is (tests/server/test_stop_lock.py).
 The lock guards the mission and the path's stream, and a path is sent and its mission recorded
 together under it. The live map hands out planner snapshots no later edit changes; its changes
 (MapChanged / PerceivedChanged, published with its locks free) check the route here under it.
+Over ~500 lines for a reason: the lock's invariants (a path sent and its mission recorded
+together; a stop that never waits for it) hold only if everything that takes it lives here.
 
 Goals, routes and the map are in `map`; the firmware's pose and waypoints in its odometry's frame
 (`odom`): `frames` (cart2d/gateway/localisation.py) converts between them, the identity until a

@@ -14,6 +14,8 @@ connection dropped) the link reopens it in the background; requests in the meant
 LinkDown. The port may be a pyserial URL (ports.py): a network connection that stays silent
 while a request waits is dropped and reopened too (STALL_S), and a bridge that refuses
 connections is retried with back-off.
+Over ~500 lines for a reason: the retransmission, the reader and the reopening share one
+request slot and one stop generation, whose rules are easiest checked in one place.
 
 A STOP is the last word the motors hear (cart2d/link/commands.py says which commands are
 motion). Requests wait for the link in order of priority, then arrival, and STOP comes first: it
