@@ -26,7 +26,7 @@ from cart2d.gateway.exploration import Explorer, Progress
 from cart2d.gateway.map_saving import NothingSeen, checked_name, seen_map
 from cart2d.gateway.seeing import Seeing
 from cart2d.gateway.state import Mission, PathTooLong, PoseUntrusted, Refused
-from cart2d.gateway.way_out import clearance_m, plan_from
+from cart2d.gateway.way_out import clearance_m, plan_from, rings
 from cart2d.link import CommandRefused, LinkError, MotionCancelled
 from cart2d.maps.frontiers import Point, frontiers
 from cart2d.maps.occupancy import FREE, OCCUPIED, UNKNOWN, OccupancyMap
@@ -42,7 +42,6 @@ STOPPED_BY_USER = "exploration stopped by the user"
 # nearest place it may stand within VIEW_M of it (the camera sees 0.3 to ~1.2 m ahead).
 VIEW_M = 0.6
 RING_STEP_M = 0.05
-RING_POINTS = 16
 # and with this much room round it: a goal at the very edge of the free space is blocked by the
 # next few cells perception marks on the way there, and the cart, stopped, cannot plan from it
 ROOM_M = 0.06
@@ -261,12 +260,7 @@ class Exploration:
 
         if roomy(frontier):
             return frontier
-        for k in range(1, round(VIEW_M / RING_STEP_M) + 1):
-            r = k * RING_STEP_M
-            ring = [
-                (frontier[0] + r * math.cos(a), frontier[1] + r * math.sin(a))
-                for a in (math.tau * n / RING_POINTS for n in range(RING_POINTS))
-            ]
+        for ring in rings(frontier, (k * RING_STEP_M for k in range(1, round(VIEW_M / RING_STEP_M) + 1))):
             free = [p for p in ring if roomy(p)]
             if free:
                 return min(free, key=lambda p: math.dist(p, here))

@@ -9,6 +9,7 @@ at the route's entry (missions.py)."""
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Iterator
 
 from cart2d.params import robot
 from cart2d.planning import Plan, Planner, Point, StartBlocked
@@ -22,16 +23,20 @@ def clearance_m() -> float:
     return float(robot()["body"]["clearance_m"])
 
 
+def rings(centre: Point, radii: Iterable[float]) -> Iterator[list[Point]]:
+    """RING_POINTS points evenly round `centre` at each radius in turn: a search outwards."""
+    for r in radii:
+        yield [
+            (centre[0] + r * math.cos(a), centre[1] + r * math.sin(a))
+            for a in (math.tau * n / RING_POINTS for n in range(RING_POINTS))
+        ]
+
+
 def nearest_clear(planner: Planner, here: Point, within_m: float) -> Point | None:
     """The nearest point to `here` (on rings, STEPS of them out to `within_m`) where the
     planner lets the cart's centre stand; None if there is none that near."""
     graph = planner.graph
-    for k in range(1, STEPS + 1):
-        r = within_m * k / STEPS
-        ring = (
-            (here[0] + r * math.cos(a), here[1] + r * math.sin(a))
-            for a in (math.tau * n / RING_POINTS for n in range(RING_POINTS))
-        )
+    for ring in rings(here, (within_m * k / STEPS for k in range(1, STEPS + 1))):
         free = [p for p in ring if graph.point_free(*p)]
         if free:
             return free[0]
