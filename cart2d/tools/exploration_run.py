@@ -63,11 +63,12 @@ def explore_in_simulator(run: Exploring, name: str = "explored", keep: Path | No
                 gateway.wait_for_firmware(10.0, 0.1)
                 link.call("SET_POSE", *run.start)
                 gateway.start()
-                with mission_camera(gateway, sim, None):
+                with mission_camera(gateway, sim, None) as step:
                     t0 = sim.truth()["t"]
                     gateway.exploration.start(name)
                     _follow(gateway, sim, run, bounds, t0, report)
                     report["exploration"] = gateway.exploration.view()
+                    report["lockstep"] = step.report() if step is not None else None
             finally:
                 gateway.close()
             truth = sim.truth()

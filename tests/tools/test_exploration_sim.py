@@ -14,8 +14,8 @@ BOXES = (Box(0.9, 1.8, 0.25, 0.25, id="a"), Box(2.0, 0.9, 0.25, 0.25, id="b"))
 def test_a_room_with_boxes_is_explored_to_the_end_and_its_map_loads_back() -> None:
     report = explore_in_simulator(Exploring((14, 14, 0.2), BOXES, (0.3, 0.3, 0.785), timeout_s=240.0))
     end = report["exploration"]
-    where = {k: report[k] for k in ("contacts_at", "collisions", "box_contacts", "sim_s")}
-    assert end["state"] == "finished", (end["sentence"], where, end["set_aside"])
+    where = {k: report[k] for k in ("contacts_at", "collisions", "box_contacts", "sim_s", "lockstep")}
+    assert end["state"] == "finished", f"{end['sentence']}\n{where}\n{end['set_aside']}"
     assert end["sentence"].startswith("exploration finished: no reachable frontier left")
     assert end["sentence"].endswith("explored.yaml")
     assert report["collisions"] == 0 and report["box_contacts"] == 0
