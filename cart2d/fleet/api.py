@@ -1,8 +1,9 @@
 """The fleet manager's HTTP API and its page (`cart2d fleet`, `cart2d fleet sim`): every cart on
 one live map, goals dropped on it or posted, STOP ALL. The page is the control panel's fleet.html
 (web/, built by `make panel` into cart2d/panel/ with its assets); its JSON is cart2d/fleet/views.py.
-The server's guards (Host, origin, content type, body size: cart2d/server/guards.py) stand in
-front of it as of the gateway."""
+Its live stream, /ws, pushes the page's view as it changes (stream.py). The server's guards
+(Host, origin, content type, body size: cart2d/server/guards.py) stand in front of it as of the
+gateway, the WebSocket's handshake included."""
 
 from __future__ import annotations
 
@@ -10,11 +11,12 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from fastapi import FastAPI, HTTPException
+from fastapi import FastAPI, HTTPException, WebSocket
 from fastapi.responses import FileResponse, HTMLResponse, Response
 from fastapi.staticfiles import StaticFiles
 
 from cart2d.fleet.manager import FleetManager
+from cart2d.fleet.stream import FleetStream
 from cart2d.fleet.views import (
     CartAnswer,
     FleetView,
@@ -50,13 +52,23 @@ def fleet_app(
         page = panel / "fleet.html"
         return FileResponse(page) if page.is_file() else HTMLResponse(NOT_BUILT)
 
+    def view() -> FleetView:
+        shown = manager.view()
+        if truth is not None:
+            shown = shown.model_copy(update={"truth": TruthView.model_validate(truth())})
+        return shown
+
     @app.get("/api/fleet")
     def fleet_view() -> FleetView:
         """Every cart (connection, state, pose, order, nodes held, route), the goals, the deadlocks."""
-        view = manager.view()
-        if truth is not None:
-            view = view.model_copy(update={"truth": TruthView.model_validate(truth())})
-        return view
+        return view()
+
+    stream = FleetStream(view)
+
+    @app.websocket("/ws")
+    async def live(ws: WebSocket) -> None:
+        """The same view, pushed as it changes (views.FleetUpdate messages: stream.py)."""
+        await stream.serve(ws)
 
     @app.post("/api/fleet/goals", status_code=201)
     def add_goal(goal: GoalRequest) -> GoalAccepted:

@@ -3,6 +3,7 @@ hears its ends on the event bus; the pose comes from the telemetry the viewers g
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 from cart2d.fleet.mqtt import Broker
@@ -22,11 +23,16 @@ class GatewayCart:
         self.last: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
         self.heard = False  # no telemetry yet: the position is not known (positionInitialized false)
 
-    def go_to(self, x: float, y: float) -> None:
+    def go_through(self, points: Sequence[tuple[float, float]]) -> None:
+        """One mission of the gateway's missions service through every point to the last."""
+        *via, (x, y) = points
         try:
-            self.gateway.go_to(x, y)
+            self.gateway.missions.go_to(x, y, via=tuple(via))
         except (PlanError, PoseUntrusted, MotionCancelled, LinkError, CommandRefused) as exc:
             raise Refused(f"the cart cannot drive to ({x:.2f}, {y:.2f}): {exc}") from exc
+
+    def passed(self, x: float, y: float) -> None:
+        self.gateway.missions.passed((x, y))
 
     def stop(self, reason: str) -> None:
         try:
@@ -49,10 +55,16 @@ class GatewayCart:
 def join_fleet(gateway: Gateway, broker: Broker, fleet_id: str) -> Vehicle:
     """The gateway's vehicle, started: closed with vehicle.close() before the gateway closes."""
     cart = GatewayCart(gateway)
-    gateway.subscribe(cart.telemetry)
     vehicle = Vehicle(
         broker, fleet_id, cart, lambda: cart.last, lambda: cart.heard and gateway.pose_trust.trusted
     )
+
+    def heard(message: dict[str, Any]) -> None:
+        cart.telemetry(message)
+        if message.get("type") == "telemetry":
+            vehicle.moved()  # the nodes on the way looked for at the telemetry's rate
+
+    gateway.subscribe(heard)
     gateway.bus.subscribe(
         MissionEnded, lambda e: vehicle.mission_ended(e.goal, e.outcome == "arrived", e.reason)
     )

@@ -1,14 +1,21 @@
 """A VDA 5050 vehicle's order and instant actions, as one cart executes them: pure logic over a
 `Cart` (what drives: the gateway's missions, or a fake in tests), called from one thread.
 
-The released base is driven node by node, each node a goal of the cart's own planner (the
-gateway's go-to: the grid route round obstacles between two nodes); the cart stops at the last
-released node and waits there for an order update that extends the base (VDA 5050 2.1, 6.6).
-What it refuses is answered with a VDA 5050 error in its state, changing nothing."""
+The released base is driven as ONE path through its nodes (the gateway's go-to with the nodes
+before the last as stops on the way: its planner's route round obstacles between each two), so
+that the cart keeps its speed through them; it stops only at the last released node and waits
+there for an order update that extends the base (VDA 5050 2.1, 6.6). An update that comes
+before the cart gets there replaces its path at speed with one through the longer base. The
+nodes are still reported one by one: a node on the way counts as traversed once the cart,
+within the node's allowedDeviationXY, has reached the line through it across its route (the
+bisector of its edges in and out), never before. The path ends at the base's end: the cart
+never passes a node not released to it. What it refuses is answered with a VDA 5050 error in
+its state, changing nothing."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -30,8 +37,12 @@ class Refused(Exception):
 
 
 class Cart(Protocol):
-    def go_to(self, x: float, y: float) -> None:
-        """Starts driving to (x, y); its end comes through Executor.mission_ended. Refused."""
+    def go_through(self, points: Sequence[tuple[float, float]]) -> None:
+        """Starts driving through `points` to the last, stopping only there (replacing the path
+        it drives, at speed); its end comes through Executor.mission_ended. Refused."""
+
+    def passed(self, x: float, y: float) -> None:
+        """The cart passed (x, y), a point of its route before the last: a replan leaves it out."""
 
     def stop(self, reason: str) -> None: ...
 
@@ -73,12 +84,13 @@ class Executor:
     nodes: list[Node] = field(default_factory=list)  # not yet traversed, in order
     edges: list[Edge] = field(default_factory=list)
     paused: bool = False
-    driving_to: Node | None = None  # the node the cart's mission drives to now
+    driving_to: Node | None = None  # the last node of the path the cart's mission drives now
     stuck: bool = False  # a mission to a node failed: no retry until the master says (an update, stopPause)
     action_states: dict[str, dict[str, Any]] = field(default_factory=dict)
     errors: list[dict[str, Any]] = field(default_factory=list)
     changes: int = 0  # counts changes of the state (a state message is due after each)
     requests: list[str] = field(default_factory=list)  # "state" / "factsheet" asked for
+    last_xy: tuple[float, float] = (0.0, 0.0)  # where the last node traversed is
 
     # -- orders ------------------------------------------------------------------------------
     def order(self, message: dict[str, Any]) -> None:
@@ -140,43 +152,74 @@ class Executor:
         return any(n.released for n in self.nodes)
 
     # -- driving -----------------------------------------------------------------------------
+    def _released_run(self) -> list[Node]:
+        """The nodes ahead that the cart may drive through: released, and their edges in too."""
+        run = []
+        for node, edge in zip(self.nodes, self.edges, strict=False):
+            if not (node.released and edge.released):
+                break
+            run.append(node)
+        return run
+
     def _drive_on(self) -> None:
-        """Sends the cart to the next released node if it is not driving, paused or done."""
-        if self.paused or self.stuck or self.driving_to is not None or not self.nodes:
+        """Sends the cart through the released nodes ahead, if it is not paused or stuck and not
+        already driving to the base's end (an update that extended the base: the path replaced)."""
+        if self.paused or self.stuck:
             return
-        target = self.nodes[0]
-        edge = self.edges[0] if self.edges else None
-        if not target.released or edge is None or not edge.released:
-            return  # the base ends here: wait for an update
+        run = self._released_run()
+        if not run or run[-1] is self.driving_to:
+            return  # the base ends here (wait for an update), or is driven already
         try:
-            self.cart.go_to(target.x, target.y)
+            self._send(run)
         except Refused as exc:
-            self.errors.append(error("noRouteError", str(exc), "WARNING", nodeId=target.node_id))
-            self.stuck = True
-            self.changes += 1
-            return
-        self.driving_to = target
+            self.errors.append(error("noRouteError", str(exc), "WARNING", nodeId=run[0].node_id))
+            # a refused extension leaves the cart on its path to the base's old end: it tries
+            # again from there; a refused start waits for the master (an update, stopPause)
+            self.stuck = self.driving_to is None
+        self.changes += 1
+
+    def _send(self, run: list[Node]) -> None:
+        self.cart.go_through([(n.x, n.y) for n in run])
+        self.driving_to = run[-1]
+
+    def moved(self, pose: tuple[float, float, float]) -> None:
+        """The cart's pose now: the nodes on the way it passed since the last pose are traversed."""
+        before, self.pose = self.pose, pose
+        while self.driving_to is not None and self.nodes and self.nodes[0] is not self.driving_to:
+            node = self.nodes[0]
+            after = self.nodes[1]  # there is one: the path's last node comes later
+            if not _passed(self.last_xy, node, (after.x, after.y), before[:2], pose[:2]):
+                return
+            self._next_traversed()
+            self.cart.passed(node.x, node.y)
+
+    def _next_traversed(self) -> None:
+        node = self.nodes.pop(0)
+        if self.edges:
+            self.edges.pop(0)
+        self._traversed(node)
         self.changes += 1
 
     def mission_ended(self, goal: tuple[float, float] | None, arrived: bool, reason: str) -> None:
         """The cart's mission to `goal` ended (the gateway's MissionEnded)."""
         target = self.driving_to
         if target is None or goal is None or math.dist(goal, (target.x, target.y)) > 1e-6:
-            return  # not this order's (a stale end, or one the user drove)
+            return  # not this order's (a stale end, a path replaced since, or one the user drove)
         self.driving_to = None
         if arrived:
-            self.nodes.pop(0)
-            if self.edges:
-                self.edges.pop(0)
-            self._traversed(target)
+            while self.nodes and self.nodes[0] is not target:  # passed between two looks
+                self._next_traversed()
+            self._next_traversed()
         elif not self.paused:  # a pause stops the cart: that end is expected
-            self.errors.append(error("navigationError", reason, "WARNING", nodeId=target.node_id))
+            where = self.nodes[0].node_id if self.nodes else target.node_id
+            self.errors.append(error("navigationError", reason, "WARNING", nodeId=where))
             self.stuck = True  # it waits where it stopped: the master decides (stopPause retries)
         self.changes += 1
         self._drive_on()
 
     def _traversed(self, node: Node) -> None:
         self.last_node_id, self.last_node_sequence_id = node.node_id, node.sequence_id
+        self.last_xy = (node.x, node.y)
 
     # -- instant actions -----------------------------------------------------------------------
     def instant_actions(self, message: dict[str, Any]) -> None:
@@ -211,10 +254,10 @@ class Executor:
             self.cart.stop("paused by the fleet")
         elif kind == "stopPause":
             self.paused, self.stuck = False, False
-            if self.driving_to is not None:
-                target, self.driving_to = self.driving_to, None
-                self.cart.go_to(target.x, target.y)
-                self.driving_to = target
+            run = self._released_run()
+            if self.driving_to is not None and run:
+                self.driving_to = None
+                self._send(run)  # on through the same nodes (refused: this action's error)
             self._drive_on()
         elif kind == "initPosition":
             x, y, theta = (float(params[k]) for k in ("x", "y", "theta"))
@@ -242,6 +285,36 @@ class Executor:
             "actionStates": list(self.action_states.values()),
             "errors": list(self.errors),
         }
+
+
+Point = tuple[float, float]
+
+
+def _passed(before: Point, node: Node, after: Point, was: Point, now: Point) -> bool:
+    """Whether a cart that moved from `was` to `now` has passed `node` on its route from
+    `before` to `after`: it is on or beyond the line through the node that halves the turn
+    between the node's edges (on a straight route the perpendicular, on a rounded corner its
+    middle), and it crossed that line (or stands beyond it) within the node's deviation. The
+    crossing, not the pose, is checked: poses a long way apart (a busy machine, a simulator at
+    full speed) still see the node passed."""
+    ax, ay = _unit(node.x - before[0], node.y - before[1])
+    bx, by = _unit(after[0] - node.x, after[1] - node.y)
+    nx, ny = ax + bx, ay + by
+    s_was = (was[0] - node.x) * nx + (was[1] - node.y) * ny
+    s_now = (now[0] - node.x) * nx + (now[1] - node.y) * ny
+    if s_now < 0.0:
+        return False
+    if s_was >= 0.0:
+        at = now
+    else:  # where the move crossed the line
+        t = s_was / (s_was - s_now)
+        at = (was[0] + t * (now[0] - was[0]), was[1] + t * (now[1] - was[1]))
+    return math.dist(at, (node.x, node.y)) <= node.deviation_m
+
+
+def _unit(x: float, y: float) -> tuple[float, float]:
+    length = math.hypot(x, y)
+    return (x / length, y / length) if length > 1e-9 else (0.0, 0.0)
 
 
 class _OrderError(Exception):

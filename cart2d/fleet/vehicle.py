@@ -81,27 +81,38 @@ class Vehicle:
         """The cart's mission ended (from the gateway's bus: returns at once)."""
         self._inbox.put(lambda: self.executor.mission_ended(goal, arrived, reason))
 
+    def moved(self) -> None:
+        """The cart's pose changed (its telemetry: returns at once). While an order is driven the
+        nodes on the way are looked for at once, not only at the 5 Hz of `visualization`: a node
+        passed is reported as soon as it is, and its successors released in time. Reading
+        driving_to from this thread is a hint only: a stale value costs one look or one delay."""
+        if self.executor.driving_to is not None:
+            self._inbox.put(self._tick)
+
     def _run(self) -> None:
         next_visualization = self._clock()
         while True:
             try:
                 job = self._inbox.get(timeout=max(0.0, next_visualization - self._clock()))
             except queue.Empty:
-                job = self._tick
+                job = _nothing
             if job is None:
                 return
+            due = self._clock() >= next_visualization
             try:
                 job()
+                if due:  # the nodes passed on the way are looked for as often as the pose is sent
+                    self._tick()
                 self._publish_state_if_due()
             except Exception:  # a fault in one message must not end the vehicle
                 log.exception("the VDA 5050 vehicle %s failed on a message", self.serial_number)
-            if self._clock() >= next_visualization:
+            if due:
                 self._publish("visualization", self._visualization())
                 next_visualization = self._clock() + VISUALIZATION_EVERY_S
 
     def _tick(self) -> None:
         x, y, theta, _v, _omega = self._pose()
-        self.executor.pose = (x, y, theta)
+        self.executor.moved((x, y, theta))
 
     # -- in ----------------------------------------------------------------------------------
     def _order(self, message: dict[str, Any]) -> None:
@@ -170,6 +181,10 @@ class Vehicle:
 
     def factsheet(self) -> dict[str, Any]:
         return {**self._headers.header("factsheet"), **factsheet_body()}
+
+
+def _nothing() -> None:
+    pass
 
 
 def _setting_default(name: str) -> float:

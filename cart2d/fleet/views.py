@@ -1,7 +1,7 @@
-"""The fleet manager's JSON (GET /api/fleet, POST /api/fleet/goals ...), declared once: the API
-answers with these models, and the fleet page's TypeScript types (web/src/generated/fleet.ts) are
-generated from their JSON schema (`make ws-types`, as the /ws messages' are), so the page and
-the manager cannot drift apart silently."""
+"""The fleet manager's JSON (GET /api/fleet, POST /api/fleet/goals ..., the /ws stream's
+messages), declared once: the API answers with these models, and the fleet page's TypeScript
+types (web/src/generated/fleet.ts) are generated from their JSON schema (`make ws-types`, as the
+/ws messages' are), so the page and the manager cannot drift apart silently."""
 
 from __future__ import annotations
 
@@ -130,7 +130,24 @@ class RemovedAnswer(_View):
     removed: str
 
 
-FleetAnswer = FleetView | GoalRequest | GoalAccepted | PauseRequest | CartAnswer | StopAnswer | RemovedAnswer
+class FleetUpdate(_View):
+    """A message of the manager's live stream (the WebSocket /ws, cart2d/fleet/stream.py): the
+    whole view, as GET /api/fleet answers it, at connection and whenever it changes."""
+
+    type: Literal["fleet"]
+    view: FleetView
+
+
+FleetAnswer = (
+    FleetView
+    | GoalRequest
+    | GoalAccepted
+    | PauseRequest
+    | CartAnswer
+    | StopAnswer
+    | RemovedAnswer
+    | FleetUpdate
+)
 
 
 def json_schema() -> dict[str, Any]:

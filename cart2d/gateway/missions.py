@@ -50,6 +50,7 @@ from cart2d.gateway.localisation import Frames
 from cart2d.gateway.restarts import Restarts
 from cart2d.gateway.routine import ResetRoutine
 from cart2d.gateway.state import Mission, MissionEnd, PathTooLong, PoseUntrusted, Routine
+from cart2d.gateway.through import plan_onward
 from cart2d.gateway.way_out import clearance_m, plan_from
 from cart2d.link import CommandRefused, Link, LinkError, MotionCancelled, firmware, path_stream
 from cart2d.link.protocol import Reply
@@ -123,15 +124,18 @@ class Missions:
         self.bus.publish(ViewerMessage(message))
 
     # -- motion ------------------------------------------------------------------------------
-    def go_to(self, x: float, y: float, token: int | None = None) -> Plan:
+    def go_to(self, x: float, y: float, token: int | None = None, via: tuple[Point, ...] = ()) -> Plan:
         """Plans from the measured pose to (x, y) and sends the path; PlanError, or
         PoseUntrusted after an MCU restart, sends nothing. `token`: the stop generation the
         request belongs to (Link.motion_token() when it arrived; default now): a stop after it,
         before the last frame of the path, leaves the path unsent (MotionCancelled); one that
-        comes as the last frame goes stops it, and the mission is recorded as stopped."""
+        comes as the last frame goes stops it, and the mission is recorded as stopped. `via`:
+        stops the route passes through first, in order, without stopping (through.py); sent
+        while a mission drives, the new path replaces its path at speed."""
         token = self.link.motion_token() if token is None else token
         self.restarts.read_status()  # a restart since the last look is noticed before planning
-        self.looks_turned += self._look((x, y), token, self.mission.state == "driving")
+        first = via[0] if via else (x, y)
+        self.looks_turned += self._look(first, token, self.mission.state == "driving")
         with self.lock:
             if not self.restarts.pose_trust.trusted:
                 raise PoseUntrusted(self.restarts.pose_trust.refusal())
@@ -142,7 +146,9 @@ class Missions:
                 raise PoseUntrusted(self.restarts.pose_trust.refusal())
             # a cart that stopped within its clearance of what the camera marked since plans
             # from the nearest place it may stand (way_out.py), not refused for good
-            plan = plan_from(self._planner(), (pose[0], pose[1]), (x, y), clearance_m())
+            planner = self._planner()
+            onward = [*via[1:], (x, y)] if via else []
+            plan = plan_onward(planner, plan_from(planner, (pose[0], pose[1]), first, clearance_m()), onward)
             if len(plan.waypoints) > path_stream.MAX_PATH_POINTS:
                 raise PathTooLong(
                     f"the path needs {len(plan.waypoints)} waypoints and a firmware path holds at most "
@@ -159,6 +165,7 @@ class Missions:
                 token=token,
                 route_start=plan.start,
                 route=plan.waypoints,
+                via=via,
             )
             self.bus.publish(MissionStarted((x, y)))
             if self.link.stopped_since(token):  # the stop went right after the last frame
@@ -211,6 +218,13 @@ class Missions:
         waypoints = round_corners(plan.start, plan.waypoints, graph.segment_free, capacity)
         length = polyline_length([plan.start, *waypoints])
         return dataclasses.replace(plan, waypoints=tuple(waypoints), length_m=length)
+
+    def passed(self, stop: Point) -> None:
+        """The cart passed `stop`, one of the driven mission's `via`: a replan leaves it out."""
+        with self.lock:
+            via = self.mission.via
+            if stop in via:
+                self.mission.via = via[via.index(stop) + 1 :]
 
     # -- the stop ----------------------------------------------------------------------------
     def stop(self, reason: str = "stopped by the user") -> Reply:
@@ -408,14 +422,16 @@ class Missions:
                 self._replan(f"the cart was {off_m:.2f} m off its path", here, ahead.entry)
 
     def _replan(self, reason: str, pose: Point, entry: Point) -> None:
-        """Plans again from the measured pose to the mission's goal and replaces the firmware's
+        """Plans again from the measured pose to the mission's goal (through its stops not passed
+        yet) and replaces the firmware's
         path with it (WAIT_XY_ARRAY: atomic, the speed carried on through the acceleration
         limits); with no path left, stops the cart and fails the mission with the reason (lock
         held). A cart within its clearance of an obstacle (it follows its path within that) is
         planned from the nearest point of its route, or else from the nearest place it may stand."""
         mission = self.mission
-        goal = mission.goal
-        assert goal is not None
+        assert mission.goal is not None
+        # through the stops not passed yet: a fleet cart's route must keep to its released nodes
+        goal, *onward = [*mission.via, mission.goal]
         started = time.perf_counter()  # the planner's latency, a figure for benches
         try:
             planner = self._planner()
@@ -426,6 +442,7 @@ class Missions:
                     plan = planner.plan(entry, goal)
                 except StartBlocked:  # the entry too: from the nearest place the cart may stand
                     plan = plan_from(planner, pose, goal, clearance_m())
+            plan = plan_onward(planner, plan, onward)
             plan = self._rounded(plan, path_stream.MAX_PATH_POINTS)
         except PlanError as exc:
             self._record_replan(mission, reason, time.perf_counter() - started, None, str(exc))

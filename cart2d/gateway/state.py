@@ -99,6 +99,7 @@ class Mission:
     token: int | None = None
     route_start: tuple[float, float] = (0.0, 0.0)
     route: tuple[tuple[float, float], ...] = ()
+    via: tuple[tuple[float, float], ...] = ()  # stops before the goal not passed yet (through.py)
     generation: int = 0
     replans: list[Any] = field(default_factory=list, repr=False)
     last_replan_s: float = 0.0

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import threading
+from collections.abc import Sequence
 
 from cart2d.fleet.broker import Mosquitto
 from cart2d.fleet.lattice import Lattice
@@ -27,6 +28,12 @@ class ArrivingCart:
     def go_to(self, x: float, y: float) -> None:
         if not self.frozen:
             threading.Timer(0.01, self._arrive, ((x, y),)).start()
+
+    def go_through(self, points: Sequence[tuple[float, float]]) -> None:
+        self.go_to(*points[-1])  # one mission, to the last point
+
+    def passed(self, x: float, y: float) -> None:
+        pass
 
     def _arrive(self, goal: tuple[float, float]) -> None:
         self.pose = (goal[0], goal[1], 0.0, 0.0, 0.0)

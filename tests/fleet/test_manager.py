@@ -5,6 +5,7 @@ the manager's orders and the vehicles' states are checked against the VDA 5050 s
 from __future__ import annotations
 
 import random
+from collections.abc import Sequence
 from typing import Any
 
 from cart2d.fleet import vda5050
@@ -17,14 +18,17 @@ from tests.support.vda5050 import check
 class InstantCart:
     def __init__(self, x: float, y: float) -> None:
         self.pose = (x, y, 0.0)
-        self.target: tuple[float, float] | None = None
+        self.route: list[tuple[float, float]] = []  # the points it drives through, one a tick
         self.stops = 0
 
-    def go_to(self, x: float, y: float) -> None:
-        self.target = (x, y)
+    def go_through(self, points: Sequence[tuple[float, float]]) -> None:
+        self.route = list(points)
+
+    def passed(self, x: float, y: float) -> None:
+        pass
 
     def stop(self, reason: str) -> None:
-        self.target = None
+        self.route = []
         self.stops += 1
 
     def set_pose(self, x: float, y: float, theta: float) -> None:
@@ -87,11 +91,12 @@ class Fleet:
         self.outbox.clear()
         for name, cart in self.carts.items():
             vehicle = self.vehicles[name]
-            if cart.target is not None:
-                goal, cart.target = cart.target, None
-                cart.pose = (*goal, 0.0)
-                vehicle.pose = cart.pose
-                vehicle.mission_ended(goal, True, "")
+            if cart.route:  # on to its next node: passed on the way, or its mission's end
+                point = cart.route.pop(0)
+                cart.pose = (*point, 0.0)
+                vehicle.moved(cart.pose)
+                if not cart.route:
+                    vehicle.mission_ended(point, True, "")
             self._report(name)
         places = [c.pose[:2] for c in self.carts.values()]
         assert len(set(places)) == len(places), f"two carts on one node: {places}"

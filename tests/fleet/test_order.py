@@ -4,6 +4,8 @@ order: the page showed the cart in error until its next order)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from cart2d.fleet.order import Executor
 from tests.support.vda5050 import instant, order_body
 
@@ -18,6 +20,12 @@ class Cart:
     def go_to(self, x: float, y: float) -> None:
         self.goals.append((x, y))
 
+    def go_through(self, points: Sequence[tuple[float, float]]) -> None:
+        self.go_to(*points[-1])  # one mission, to the last point
+
+    def passed(self, x: float, y: float) -> None:
+        pass
+
     def stop(self, reason: str) -> None:
         self.stops.append(reason)
 
@@ -29,8 +37,8 @@ def test_a_cancelled_order_clears_the_error_of_the_stop_that_ended_it() -> None:
     cart = Cart()
     executor = Executor(cart, pose=(0.25, 0.25, 0.0))
     executor.order(order_body("o1", 0, POINTS))
-    assert cart.goals == [(0.75, 0.25)]
-    executor.mission_ended((0.75, 0.25), False, "STOP ALL from the fleet")  # the gateway's own stop
+    assert cart.goals == [(1.25, 0.25)]  # one path through b to c
+    executor.mission_ended((1.25, 0.25), False, "STOP ALL from the fleet")  # the gateway's own stop
     assert [e["errorType"] for e in executor.errors] == ["navigationError"]
     executor.instant_actions(instant("c1", "cancelOrder"))
     state = executor.state_fields()

@@ -7,7 +7,7 @@ from __future__ import annotations
 import dataclasses
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import pytest
@@ -23,7 +23,9 @@ SERIAL = "c1"
 class FakeCart:
     def __init__(self) -> None:
         self.pose = (0.25, 0.25, 0.0, 0.0, 0.0)
-        self.goals: list[tuple[float, float]] = []
+        self.goals: list[tuple[float, float]] = []  # each mission's last point
+        self.routes: list[list[tuple[float, float]]] = []  # each mission's points
+        self.passed_points: list[tuple[float, float]] = []
         self.stops: list[str] = []
         self.poses_set: list[tuple[float, float, float]] = []
         self.asked = threading.Event()
@@ -33,6 +35,13 @@ class FakeCart:
             raise Refused("outside the arena")
         self.goals.append((x, y))
         self.asked.set()
+
+    def go_through(self, points: Sequence[tuple[float, float]]) -> None:
+        self.go_to(*points[-1])
+        self.routes.append(list(points))
+
+    def passed(self, x: float, y: float) -> None:
+        self.passed_points.append((x, y))
 
     def stop(self, reason: str) -> None:
         self.stops.append(reason)
@@ -99,22 +108,27 @@ def test_connection_factsheet_state_and_visualization(vehicle: Vehicle, master: 
     master.wait_for(SERIAL, "visualization", lambda m: m["headerId"] >= 3)  # 5 Hz: several already
 
 
-def test_an_order_is_driven_node_by_node_and_extended_by_its_update(
+def test_an_order_is_driven_through_its_base_reported_node_by_node_and_extended_by_its_update(
     vehicle: Vehicle, cart: FakeCart, master: Master
 ) -> None:
     master.wait_for(SERIAL, "connection", lambda m: True)
     master.send(SERIAL, "order", order_body("o1", 0, POINTS, released=3))
     assert state_with(master, orderId="o1", driving=True)["lastNodeId"] == "a"
-    arrive(vehicle, cart, (0.75, 0.25))
-    arrive(vehicle, cart, (1.25, 0.25))
-    waiting = state_with(master, lastNodeId="c", driving=False)
-    assert [(n["nodeId"], n["released"]) for n in waiting["nodeStates"]] == [("d", False)]
-    # the update starts at the base's last node and releases the rest
+    assert cart.routes == [[(0.75, 0.25), (1.25, 0.25)]]  # one path through b, ending at the base's end
+    cart.pose = (0.8, 0.25, 0.0, 0.5, 0.0)  # past b, driving on
+    vehicle.moved()
+    passed = state_with(master, lastNodeId="b", driving=True)
+    assert [(n["nodeId"], n["released"]) for n in passed["nodeStates"]] == [("c", True), ("d", False)]
+    assert [e["edgeId"] for e in passed["edgeStates"]] == ["b-c", "c-d"]
+    # the update starts at the base's last node and releases the rest: the path is replaced at
+    # speed by one through c to d, before the cart gets to c
     master.send(SERIAL, "order", order_body("o1", 1, POINTS[2:], first_seq=4))
+    state_with(master, orderUpdateId=1, driving=True)
+    assert cart.routes[-1] == [(1.25, 0.25), (1.75, 0.25)] and cart.passed_points == [(0.75, 0.25)]
     arrive(vehicle, cart, (1.75, 0.25))
     done = state_with(master, lastNodeId="d", orderUpdateId=1, driving=False)
     assert done["nodeStates"] == [] and done["edgeStates"] == [] and done["errors"] == []
-    assert cart.goals == [(0.75, 0.25), (1.25, 0.25), (1.75, 0.25)]
+    assert cart.goals == [(1.25, 0.25), (1.75, 0.25)]
 
 
 def test_what_the_vehicle_refuses_is_an_error_that_changes_nothing(
@@ -136,7 +150,7 @@ def test_what_the_vehicle_refuses_is_an_error_that_changes_nothing(
     master.send(SERIAL, "instantActions", instant("i1", "dance"))
     failed = master.wait_for(SERIAL, "state", lambda s: any(a["actionId"] == "i1" for a in s["actionStates"]))
     assert failed["actionStates"][-1]["actionStatus"] == "FAILED"
-    assert cart.goals == [(0.75, 0.25)]
+    assert cart.goals == [(1.25, 0.25)]
 
 
 def test_instant_actions(vehicle: Vehicle, cart: FakeCart, master: Master) -> None:
@@ -146,10 +160,10 @@ def test_instant_actions(vehicle: Vehicle, cart: FakeCart, master: Master) -> No
     master.send(SERIAL, "instantActions", instant("p1", "startPause"))
     state_with(master, paused=True, driving=False)
     assert cart.stops == ["paused by the fleet"]
-    vehicle.mission_ended((0.75, 0.25), False, "paused by the fleet")  # what the stop ends
+    vehicle.mission_ended((1.25, 0.25), False, "paused by the fleet")  # what the stop ends
     master.send(SERIAL, "instantActions", instant("p2", "stopPause"))
     state_with(master, paused=False, driving=True)
-    assert cart.goals == [(0.75, 0.25), (0.75, 0.25)]  # on again to the same node
+    assert cart.routes == [[(0.75, 0.25), (1.25, 0.25)]] * 2  # on again through the same nodes
     master.send(SERIAL, "instantActions", instant("c1", "cancelOrder"))
     cancelled = state_with(master, driving=False, nodeStates=[])
     assert cancelled["errors"] == [] and cart.stops[-1] == "the order was cancelled"
@@ -176,7 +190,7 @@ def test_a_broker_restart_mid_order_loses_nothing(
     master.send(SERIAL, "order", order_body("o1", 0, POINTS, released=2))
     state_with(master, orderId="o1", driving=True)
     broker.stop()
-    arrive(vehicle, cart, (0.75, 0.25))  # while the broker is away
+    arrive(vehicle, cart, (0.75, 0.25))  # while the broker is away (the base ends at b)
     wait_until(lambda: not vehicle.connection.connected.is_set(), "the vehicle never saw the broker go")
     master.forget()
     broker.start()
@@ -186,8 +200,7 @@ def test_a_broker_restart_mid_order_loses_nothing(
     master.send(SERIAL, "instantActions", instant("s1", "stateRequest"))
     state_with(master, lastNodeId="b", driving=False)
     master.send(SERIAL, "order", order_body("o1", 1, POINTS[1:], first_seq=2))
-    arrive(vehicle, cart, (1.25, 0.25))
-    arrive(vehicle, cart, (1.75, 0.25))
+    arrive(vehicle, cart, (1.75, 0.25))  # through c
     state_with(master, lastNodeId="d", driving=False)
 
 
@@ -212,14 +225,15 @@ def test_a_failed_mission_waits_for_the_master(vehicle: Vehicle, cart: FakeCart,
     master.wait_for(SERIAL, "connection", lambda m: True)
     master.send(SERIAL, "order", order_body("o1", 0, POINTS[:3]))
     state_with(master, orderId="o1", driving=True)
-    vehicle.mission_ended((0.75, 0.25), False, "a front switch closed")
+    vehicle.mission_ended((1.25, 0.25), False, "a front switch closed")
     stuck = master.wait_for(
         SERIAL, "state", lambda s: any(e["errorType"] == "navigationError" for e in s["errors"])
     )
-    assert not stuck["driving"] and cart.goals == [(0.75, 0.25)]  # not driven into it again by itself
+    assert not stuck["driving"] and cart.goals == [(1.25, 0.25)]  # not driven into it again by itself
+    assert stuck["errors"][0]["errorReferences"][0]["referenceValue"] == "b"  # the node not reached
     master.send(SERIAL, "instantActions", instant("p1", "stopPause"))
     state_with(master, driving=True)
-    assert cart.goals == [(0.75, 0.25), (0.75, 0.25)]
+    assert cart.goals == [(1.25, 0.25), (1.25, 0.25)]
 
 
 def test_a_broker_with_users_lets_in_only_the_vehicle_with_its_password(cart: FakeCart) -> None:

@@ -1,7 +1,8 @@
 // The fleet page (`cart2d fleet`, fleet.html): every cart on one live map with its state, a
 // click on the map a goal (for the nearest idle cart or the one chosen), a pause and a cancel per
 // cart, STOP ALL, and what the manager refuses said in a sentence. Its data is the manager's JSON (cart2d/fleet/views.py,
-// generated into ./generated/fleet.ts), polled: the manager has no /ws.
+// generated into ./generated/fleet.ts), pushed by its live stream (/ws, fleet_stream.ts) and
+// polled only while that is down.
 
 import "./style.css";
 import "./fleet.css";
@@ -9,9 +10,10 @@ import { api, ApiError, type Point } from "./api";
 import { byId as $, say } from "./dom";
 import { CartTable } from "./fleet_carts";
 import { FleetMap } from "./fleet_map";
+import { FleetStream } from "./fleet_stream";
 import type { CartAnswer, FleetView, GoalAccepted, GoalRequest, GoalView, PauseRequest, StopAnswer } from "./generated/fleet";
 
-const REFRESH_MS = 250;
+const REFRESH_MS = 250; // the poll's period while the stream is down
 const SHOWN_GOALS = 30;
 
 const message = $<HTMLOutputElement>("fleet-msg");
@@ -94,25 +96,42 @@ function show(fleet: FleetView, map: FleetMap): void {
   if (fleet.truth) $("contacts").textContent = String(fleet.truth.cart_contacts);
 }
 
-function connected(ok: boolean, words: string): void {
+function connected(ok: boolean, words: string, feed: "stream" | "polling"): void {
   $("manager-dot").className = `dot ${ok ? "dot-connected" : "dot-lost"}`;
   $("manager-state").textContent = words;
   document.body.dataset["manager"] = ok ? "connected" : "lost";
+  document.body.dataset["feed"] = feed;
 }
 
-async function refresh(map: FleetMap): Promise<void> {
-  try {
-    show(await api<FleetView>("GET", "/api/fleet", undefined, 3000), map);
-    connected(true, "manager connected");
-  } catch (err) {
-    connected(false, refusal(err));
+/** Polls while the stream is down; a view the stream brings makes the poll wait. */
+async function refresh(map: FleetMap, stream: FleetStream): Promise<void> {
+  if (!stream.live) {
+    try {
+      const view = await api<FleetView>("GET", "/api/fleet", undefined, 3000);
+      if (!stream.live) {
+        show(view, map);
+        connected(true, "manager connected (polling)", "polling");
+      }
+    } catch (err) {
+      if (!stream.live) connected(false, refusal(err), "polling");
+    }
   }
-  setTimeout(() => void refresh(map), REFRESH_MS);
+  setTimeout(() => void refresh(map, stream), REFRESH_MS);
 }
 
 const map = new FleetMap($<HTMLCanvasElement>("map"), (p) => void sendGoal(p));
+const stream = new FleetStream(
+  (view) => {
+    show(view, map);
+    connected(true, "manager connected (live)", "stream");
+  },
+  (live) => {
+    if (!live) document.body.dataset["feed"] = "polling";
+  },
+);
 $("stop-all").addEventListener("click", () => void stopAll());
 document.addEventListener("keydown", (e) => {
   if (e.key === "Escape") void stopAll(); // a stop always goes first, from anywhere on the page
 });
-void refresh(map);
+stream.connect();
+void refresh(map, stream);
