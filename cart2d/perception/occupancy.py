@@ -8,7 +8,9 @@ A hit marks its cell and the cells behind it (the camera sees an obstacle's face
 depth): behind the face, along its normal, where the hit's neighbours (the hits of nearby scan
 lines, on the same face) tell the face's direction, as deep as its run of hits is long (an
 obstacle is taken to be about as deep as it is wide) up to `hit_depth_m`; a hit whose run is too
-short to tell (a thin pole, the end of a face at the picture's side) is only its cell. Along the
+short to tell (a thin pole, the end of a face at the picture's side) is only its cell. What is
+assumed behind a face rises to two hits' worth at most and never where the floor was seen more
+than hit: floor seen from elsewhere refines a face-only belief (ASSUMED_HITS). Along the
 ray (an earlier rule) the depth behind the end of a face seen at a slant spilt sideways onto the
 floor beside the obstacle and closed passages next to it; one depth for every obstacle either
 left a deep box's far corner out or closed the passages between small ones. A ray is sampled
@@ -43,6 +45,12 @@ RUN_GAP_M = 0.04
 # A hit that two cues saw adds this much more of hit_log_odds than one only one cue saw (and
 # again for a third): believed after fewer frames, cleared by more.
 SUPPORT_WEIGHT = 0.5
+# The cells behind a face (assumed, not seen) rise to at most two hits' worth: believed after two
+# frames like a face, but cleared by about six rays of floor seen through them from elsewhere;
+# and where the floor was seen more than hit (log-odds below 0), a face seen again adds no
+# assumption: seen floor beats an assumed body (exploration saved each box larger than it is, with
+# false cells round it, as the depth assumed frame after frame outweighed the floor seen there).
+ASSUMED_HITS = 2.0
 
 
 def run_lengths(hits: FloatArray) -> FloatArray:
@@ -124,9 +132,21 @@ class LogOddsGrid:
             self._free_cells(origin, ends, ends_on_hit, detection.min_range_m), hit_cells
         )
         flat = self.log_odds.reshape(-1)
-        for touched, change in ((free_cells, self.free_log_odds), (hit_cells, self.hit_log_odds * weights)):
-            flat[touched] = np.clip(flat[touched] + change, self.min_log_odds, self.max_log_odds)
-            self._observed.reshape(-1)[touched] = True
+        low, high = self.min_log_odds, self.max_log_odds
+        changed = np.clip(flat[hit_cells] + self.hit_log_odds * weights, low, high)
+        assumed = ~np.isin(hit_cells, self._cells(hits))  # behind a face, not on it
+        changed[assumed] = self._assumed(flat[hit_cells[assumed]], changed[assumed])
+        flat[free_cells] = np.clip(flat[free_cells] + self.free_log_odds, low, high)
+        flat[hit_cells] = changed
+        self._observed.reshape(-1)[np.concatenate([free_cells, hit_cells])] = True
+
+    def _assumed(self, now: npt.NDArray[np.float32], raised: FloatArray) -> npt.NDArray[np.float32]:
+        """The log-odds of cells behind a face (`now`) once a frame assumes them occupied
+        (`raised`, as if hit): up to ASSUMED_HITS hits' worth (what a face seen there raised
+        higher stays), and unchanged where the floor was seen more than hit."""
+        ceiling = ASSUMED_HITS * self.hit_log_odds
+        grown = np.maximum(now, np.minimum(raised, ceiling))
+        return np.asarray(np.where(now < 0.0, now, grown), dtype=np.float32)
 
     def _hit_weights(
         self, behind: FloatArray, hit_of: npt.NDArray[np.int64], detection: Detection

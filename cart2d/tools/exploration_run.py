@@ -40,6 +40,7 @@ class Exploring:
     timeout_s: float = 300.0  # simulated: a STOP then
     speed: str = "max"
     seed: int = 1
+    calibration: Path | None = None  # a saved camera calibration to see with; None: the nominal model
 
 
 def explore_in_simulator(run: Exploring, name: str = "explored", keep: Path | None = None) -> dict[str, Any]:
@@ -63,7 +64,7 @@ def explore_in_simulator(run: Exploring, name: str = "explored", keep: Path | No
                 gateway.wait_for_firmware(10.0, 0.1)
                 link.call("SET_POSE", *run.start)
                 gateway.start()
-                with mission_camera(gateway, sim, None) as step:
+                with mission_camera(gateway, sim, run.calibration) as step:
                     t0 = sim.truth()["t"]
                     gateway.exploration.start(name)
                     _follow(gateway, sim, run, bounds, t0, report)

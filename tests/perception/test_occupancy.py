@@ -179,3 +179,22 @@ def test_runs_of_hits_end_where_the_next_hit_is_off_by_more_than_a_gap() -> None
     hits = np.array([[1.0, 0.0], [1.0, 0.01], [1.0, 0.03], [1.3, 0.05], [1.3, 0.08], [0.5, 0.5]])
     assert run_lengths(hits) == pytest.approx([0.03, 0.03, 0.03, 0.03, 0.03, 0.0])
     assert len(run_lengths(np.zeros((0, 2)))) == 0
+
+
+def test_depth_assumed_behind_a_face_is_cleared_by_the_floor_seen_behind_it_and_stays_cleared() -> None:
+    # a thin board: its face x = 1.0, y in [-0.1, 0.1], seen straight on ten times, takes the 0.2 m
+    # behind it as the board's body; then the cart, round the side, sees floor right through that
+    # strip (rays along y at x = 1.125 and 1.175) six times each; then it sees the face again
+    g = deep(0.2)
+    front = detection([tuple(h) for h in face(1.0, -0.1, 1.0, 0.1)])
+    for _ in range(10):
+        g.integrate((0.0, 0.0, 0.0), front)
+    assert p_at(g, 1.12, 0.01) > 0.8 and p_at(g, 1.17, 0.01) > 0.8  # assumed: the planner keeps off
+    ahead = detection([], ((2.1, 0.0),))  # floor seen 2 m straight ahead
+    for _ in range(6):
+        for x in (1.125, 1.175):
+            g.integrate((x, -0.6, math.pi / 2), ahead)  # facing +y: the ray x = const, y -0.5 to 1.5
+    for _ in range(3):
+        g.integrate((0.0, 0.0, 0.0), front)
+    assert p_at(g, 1.12, 0.01) < 0.5 and p_at(g, 1.17, 0.01) < 0.5  # floor seen beats an assumption
+    assert p_at(g, 1.01, 0.01) > 0.9  # the face itself, seen, stays
