@@ -4,37 +4,15 @@ order: the page showed the cart in error until its next order)."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 from cart2d.fleet.order import Executor
+from tests.support.fleet_cart import RecordingCart
 from tests.support.vda5050 import instant, order_body
 
 POINTS = [("a", 0.25, 0.25), ("b", 0.75, 0.25), ("c", 1.25, 0.25)]
 
 
-class Cart:
-    def __init__(self) -> None:
-        self.goals: list[tuple[float, float]] = []
-        self.stops: list[str] = []
-
-    def go_to(self, x: float, y: float) -> None:
-        self.goals.append((x, y))
-
-    def go_through(self, points: Sequence[tuple[float, float]]) -> None:
-        self.go_to(*points[-1])  # one mission, to the last point
-
-    def passed(self, x: float, y: float) -> None:
-        pass
-
-    def stop(self, reason: str) -> None:
-        self.stops.append(reason)
-
-    def set_pose(self, x: float, y: float, theta: float) -> None:
-        pass
-
-
 def test_a_cancelled_order_clears_the_error_of_the_stop_that_ended_it() -> None:
-    cart = Cart()
+    cart = RecordingCart()
     executor = Executor(cart, pose=(0.25, 0.25, 0.0))
     executor.order(order_body("o1", 0, POINTS))
     assert cart.goals == [(1.25, 0.25)]  # one path through b to c
@@ -49,6 +27,6 @@ def test_a_cancelled_order_clears_the_error_of_the_stop_that_ended_it() -> None:
 
 
 def test_a_cancel_with_no_order_is_an_error_of_its_own() -> None:
-    executor = Executor(Cart())
+    executor = Executor(RecordingCart())
     executor.instant_actions(instant("c1", "cancelOrder"))
     assert [e["errorType"] for e in executor.errors] == ["noOrderToCancel"]

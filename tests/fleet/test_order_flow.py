@@ -8,32 +8,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from cart2d.fleet.order import Executor, Refused
+from tests.support.fleet_cart import RecordingCart
 from tests.support.vda5050 import instant, order_body
 
 POINTS = [("a", 0.25, 0.25), ("b", 0.75, 0.25), ("c", 1.25, 0.25), ("d", 1.75, 0.25), ("e", 1.75, 0.75)]
 
 
-class Cart:
-    def __init__(self) -> None:
-        self.routes: list[list[tuple[float, float]]] = []
-        self.passed_points: list[tuple[float, float]] = []
-        self.stops: list[str] = []
-
-    def go_through(self, points: Sequence[tuple[float, float]]) -> None:
-        self.routes.append(list(points))
-
-    def passed(self, x: float, y: float) -> None:
-        self.passed_points.append((x, y))
-
-    def stop(self, reason: str) -> None:
-        self.stops.append(reason)
-
-    def set_pose(self, x: float, y: float, theta: float) -> None:
-        pass
-
-
-def started(released: int) -> tuple[Executor, Cart]:
-    cart = Cart()
+def started(released: int) -> tuple[Executor, RecordingCart]:
+    cart = RecordingCart()
     executor = Executor(cart, pose=(0.25, 0.25, 0.0))
     executor.order(order_body("o1", 0, POINTS, released=released))
     return executor, cart
@@ -108,7 +90,7 @@ def test_a_pause_stops_and_the_resume_drives_on_through_the_nodes_left() -> None
     assert executor.last_node_id == "b" and remaining(executor) == []
 
 
-class RefusingCart(Cart):
+class RefusingCart(RecordingCart):
     def go_through(self, points: Sequence[tuple[float, float]]) -> None:
         if len(self.routes) >= 1:
             raise Refused("no route")

@@ -5,50 +5,18 @@ official schemas (tests/support/vda5050.py)."""
 from __future__ import annotations
 
 import dataclasses
-import threading
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from typing import Any
 
 import pytest
 
 from cart2d.fleet.broker import Mosquitto
-from cart2d.fleet.order import Refused
 from cart2d.fleet.vehicle import Vehicle
+from tests.support.fleet_cart import RecordingCart
 from tests.support.vda5050 import Master, instant, order_body
 
 SERIAL = "c1"
-
-
-class FakeCart:
-    def __init__(self) -> None:
-        self.pose = (0.25, 0.25, 0.0, 0.0, 0.0)
-        self.goals: list[tuple[float, float]] = []  # each mission's last point
-        self.routes: list[list[tuple[float, float]]] = []  # each mission's points
-        self.passed_points: list[tuple[float, float]] = []
-        self.stops: list[str] = []
-        self.poses_set: list[tuple[float, float, float]] = []
-        self.asked = threading.Event()
-
-    def go_to(self, x: float, y: float) -> None:
-        if x < 0:
-            raise Refused("outside the arena")
-        self.goals.append((x, y))
-        self.asked.set()
-
-    def go_through(self, points: Sequence[tuple[float, float]]) -> None:
-        self.go_to(*points[-1])
-        self.routes.append(list(points))
-
-    def passed(self, x: float, y: float) -> None:
-        self.passed_points.append((x, y))
-
-    def stop(self, reason: str) -> None:
-        self.stops.append(reason)
-
-    def set_pose(self, x: float, y: float, theta: float) -> None:
-        self.poses_set.append((x, y, theta))
-        self.pose = (x, y, theta, 0.0, 0.0)
 
 
 @pytest.fixture
@@ -58,12 +26,12 @@ def broker() -> Iterator[Mosquitto]:
 
 
 @pytest.fixture
-def cart() -> FakeCart:
-    return FakeCart()
+def cart() -> RecordingCart:
+    return RecordingCart()
 
 
 @pytest.fixture
-def vehicle(broker: Mosquitto, cart: FakeCart, master: Master) -> Iterator[Vehicle]:
+def vehicle(broker: Mosquitto, cart: RecordingCart, master: Master) -> Iterator[Vehicle]:
     """Started after the master, which hears its first state."""
     v = Vehicle(broker.broker, SERIAL, cart, lambda: cart.pose, lambda: True).start()
     yield v
@@ -78,7 +46,7 @@ def master(broker: Mosquitto) -> Iterator[Master]:
     m.close()
 
 
-def arrive(vehicle: Vehicle, cart: FakeCart, goal: tuple[float, float]) -> None:
+def arrive(vehicle: Vehicle, cart: RecordingCart, goal: tuple[float, float]) -> None:
     """The cart's mission to `goal` ends there."""
     wait_until(lambda: goal in cart.goals, f"the cart was never sent to {goal}")
     cart.pose = (goal[0], goal[1], 0.0, 0.0, 0.0)
@@ -109,7 +77,7 @@ def test_connection_factsheet_state_and_visualization(vehicle: Vehicle, master: 
 
 
 def test_an_order_is_driven_through_its_base_reported_node_by_node_and_extended_by_its_update(
-    vehicle: Vehicle, cart: FakeCart, master: Master
+    vehicle: Vehicle, cart: RecordingCart, master: Master
 ) -> None:
     master.wait_for(SERIAL, "connection", lambda m: True)
     master.send(SERIAL, "order", order_body("o1", 0, POINTS, released=3))
@@ -132,7 +100,7 @@ def test_an_order_is_driven_through_its_base_reported_node_by_node_and_extended_
 
 
 def test_what_the_vehicle_refuses_is_an_error_that_changes_nothing(
-    vehicle: Vehicle, cart: FakeCart, master: Master
+    vehicle: Vehicle, cart: RecordingCart, master: Master
 ) -> None:
     master.wait_for(SERIAL, "connection", lambda m: True)
     master.send(SERIAL, "order", order_body("far", 0, [("x", 3.0, 3.0), ("y", 3.5, 3.0)]))
@@ -153,7 +121,7 @@ def test_what_the_vehicle_refuses_is_an_error_that_changes_nothing(
     assert cart.goals == [(1.25, 0.25)]
 
 
-def test_instant_actions(vehicle: Vehicle, cart: FakeCart, master: Master) -> None:
+def test_instant_actions(vehicle: Vehicle, cart: RecordingCart, master: Master) -> None:
     master.wait_for(SERIAL, "connection", lambda m: True)
     master.send(SERIAL, "order", order_body("o1", 0, POINTS[:3]))
     state_with(master, orderId="o1", driving=True)
@@ -184,7 +152,7 @@ def test_instant_actions(vehicle: Vehicle, cart: FakeCart, master: Master) -> No
 
 
 def test_a_broker_restart_mid_order_loses_nothing(
-    broker: Mosquitto, vehicle: Vehicle, cart: FakeCart, master: Master
+    broker: Mosquitto, vehicle: Vehicle, cart: RecordingCart, master: Master
 ) -> None:
     master.wait_for(SERIAL, "connection", lambda m: True)
     master.send(SERIAL, "order", order_body("o1", 0, POINTS, released=2))
@@ -214,14 +182,16 @@ def test_a_killed_vehicle_leaves_its_last_will(vehicle: Vehicle, master: Master)
     master.wait_for(SERIAL, "connection", lambda m: m["connectionState"] == "CONNECTIONBROKEN")
 
 
-def test_a_vehicle_closed_in_order_says_offline(broker: Mosquitto, cart: FakeCart, master: Master) -> None:
+def test_a_vehicle_closed_in_order_says_offline(
+    broker: Mosquitto, cart: RecordingCart, master: Master
+) -> None:
     v = Vehicle(broker.broker, "c2", cart, lambda: cart.pose, lambda: True).start()
     master.wait_for("c2", "connection", lambda m: m["connectionState"] == "ONLINE")
     v.close()
     master.wait_for("c2", "connection", lambda m: m["connectionState"] == "OFFLINE")
 
 
-def test_a_failed_mission_waits_for_the_master(vehicle: Vehicle, cart: FakeCart, master: Master) -> None:
+def test_a_failed_mission_waits_for_the_master(vehicle: Vehicle, cart: RecordingCart, master: Master) -> None:
     master.wait_for(SERIAL, "connection", lambda m: True)
     master.send(SERIAL, "order", order_body("o1", 0, POINTS[:3]))
     state_with(master, orderId="o1", driving=True)
@@ -236,7 +206,7 @@ def test_a_failed_mission_waits_for_the_master(vehicle: Vehicle, cart: FakeCart,
     assert cart.goals == [(1.25, 0.25), (1.25, 0.25)]
 
 
-def test_a_broker_with_users_lets_in_only_the_vehicle_with_its_password(cart: FakeCart) -> None:
+def test_a_broker_with_users_lets_in_only_the_vehicle_with_its_password(cart: RecordingCart) -> None:
     with Mosquitto(users={"cart7": "s3cret", "master": "m"}) as locked:
         master = Master(dataclasses.replace(locked.broker, username="master", password="m"))
         try:
