@@ -3,15 +3,10 @@
 // down the page polls GET /api/fleet instead (fleet.ts), and the socket is tried again.
 
 import type { FleetUpdate, FleetView } from "./generated/fleet";
+import { wsUrl } from "./token";
 
 const RETRY_FIRST_MS = 500;
 const RETRY_MAX_MS = 5000;
-
-/** The stream's address on the page's own host (the manager serves both). */
-function streamUrl(): string {
-  const proto = location.protocol === "https:" ? "wss:" : "ws:";
-  return `${proto}//${location.host}/ws`;
-}
 
 export class FleetStream {
   /** Whether views arrive by the stream now (then the page does not poll). */
@@ -24,7 +19,8 @@ export class FleetStream {
   ) {}
 
   connect(): void {
-    const ws = new WebSocket(streamUrl());
+    // on the page's own host (the manager serves both), with no token
+    const ws = new WebSocket(wsUrl(null));
     ws.addEventListener("message", (e) => {
       let update: FleetUpdate;
       try {
