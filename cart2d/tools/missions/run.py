@@ -23,7 +23,7 @@ import tempfile
 import threading
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -172,7 +172,7 @@ class _Run:
     tell: Tell
     # held in real time from the mission's start until its first goal's path is sent (a mission
     # with events): at full speed the events' clock would run ahead of a busy gateway's start
-    starting: contextlib.ExitStack = field(default_factory=contextlib.ExitStack)
+    starting: contextlib.ExitStack
 
 
 def _drive_to(run: _Run, goal: Point) -> dict[str, Any]:
