@@ -22,8 +22,9 @@ from cyclonedds.util import duration
 
 from cart2d.ros2 import qos
 from cart2d.ros2 import types as t
-from cart2d.ros2.drive import CmdVelGate, Driver, speed_limits
+from cart2d.ros2.drive import CmdVelGate, Driver
 from cart2d.ros2.frames import yaw_of
+from cart2d.ros2.limits import KnownLimits
 from cart2d.ros2.node import RosNode
 
 log = logging.getLogger(__name__)
@@ -85,8 +86,9 @@ class Inbound:
         o = node.options
         self.node = node
         self.gateway = gateway
-        self.gate = CmdVelGate(gateway.motion_token, lambda: speed_limits(gateway.firmware_settings()), clock)
-        self.driver = Driver(lambda v, w, token: gateway.drive(v, w, token))
+        self.limits = KnownLimits(gateway.firmware_settings)  # never read on the command's path
+        self.gate = CmdVelGate(gateway.motion_token, self.limits, clock)
+        self.driver = Driver(self._drive)
         self.tasks = Tasks()
         self.dropped = 0  # malformed samples
         self.handlers: list[tuple[DataReader[Any], Callable[[Any], None]]] = []
@@ -106,6 +108,7 @@ class Inbound:
         self.handlers.append((reader, handler))
 
     def start(self) -> Inbound:
+        self.limits.start()
         self.driver.start()
         self.tasks.start()
         self._thread.start()
@@ -115,6 +118,7 @@ class Inbound:
         self._closed.set()
         self._thread.join(timeout=5.0)
         self.driver.close()
+        self.limits.close()
         self.tasks.close()
 
     # -- the reading thread --------------------------------------------------------------------
@@ -150,6 +154,14 @@ class Inbound:
         command = self.gate.admit(twist.linear.x, twist.angular.z)
         if command is not None:
             self.driver.offer(command)
+
+    def _drive(self, v_mps: float, omega_radps: float, token: int) -> None:
+        """The driver's send; the limits are read again after it, behind it on the link (a
+        setting may have changed: they are the next command's)."""
+        try:
+            self.gateway.drive(v_mps, omega_radps, token)
+        finally:
+            self.limits.wake()
 
     def _on_twist_stamped(self, message: t.TwistStamped) -> None:
         self._on_twist(message.twist)
