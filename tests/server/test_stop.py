@@ -34,6 +34,7 @@ class Trial:
     motions: list[str]
     answered_s: float = 0.0  # simulated time just after the stop's answer
     statuses: dict[str, int] = field(default_factory=dict)
+    details: dict[str, str] = field(default_factory=dict)  # what an answer other than 200 said
     moving: list[dict[str, Any]] = field(default_factory=list)  # truth samples with the motors on
 
 
@@ -74,11 +75,13 @@ def run_trial(live: LiveGateway, truth: Truth, motions: list[str], n: int, delay
     def move(index: int, kind: str, client: Http) -> None:
         if kind == "goto":
             x, y = GOALS[n % 2]
-            status, _ = client.call("POST", "/api/goto", {"x": x, "y": y})
+            status, body = client.call("POST", "/api/goto", {"x": x, "y": y})
         else:
             v = 0.3 if (n + index) % 2 == 0 else -0.3  # back and forth: the cart stays in the arena
-            status, _ = client.call("POST", "/api/drive", {"v": v, "omega": 0.0})
+            status, body = client.call("POST", "/api/drive", {"v": v, "omega": 0.0})
         trial.statuses[f"{kind} {index}"] = status
+        if status != 200:
+            trial.details[f"{kind} {index}"] = str(body)
 
     threads = [
         threading.Thread(target=move, args=(i, kind, client), daemon=True)
@@ -148,7 +151,7 @@ def test_after_the_stops_answer_the_cart_never_moves(
     try:
         for n in range(trials):
             trial = run_trial(live, truth, motions, n, jitter.uniform(0.0, max_delay_s))
-            assert all(status in (200, 409) for status in trial.statuses.values()), trial.statuses
+            assert all(status in (200, 409) for status in trial.statuses.values()), trial.details
             if trial.moving:
                 failed.append(trial)
     finally:
