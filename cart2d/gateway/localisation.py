@@ -29,8 +29,8 @@ import numpy as np
 from cart2d.gateway import messages
 from cart2d.gateway.bus import EventBus, PoseCorrected, Restarted, ViewerMessage
 from cart2d.gateway.camera import Overlay
+from cart2d.gateway.poses import CapturePoses
 from cart2d.gateway.restarts import Restarts
-from cart2d.gateway.seeing import PoseHistory
 from cart2d.localisation.ekf import Pose2, PoseFilter, between, compose, to_map, to_odom
 from cart2d.localisation.markers import MarkerMap
 from cart2d.localisation.tags import Lens, Mounted, TagDetector, TagFix, TagLocaliser
@@ -101,7 +101,7 @@ class Localisation:
         self._clock = clock
         self._detector = TagDetector()
         self._localiser = TagLocaliser(markers, lens, mount)
-        self._poses = PoseHistory(clock=clock)
+        self._poses = CapturePoses(latency_s, clock)
         self._lock = threading.Lock()
         self._last = "no marker seen yet"
         self._sent_s = -MESSAGE_EVERY_S
@@ -116,7 +116,7 @@ class Localisation:
         if not isinstance(m, messages.TelemetryMessage):
             return
         odom = (float(m.x), float(m.y), float(m.theta))
-        self._poses.add(self._clock(), odom)
+        self._poses.add(odom, int(m.tick))
         with self._lock:
             if not self.filter.trusted and self.filter.odom is None and self.restarts.pose_trust.trusted:
                 # a trusted pose at the start: map and odom agree until a marker says otherwise
@@ -130,7 +130,7 @@ class Localisation:
     def _on_corrected(self, event: PoseCorrected) -> None:
         if event.map_to_odom is not None:
             return  # this service's own
-        odom = self._poses.at(self._clock())
+        odom = self._poses.newest()
         with self._lock:
             self.frames.set(IDENTITY)
             if odom is not None:
@@ -158,10 +158,9 @@ class Localisation:
         del self.detect_s[:-1000]
         if not fixes:
             return None
-        captured_s = frame.received_s - self.latency_s
-        captured = self._poses.at(captured_s)
-        before = self._poses.at(captured_s - RATE_WINDOW_S)
-        now = self._poses.at(self._clock())
+        captured = self._poses.at(frame)
+        before = self._poses.at(frame, back_s=RATE_WINDOW_S)
+        now = self._poses.newest()
         if captured is None or now is None:
             return None
         for fix in fixes:

@@ -6,13 +6,12 @@ picture the panel shows. What it asks of the gateway is a `SeeingHost`: the came
 (cart2d/gateway/camera_service.py).
 
 The pose at capture: a frame reaches the gateway `latency_s` after it was taken (one frame plus
-Wi-Fi on an ESP32-CAM; [sim.camera] latency_ms in the simulator), so the odometry pose is looked
-up that long before the frame arrived, interpolated between telemetry frames as they came in.
+Wi-Fi on an ESP32-CAM; [sim.camera] latency_ms in the simulator); poses.py finds the odometry
+pose of that moment, on the firmware's clock when the camera stamps its frames.
 """
 
 from __future__ import annotations
 
-import bisect
 import logging
 import math
 import threading
@@ -25,6 +24,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 
 from cart2d.gateway.camera import Overlay
+from cart2d.gateway.poses import CapturePoses
 from cart2d.params import robot
 from cart2d.perception.calibration import CameraCalibration, calibration_path, load_calibration
 from cart2d.perception.mjpeg import Frame
@@ -79,45 +79,6 @@ def default_latency_s() -> float:
     return float(robot()["sim"]["camera"]["latency_ms"]) / 1000.0
 
 
-class PoseHistory:
-    """Odometry poses as telemetry brought them, by the gateway's monotonic clock of arrival."""
-
-    def __init__(self, keep_s: float = 3.0, clock: Callable[[], float] = time.monotonic) -> None:
-        self.keep_s = keep_s
-        self.clock = clock
-        self._times: deque[float] = deque()
-        self._poses: deque[Pose] = deque()
-        self._lock = threading.Lock()
-
-    def __call__(self, message: dict[str, Any]) -> None:
-        """A gateway listener: takes its telemetry frames."""
-        if message.get("type") == "telemetry":
-            self.add(self.clock(), (float(message["x"]), float(message["y"]), float(message["theta"])))
-
-    def add(self, t: float, pose: Pose) -> None:
-        with self._lock:
-            self._times.append(t)
-            self._poses.append(pose)
-            while self._times and self._times[0] < t - self.keep_s:
-                self._times.popleft()
-                self._poses.popleft()
-
-    def at(self, t: float) -> Pose | None:
-        """The pose at `t`: interpolated between the two telemetry frames around it, the newest
-        one if `t` is after it; None before the history starts (the pose then is not known)."""
-        with self._lock:
-            times, poses = list(self._times), list(self._poses)
-        if not times or t < times[0]:
-            return None
-        k = bisect.bisect_right(times, t)
-        if k >= len(times):
-            return poses[-1]
-        (t0, p0), (t1, p1) = (times[k - 1], poses[k - 1]), (times[k], poses[k])
-        f = 0.0 if t1 <= t0 else (t - t0) / (t1 - t0)
-        turn = math.remainder(p1[2] - p0[2], math.tau)
-        return (p0[0] + f * (p1[0] - p0[0]), p0[1] + f * (p1[1] - p0[1]), p0[2] + f * turn)
-
-
 def _grid_for(arena: dict[str, float], resolution_m: float) -> LogOddsGrid:
     """A grid over the arena's walls and a cell beyond, so the walls' faces are in it."""
     x0, y0 = arena["x_min"] - resolution_m, arena["y_min"] - resolution_m
@@ -163,7 +124,7 @@ class Seeing:
         self.calibration = calibration
         self.latency_s = default_latency_s() if latency_s is None else latency_s
         self.resolution_m = resolution_m
-        self.poses = PoseHistory()
+        self.poses = CapturePoses(self.latency_s)
         self._unsubscribe = host.subscribe(self.poses)
         self._arena: dict[str, float] | None = None
         self._perception: Perception | None = None
@@ -208,7 +169,7 @@ class Seeing:
         if not layer.enabled:
             self.skipped += 1
             return None
-        pose = self.poses.at(frame.received_s - self.latency_s)
+        pose = self.poses.at(frame)
         if pose is None:
             self.skipped += 1
             return None

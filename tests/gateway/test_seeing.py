@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from cart2d.gateway.seeing import PoseHistory, Seeing
+from cart2d.gateway.poses import PoseHistory
+from cart2d.gateway.seeing import Seeing
 from cart2d.maps.world import Box
 from cart2d.planning import segment_square_distance
 from cart2d.recording.channels import TOPIC_CAMERA

@@ -1,0 +1,174 @@
+"""The odometry pose at a camera frame's capture.
+
+A frame reaches the gateway some latency after it was taken, so its pose is looked up in the
+poses telemetry brought. Counted on the gateway's clock (arrival less the camera's latency) that
+is right only while the cart's clocks run as fast as the gateway's: behind a slow Wi-Fi hop, or a
+simulator running faster than real time, the cart drives on during the wait by its own clock.
+A camera that stamps its frames (X-Timestamp: the ESP32-CAM's, the simulator's) is looked up on
+the firmware's clock (telemetry's TICK) instead: the offset between the two clocks is learned
+from the frames themselves, the smallest gap between a stamp and the firmware's time at the
+frame's arrival being the camera's latency. Nothing here asks whether the cart is simulated.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from typing import Any
+
+from cart2d.params import robot
+from cart2d.perception.mjpeg import Frame
+from cart2d.perception.occupancy import Pose
+
+TICKS = 65536  # telemetry's TICK is 16 bits
+GAPS_KEPT = 45  # frames whose stamp-to-arrival gap the offset is learned from (3 s at 15 fps)
+FIRMWARE_KEEP_S = 30.0  # seconds of the firmware's clock kept: a faster clock than the gateway's
+
+
+class PoseHistory:
+    """Poses by the time they belong to on one clock, kept `keep_s` back from the newest."""
+
+    def __init__(self, keep_s: float = 3.0, clock: Callable[[], float] = time.monotonic) -> None:
+        self.keep_s = keep_s
+        self.clock = clock
+        self._times: deque[float] = deque()
+        self._poses: deque[Pose] = deque()
+        self._lock = threading.Lock()
+
+    def __call__(self, message: dict[str, Any]) -> None:
+        """A gateway listener: its telemetry's poses, by their arrival on `clock`."""
+        if message.get("type") == "telemetry":
+            self.add(self.clock(), (float(message["x"]), float(message["y"]), float(message["theta"])))
+
+    def add(self, t: float, pose: Pose) -> None:
+        with self._lock:
+            if self._times and t < self._times[-1]:  # a clock that went back: a new history
+                self._times.clear()
+                self._poses.clear()
+            self._times.append(t)
+            self._poses.append(pose)
+            while self._times and self._times[0] < t - self.keep_s:
+                self._times.popleft()
+                self._poses.popleft()
+
+    def newest(self) -> Pose | None:
+        with self._lock:
+            return self._poses[-1] if self._poses else None
+
+    def at(self, t: float) -> Pose | None:
+        """The pose at `t`: interpolated between the two poses around it, the newest one if `t`
+        is after it; None before the history starts (the pose then is not known)."""
+        with self._lock:
+            times, poses = list(self._times), list(self._poses)
+        if not times or t < times[0]:
+            return None
+        k = bisect.bisect_right(times, t)
+        if k >= len(times):
+            return poses[-1]
+        (t0, p0), (t1, p1) = (times[k - 1], poses[k - 1]), (times[k], poses[k])
+        f = 0.0 if t1 <= t0 else (t - t0) / (t1 - t0)
+        turn = math.remainder(p1[2] - p0[2], math.tau)
+        return (p0[0] + f * (p1[0] - p0[0]), p0[1] + f * (p1[1] - p0[1]), p0[2] + f * turn)
+
+
+class FirmwareClock:
+    """Telemetry's TICK unwrapped into seconds of the firmware's clock, with when each arrived
+    on the gateway's clock. A TICK that goes back (a restart) carries on from the last one."""
+
+    def __init__(self, tick_s: float, keep: int = 1000) -> None:
+        self.tick_s = tick_s
+        self._last_tick: int | None = None
+        self._ticks = 0  # unwrapped
+        self._arrivals: deque[float] = deque(maxlen=keep)
+        self._seconds: deque[float] = deque(maxlen=keep)
+        self._lock = threading.Lock()
+
+    def add(self, arrived_s: float, tick: int) -> float:
+        """The firmware's time of a telemetry frame that arrived at `arrived_s`."""
+        with self._lock:
+            if self._last_tick is not None:
+                step = (tick - self._last_tick) % TICKS
+                self._ticks += step if step < TICKS // 2 else 1
+            self._last_tick = tick
+            seconds = self._ticks * self.tick_s
+            self._arrivals.append(arrived_s)
+            self._seconds.append(seconds)
+            return seconds
+
+    def first_after(self, arrived_s: float) -> float | None:
+        """The firmware's time of the first telemetry to arrive after `arrived_s` (None if none
+        has yet): the firmware's clock was at most that when something arrived then."""
+        with self._lock:
+            k = bisect.bisect_right(self._arrivals, arrived_s)
+            return self._seconds[k] if k < len(self._seconds) else None
+
+
+class CaptureClock:
+    """A camera's stamps on the firmware's clock: stamp + the smallest gap seen lately between
+    a stamp and the firmware's time at its frame's arrival, less the camera's latency."""
+
+    def __init__(self, latency_s: float, kept: int = GAPS_KEPT) -> None:
+        self.latency_s = latency_s
+        self._gaps: deque[float] = deque(maxlen=kept)
+        self._last_stamp = -math.inf
+
+    def observe(self, stamp_s: float, firmware_at_arrival_s: float) -> None:
+        if stamp_s < self._last_stamp:  # the camera restarted: its clock with it
+            self._gaps.clear()
+        self._last_stamp = stamp_s
+        self._gaps.append(firmware_at_arrival_s - stamp_s)
+
+    def firmware_time(self, stamp_s: float) -> float | None:
+        if not self._gaps:
+            return None
+        return stamp_s + min(self._gaps) - self.latency_s
+
+
+class CapturePoses:
+    """The pose at a frame's capture: by its stamp on the firmware's clock when the frame has a
+    stamp and telemetry its TICK, else by its arrival less the camera's latency."""
+
+    def __init__(self, latency_s: float, clock: Callable[[], float] = time.monotonic) -> None:
+        self.latency_s = latency_s
+        self.clock = clock
+        self.by_arrival = PoseHistory(clock=clock)
+        self.by_firmware = PoseHistory(keep_s=FIRMWARE_KEEP_S)
+        self.firmware = FirmwareClock(1.0 / float(robot()["control"]["tick_hz"]))
+        self.capture = CaptureClock(latency_s)
+        self._observed_seq: int | None = None  # a frame looked up twice is one observation
+
+    def __call__(self, message: dict[str, Any]) -> None:
+        """A gateway listener: its telemetry."""
+        if message.get("type") == "telemetry":
+            pose = (float(message["x"]), float(message["y"]), float(message["theta"]))
+            self.add(pose, int(message["tick"]) if "tick" in message else None)
+
+    def add(self, pose: Pose, tick: int | None) -> None:
+        """A telemetry frame's pose, arrived now, with its TICK if it has one."""
+        arrived = self.clock()
+        self.by_arrival.add(arrived, pose)
+        if tick is not None:
+            self.by_firmware.add(self.firmware.add(arrived, tick), pose)
+
+    def newest(self) -> Pose | None:
+        return self.by_arrival.newest()
+
+    def at(self, frame: Frame, back_s: float = 0.0) -> Pose | None:
+        """The pose `back_s` before `frame` was taken."""
+        captured = self._on_firmware_clock(frame)
+        if captured is None:
+            return self.by_arrival.at(frame.received_s - self.latency_s - back_s)
+        return self.by_firmware.at(captured - back_s)
+
+    def _on_firmware_clock(self, frame: Frame) -> float | None:
+        if frame.stamp_s is None:
+            return None
+        arrival = self.firmware.first_after(frame.received_s)
+        if arrival is not None and frame.seq != self._observed_seq:
+            self._observed_seq = frame.seq
+            self.capture.observe(frame.stamp_s, arrival)
+        return self.capture.firmware_time(frame.stamp_s)
