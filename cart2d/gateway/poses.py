@@ -6,7 +6,7 @@ is right only while the cart's clocks run as fast as the gateway's: behind a slo
 simulator running faster than real time, the cart drives on during the wait by its own clock.
 A camera that stamps its frames (X-Timestamp: the ESP32-CAM's, the simulator's) is looked up on
 the firmware's clock (telemetry's TICK) instead: the offset between the two clocks is learned
-from the frames themselves, the smallest gap between a stamp and the firmware's time at the
+from the frames themselves, the shortest gaps between a stamp and the firmware's time at the
 frame's arrival being the camera's latency. Nothing here asks whether the cart is simulated.
 """
 
@@ -25,7 +25,9 @@ from cart2d.perception.mjpeg import Frame
 from cart2d.perception.occupancy import Pose
 
 TICKS = 65536  # telemetry's TICK is 16 bits
-GAPS_KEPT = 45  # frames whose stamp-to-arrival gap the offset is learned from (3 s at 15 fps)
+GAPS_KEPT = 90  # frames whose stamp-to-arrival gap the offset is learned from (6 s at 15 fps)
+# Not the smallest gap: a telemetry frame handed on late by a busy gateway makes one too small
+GAP_QUANTILE = 0.2
 FIRMWARE_KEEP_S = 30.0  # seconds of the firmware's clock kept: a faster clock than the gateway's
 
 
@@ -108,8 +110,9 @@ class FirmwareClock:
 
 
 class CaptureClock:
-    """A camera's stamps on the firmware's clock: stamp + the smallest gap seen lately between
-    a stamp and the firmware's time at its frame's arrival, less the camera's latency."""
+    """A camera's stamps on the firmware's clock: stamp + a short gap seen lately between a
+    stamp and the firmware's time at its frame's arrival (GAP_QUANTILE), less the camera's
+    latency."""
 
     def __init__(self, latency_s: float, kept: int = GAPS_KEPT) -> None:
         self.latency_s = latency_s
@@ -125,7 +128,8 @@ class CaptureClock:
     def firmware_time(self, stamp_s: float) -> float | None:
         if not self._gaps:
             return None
-        return stamp_s + min(self._gaps) - self.latency_s
+        low = sorted(self._gaps)[int(GAP_QUANTILE * (len(self._gaps) - 1))]
+        return stamp_s + low - self.latency_s
 
 
 class CapturePoses:

@@ -1,7 +1,8 @@
 // The side channel's control messages: one JSON object per line with a "type" and an optional
 // "id", each answered by {"type":"ack","id":...,"ok":true|false[,"error":...][, results]}.
 // A rejected message changes nothing.
-#include <cmath>  // std::isfinite, std::llround
+#include <algorithm>  // std::upper_bound
+#include <cmath>      // std::isfinite, std::llround
 
 #include "log.hpp"
 #include "robot_params.hpp"  // params::control
@@ -63,7 +64,7 @@ std::string Simulator::dispatch(int client, const std::string& type, const json:
     pacer_.anchor(rig_.time_s(), wall_now_s());
     return "";
   }
-  if (type == "reset") return cmd_reset(msg);
+  if (type == "reset") return cmd_reset(msg, extra);
   if (type == "hang") {
     rig_.inject_hang();
     return "";
@@ -109,8 +110,10 @@ std::string Simulator::dispatch(int client, const std::string& type, const json:
 }
 
 // {"type":"reset","cause":"external"|"power"|"brownout"}: the reset button (or DTR); the power
-// switched off for off_s, then on; the supply dipped below the brown-out level for dip_s.
-std::string Simulator::cmd_reset(const json::Value& msg) {
+// switched off for off_s, then on; the supply dipped below the brown-out level for dip_s. With
+// "at":T (simulated seconds, later than now) it happens at T exactly, so a run is the same at
+// any speed; the ack then carries "scheduled":true.
+std::string Simulator::cmd_reset(const json::Value& msg, std::string* extra) {
   const json::Value* cause = msg.find("cause");
   if (cause && !cause->is_string()) return "cause must be \"external\", \"power\" or \"brownout\"";
   const std::string name = cause ? cause->string : "external";
@@ -132,10 +135,37 @@ std::string Simulator::cmd_reset(const json::Value& msg) {
     if (!number_member(msg, key, &off_s) || off_s < 0.0 || off_s > 3600.0)
       return std::string(key) + " must be a number of seconds in [0, 3600]";
   }
-  rig_.reset_mcu(c, off_s);
-  mcu_dead_reported_ = false;
-  LOG_INFO("MCU reset (%s) at t = %.6f s", name.c_str(), rig_.time_s());
+  double at_s = -1.0;
+  if (msg.find("at") && (!number_member(msg, "at", &at_s) || at_s < 0.0 || at_s > 1e9))
+    return "at must be simulated seconds in [0, 1e9]";
+  const uint64_t cycle = at_s < 0.0 ? 0 : static_cast<uint64_t>(std::llround(at_s * rig_.mcu().frequency_hz()));
+  if (cycle > rig_.cycle()) {
+    auto later = std::upper_bound(scheduled_resets_.begin(), scheduled_resets_.end(), cycle,
+                                  [](uint64_t k, const ScheduledReset& r) { return k < r.cycle; });
+    scheduled_resets_.insert(later, ScheduledReset{cycle, c, off_s});
+    *extra = "\"scheduled\":true,\"at\":" + json::number(at_s);
+    return "";
+  }
+  reset_now(c, off_s);
   return "";
+}
+
+void Simulator::reset_now(ResetCause cause, double off_s) {
+  rig_.reset_mcu(cause, off_s);
+  mcu_dead_reported_ = false;
+  LOG_INFO("MCU reset (%s) at t = %.6f s", reset_cause_name(cause), rig_.time_s());
+}
+
+void Simulator::apply_due_resets() {
+  while (!scheduled_resets_.empty() && scheduled_resets_.front().cycle <= rig_.cycle()) {
+    const ScheduledReset r = scheduled_resets_.front();
+    scheduled_resets_.erase(scheduled_resets_.begin());
+    reset_now(r.cause, r.off_s);
+  }
+}
+
+uint64_t Simulator::next_reset_cycle() const {
+  return scheduled_resets_.empty() ? UINT64_MAX : scheduled_resets_.front().cycle;
 }
 
 // {"type":"profile","enable":true} starts counting the cycles of each instruction executed

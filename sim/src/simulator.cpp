@@ -119,14 +119,15 @@ bool Simulator::parent_gone() {
   return ::read(STDIN_FILENO, &byte, 1) == 0;
 }
 
-// Runs one slice, or less if a "run" message asked to pause, a world change is due or a hold
-// stands, earlier.
+// Runs one slice, or less if a "run" message asked to pause, a world change or a reset is due or a
+// hold stands, earlier.
 void Simulator::run_slice(uint64_t slice) {
   const uint64_t now = rig_.cycle();
-  const uint64_t stop = std::min({pause_at_cycle_, next_change_cycle(), hold_stop()});
+  const uint64_t stop = std::min({pause_at_cycle_, next_change_cycle(), next_reset_cycle(), hold_stop()});
   const uint64_t left = stop > now ? stop - now : 0;
   rig_.run_cycles(left < slice ? left : slice);
   apply_due_changes();
+  apply_due_resets();
   if (rig_.cycle() < pause_at_cycle_) return;
   paused_ = true;
   pause_at_cycle_ = UINT64_MAX;

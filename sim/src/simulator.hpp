@@ -36,7 +36,10 @@ class Simulator {
   void handle_line(int client, const std::string& line);
   std::string dispatch(int client, const std::string& type, const json::Value& msg, std::string* extra);
   std::string cmd_place(const json::Value& msg);
-  std::string cmd_reset(const json::Value& msg);
+  std::string cmd_reset(const json::Value& msg, std::string* extra);
+  void reset_now(ResetCause cause, double off_s);
+  void apply_due_resets();
+  uint64_t next_reset_cycle() const;
   std::string resets_json() const;
   std::string eeprom_ops_json() const;
   std::string cmd_profile(const json::Value& msg, std::string* extra);
@@ -100,6 +103,12 @@ class Simulator {
     WorldChange change;
   };
   std::vector<ScheduledChange> scheduled_;
+  struct ScheduledReset {
+    uint64_t cycle;  // the cycle it happens at
+    ResetCause cause;
+    double off_s;
+  };
+  std::vector<ScheduledReset> scheduled_resets_;  // in order of cycle, then of arrival
   std::unique_ptr<SimCamera> camera_;  // made once the MCU's clock is known  // in order of cycle, then of arrival
   bool mcu_dead_reported_ = false;
   bool auto_reset_ = true;  // --no-auto-reset, or the "link" message

@@ -71,7 +71,7 @@ def test_a_fast_cart_is_looked_up_by_the_cameras_stamp_on_the_firmwares_clock() 
 
 def test_a_pose_back_from_the_capture_is_on_the_same_clock() -> None:
     poses, _ = driven()
-    for captured, frame in frames(stamped=True)[:10]:
+    for _, frame in frames(stamped=True)[:10]:
         pose = poses.at(frame)
     earlier = poses.at(frame, back_s=0.2)
     assert pose is not None and earlier is not None
@@ -106,3 +106,13 @@ def test_a_camera_that_restarts_forgets_the_gaps_of_its_old_clock() -> None:
     assert capture.firmware_time(100.2) == pytest.approx(100.2 + (5.16 - 100.1) - LATENCY_S)
     capture.observe(0.5, 6.0)  # its clock back to zero
     assert capture.firmware_time(0.6) == pytest.approx(0.6 + 5.5 - LATENCY_S)
+
+
+def test_one_gap_made_short_by_a_late_telemetry_frame_does_not_move_the_clock() -> None:
+    capture = CaptureClock(LATENCY_S)
+    for k in range(20):  # the camera's latency, and up to 40 ms of telemetry's period on top
+        capture.observe(100.0 + k / 15.0, 5.0 + k / 15.0 + 0.06 + 0.002 * (k % 20))
+    before = capture.firmware_time(102.0)
+    capture.observe(101.4, 5.0 + 1.4 + 0.06 - 0.3)  # a telemetry frame handed on 0.3 s late
+    assert capture.firmware_time(102.0) == before
+    assert before is not None and before - (102.0 - 95.0) == pytest.approx(0.0, abs=0.01)
