@@ -14,6 +14,7 @@ import serial
 from cart2d.link import Link
 from cart2d.link.firmware import read_status
 from cart2d.link.protocol import encode_request
+from cart2d.simulation.side_channel import SimulatorError
 from cart2d.simulation.simulator import Simulator
 from cart2d.spec import load_spec
 from tests.support.sim import events, start_sim, wait_idle
@@ -184,3 +185,17 @@ def test_a_hung_main_loop_is_stopped_by_the_watchdog(tmp_path: Path) -> None:
     # passed on) a watchdog reset that kept the RAM cannot be told from the button: docs/firmware.md.
     assert status.reset_cause == ["EXTERNAL", "WATCHDOG"]
     assert status.mode == "IDLE"
+
+
+def test_a_reset_scheduled_at_a_simulated_time_happens_at_that_cycle(sim: Simulator) -> None:
+    # cart2d mission's resets_at_s: a thread watching the time pressed the button as late as a
+    # busy machine let it, seconds of simulated time late at full speed
+    at = float(sim.truth()["t"]) + 0.5
+    ack = sim.control("reset", at=at)
+    assert ack["scheduled"] is True
+    before = len(sim.side.events) if sim.side else 0
+    sim.run_for(1.0)
+    (reset,) = [e for e in events(sim, "mcu_reset", before) if e["cause"] == "external"]
+    assert reset["t"] == pytest.approx(at, abs=1e-6)  # the first cycle at or after it
+    with pytest.raises(SimulatorError, match=r"reset: at must be simulated seconds in \[0, 1e9\]"):
+        sim.control("reset", at=-1)

@@ -190,6 +190,8 @@ def test_a_reset_mid_path_fails_the_mission_and_goto_is_refused_until_the_pose_i
     assert (
         now["pose_trust"]["trusted"] is False and "the controller restarted at" in now["pose_trust"]["reason"]
     )
+    # told to viewers by the thread that noticed the restart, maybe after /api/status says so
+    wait_for(lambda: any(e["type"] == "reset" for e in events), 10)
     told = [e for e in events if e["type"] == "reset"]
     assert (
         len(told) == 1 and told[0]["message"] == last["message"] and told[0]["pose_trust"]["trusted"] is False

@@ -20,9 +20,8 @@ import contextlib
 import math
 import sys
 import tempfile
-import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -77,35 +76,12 @@ def _wait_for_path_end(link: Link, sim: Simulator, deadline_t: float, watch: fir
     return status.path_outcome() or ""
 
 
-@contextlib.contextmanager
-def _resets_at(sim: Simulator, times_s: list[float]) -> Iterator[None]:
-    """Presses the simulated reset button at these simulated times, from a thread of its own."""
-    if not times_s:
-        yield
-        return
-    done = threading.Event()
-
-    def press() -> None:
-        side = sim.side
-        assert side is not None
-        for t in times_s:
-            while not done.is_set():
-                try:
-                    side.wait_truth(lambda truth, t=t: truth["t"] >= t, 0.2)
-                    break
-                except SimulatorError:
-                    continue  # not yet; look again unless the mission ended
-            if done.is_set():
-                return
-            sim.control("reset")
-
-    thread = threading.Thread(target=press, name="reset button", daemon=True)
-    thread.start()
-    try:
-        yield
-    finally:
-        done.set()
-        thread.join()
+def _resets_at(sim: Simulator, times_s: list[float]) -> None:
+    """Presses the simulated reset button at these simulated times: scheduled in the simulator,
+    which presses it at that cycle whatever the speed (a thread watching the time pressed it as
+    late as a busy machine let it, by then seconds of simulated time at full speed)."""
+    for t in times_s:
+        sim.control("reset", at=t)
 
 
 def _drive_like_the_seed(
@@ -171,7 +147,7 @@ class _Run:
     deadline: float
     tell: Tell
     # held in real time from the mission's start until its first goal's path is sent (a mission
-    # with events): at full speed the events' clock would run ahead of a busy gateway's start
+    # with events or resets): at full speed their clock would run ahead of a busy gateway's start
     starting: contextlib.ExitStack
 
 
@@ -348,11 +324,12 @@ def run_mission(
                     # The mission's time starts with its first goal, once the camera sees: the
                     # events, the resets and the timeout count from here.
                     starting = contextlib.ExitStack()
-                    if spec.events:
+                    if spec.events or spec.resets_at_s:
                         starting.enter_context(pacer.real_time())
                     t0 = recorder.t0 = sim.truth()["t"]
                     events = EventPlayer(gateway, sim, pacer, spec.events, t0)
-                    with starting, _resets_at(sim, [t0 + t for t in spec.resets_at_s]), events:
+                    _resets_at(sim, [t0 + t for t in spec.resets_at_s])
+                    with starting, events:
                         run = _Run(gateway, sim, pacer, recorder, spec, t0 + spec.timeout_s, tell, starting)
                         _drive_goals(run, progress, report["goals"])
                         if gateway.seeing is not None:
