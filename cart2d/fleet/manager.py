@@ -149,12 +149,16 @@ class FleetManager:
             cell = self.lattice.nearest(p["x"], p["y"])
         except ValueError:
             return
+        # an idle cart moved (initPosition, by hand, stopped past the node it last reported on
+        # a cancelled order's base): its node follows, or its next order's first node would be
+        # refused as too far from it
         if (
             self.traffic.idle(cart.name)
             and self.traffic.standing[cart.name] != cell
+            and not self.traffic.stands_at(cart.name, cell)
             and cell not in self.traffic.holds
         ):
-            self.traffic.remove(cart.name)  # an idle cart moved (initPosition, by hand): its node follows
+            self.traffic.remove(cart.name)
         if cart.name not in self.traffic.standing:
             try:
                 self.traffic.join(cart.name, cell)

@@ -75,6 +75,14 @@ class Traffic:
         else:
             self.offline.add(cart)
 
+    def stands_at(self, cart: str, cell: Cell) -> bool:
+        """An idle cart stands nearest `cell`, one of the nodes it holds (a cancelled order's base:
+        it stopped anywhere on it); its next route starts there. False if it does not hold it."""
+        if self.holds.get(cell) != cart:
+            return False
+        self.standing[cart] = cell
+        return True
+
     def idle(self, cart: str) -> bool:
         return cart in self.standing and cart not in self.journeys and cart not in self.offline
 

@@ -154,3 +154,21 @@ def test_at_every_connection_the_manager_asks_each_cart_for_its_state() -> None:
     fleet.manager.ask_states()  # what its broker connection calls when it (re)connects
     asked = [(t.split("/")[3], m["actions"][0]["actionType"]) for t, m in fleet.outbox]
     assert sorted(asked) == [("c1", "stateRequest"), ("c2", "stateRequest")]
+
+
+def test_a_cart_cancelled_between_two_nodes_takes_its_next_goal_from_the_node_it_is_nearest() -> None:
+    lattice = Lattice((0.25, 0.25), 0.5, frozenset((i, j) for i in range(8) for j in range(2)))
+    fleet = Fleet(lattice, {"c1": (0, 0), "c2": (7, 1)})
+    fleet.manager.add_goal(*lattice.position((6, 0)), cart="c1")
+    while fleet.manager.traffic.standing["c1"] != (2, 0):
+        fleet.tick()
+    fleet.manager.cancel("c1")
+    fleet.tick()
+    # it stopped 0.4 m past the node it last reported, nearer the next one of its base
+    fleet.carts["c1"].pose = (lattice.position((2, 0))[0] + 0.4, 0.25, 0.0)
+    fleet.vehicles["c1"].moved(fleet.carts["c1"].pose)
+    fleet._report("c1")
+    goal = fleet.manager.add_goal(*lattice.position((3, 1)), cart="c1")
+    for _ in range(20):
+        fleet.tick()
+    assert goal.status == "reached", fleet.vehicles["c1"].errors

@@ -39,6 +39,19 @@ async function place(name: string): Promise<Point> {
   return [p[0], p[1]];
 }
 
+// Waits for the newest goal to end and expects it reached; a goal that failed or was cancelled
+// is told with what the manager and the cart said (its VDA 5050 errors, the fleet sim's output).
+async function expectReached(page: Page, name: string): Promise<void> {
+  const first = page.locator("#goals li").first();
+  await expect(first).toHaveAttribute("data-status", /^(reached|failed|cancelled)$/, { timeout: 20_000 });
+  const status = await first.getAttribute("data-status");
+  if (status === "reached") return;
+  const view = await fleetView();
+  const goals = view.goals.slice(-3);
+  const why = JSON.stringify({ goals, cart: view.carts.find((c) => c.name === name) }, null, 1);
+  throw new Error(`${name}'s goal ${status}, not reached:\n${why}\n${output.slice(-4000)}`);
+}
+
 async function openFleet(page: Page): Promise<string[]> {
   const errors: string[] = [];
   page.on("pageerror", (e) => errors.push(String(e)));
@@ -161,4 +174,51 @@ test("what the manager refuses is said in a sentence, and nothing is sent", asyn
   await page.locator('tr[data-cart="cart1"]').getByRole("button", { name: "Cancel" }).click();
   await expect(msg).toHaveText("There is nothing to cancel: cart1 drives no order.");
   await expect(msg).toHaveClass(/form-error/);
+});
+
+test("the page follows the manager's live stream, polls while the socket is down, and takes the stream back", async ({ page }) => {
+  test.setTimeout(60_000); // two goals driven and a reconnection
+  let down = false;
+  const sockets: { close: () => Promise<void> }[] = [];
+  await page.routeWebSocket("**/ws", (ws) => {
+    if (down) {
+      void ws.close(); // the manager's stream is unreachable: the page must poll
+      return;
+    }
+    ws.connectToServer(); // passed through as it is
+    sockets.push(ws);
+  });
+  let polls = 0;
+  page.on("request", (r) => {
+    if (r.method() === "GET" && new URL(r.url()).pathname === "/api/fleet") polls += 1;
+  });
+  await openFleet(page);
+  await expect(page.locator("body")).toHaveAttribute("data-feed", "stream");
+  await expect(page.locator("#manager-state")).toHaveText("manager connected (live)");
+
+  // live: a goal is shown assigned, then reached, with no poll at all
+  polls = 0;
+  const [x1, y1] = await place("cart1");
+  await page.locator("#goal-cart").selectOption("cart1");
+  await clickMap(page, [x1, y1 + 0.5]);
+  await expect(page.locator("#goals li").first()).toContainText("cart1");
+  await expectReached(page, "cart1");
+  expect(polls).toBe(0);
+
+  // the socket drops (and cannot come back): the page polls and still follows the manager
+  down = true;
+  for (const ws of sockets) await ws.close();
+  await expect(page.locator("body")).toHaveAttribute("data-feed", "polling");
+  await expect(page.locator("#manager-state")).toHaveText("manager connected (polling)");
+  const [x2, y2] = await place("cart2");
+  await page.locator("#goal-cart").selectOption("cart2");
+  await clickMap(page, [x2, y2 + 0.5]);
+  await expect(page.locator("#goals li").first()).toContainText("cart2");
+  await expectReached(page, "cart2");
+  expect(polls).toBeGreaterThan(0);
+
+  // the stream is back: the page takes it again (its retries are at most 5 s apart)
+  down = false;
+  await expect(page.locator("body")).toHaveAttribute("data-feed", "stream", { timeout: 10_000 });
+  await expect(page.locator("#manager-state")).toHaveText("manager connected (live)");
 });
