@@ -8,8 +8,9 @@ The simulator's side-channel "hold" (sim/README.md, "Lockstep") does the waiting
 runs, paced as ever, up to the hold and waits there until a handled frame moves it on. A frame
 is handled once it has been through the feed's processors: perception took it into its grid,
 left it out at rest, or could not use it (perception off, no pose yet). Holds fall where a frame
-has just arrived and the next is not yet captured, so no frame is in flight across a wait (the
-gateway looks up a frame's pose by its wall-clock arrival).
+has just arrived and the next is not yet captured, so no frame is in flight across a wait (a
+camera without stamps has its frames' poses looked up by their wall-clock arrival; the simulated
+camera's are by their stamps, cart2d/gateway/poses.py).
 
 The firmware waits with the world, but a held simulator still answers the host's requests
 (hold.hpp in sim/): the gateway's route checks and replans made while it handles a frame, its
