@@ -21,7 +21,7 @@ def test_a_room_with_boxes_is_explored_to_the_end_and_its_map_loads_back(tmp_pat
     assert made.returncode == 0, made.stderr
     # in real time: a frame's pose is looked up by its stamp on the firmware's clock
     # (cart2d/gateway/poses.py), right at any speed, but at full speed beside two busy loops the
-    # cart still touched a box or stopped at a false obstacle in 5 of 13 runs (none of 5 alone):
+    # cart still touched a box or stopped at a false obstacle in 5 of 15 runs (none of 5 alone):
     # a cause not found yet, so the simulator keeps the gateway's pace
     run = Exploring(
         (14, 14, 0.2), BOXES, (0.3, 0.3, 0.785), timeout_s=240.0, speed="1", calibration=calibration
