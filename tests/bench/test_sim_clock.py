@@ -8,18 +8,11 @@ import math
 import pytest
 
 from bench.sim_clock import SimClock
-
-
-class Wall:
-    def __init__(self) -> None:
-        self.t = 1000.0
-
-    def __call__(self) -> float:
-        return self.t
+from tests.support.clock import FakeClock
 
 
 def clock_with(pairs: list[tuple[float, float]]) -> SimClock:
-    wall = Wall()
+    wall = FakeClock(1000.0)
     clock = SimClock(wall)
     for w, sim_t in pairs:
         wall.t = w

@@ -19,18 +19,11 @@ from cart2d.gateway.camera_service import CameraService
 from cart2d.gateway.map_service import LiveMap
 from cart2d.gateway.seeing import Seeing
 from cart2d.store import Store
+from tests.support.clock import FakeClock
 from tests.support.fake_firmware import FakeFirmware
 from tests.support.waiting import wait_for
 
 ACROSS = [(1.0, 0.6 + 0.05 * k, 0.9) for k in range(9)]  # a wall of 5 cm cells across y = 0.8
-
-
-class FakeClock:
-    def __init__(self) -> None:
-        self.t = 100.0
-
-    def __call__(self) -> float:
-        return self.t
 
 
 class FakeFeed:

@@ -20,18 +20,11 @@ from cart2d.localisation.ekf import Pose2
 from cart2d.localisation.markers import MarkerMap, arena_markers
 from cart2d.localisation.tags import TagFix
 from cart2d.perception.camera_model import Intrinsics, Mount
+from tests.support.clock import FakeClock
 from tests.support.fake_firmware import FakeFirmware
 
 MOUNT = Mount.from_robot()
 FIX_COVARIANCE = np.diag([0.01**2, 0.01**2, math.radians(1.0) ** 2])
-
-
-class Clock:
-    def __init__(self) -> None:
-        self.t = 100.0
-
-    def __call__(self) -> float:
-        return self.t
 
 
 def telemetry(pose: Pose2) -> ViewerMessage:
@@ -48,19 +41,19 @@ def telemetry(pose: Pose2) -> ViewerMessage:
 
 
 @pytest.fixture
-def clock() -> Clock:
-    return Clock()
+def clock() -> FakeClock:
+    return FakeClock()
 
 
 @pytest.fixture
-def service(gateway: Gateway, clock: Clock) -> Localisation:
+def service(gateway: Gateway, clock: FakeClock) -> Localisation:
     markers: MarkerMap = arena_markers((-0.25, -0.25, 2.05, 2.05))
     return Localisation(
         gateway.bus, gateway.restarts, markers, Intrinsics.nominal(MOUNT), MOUNT, 0.06, gateway.frames, clock
     )
 
 
-def drive(gateway: Gateway, clock: Clock, odom: Pose2) -> None:
+def drive(gateway: Gateway, clock: FakeClock, odom: Pose2) -> None:
     clock.t += 0.1
     gateway.bus.publish(telemetry(odom))
 
@@ -74,7 +67,7 @@ def corrections(events: list[Event]) -> list[PoseCorrected]:
 
 
 def test_a_carried_cart_is_found_at_its_first_marker(
-    gateway: Gateway, cart: FakeFirmware, service: Localisation, clock: Clock
+    gateway: Gateway, cart: FakeFirmware, service: Localisation, clock: FakeClock
 ) -> None:
     events: list[Event] = []
     gateway.bus.subscribe(Event, events.append)
@@ -95,7 +88,7 @@ def test_a_carried_cart_is_found_at_its_first_marker(
 
 
 def test_a_correction_during_a_mission_resends_its_route_in_odom(
-    gateway: Gateway, cart: FakeFirmware, service: Localisation, clock: Clock
+    gateway: Gateway, cart: FakeFirmware, service: Localisation, clock: FakeClock
 ) -> None:
     drive(gateway, clock, (0.2, 0.8, 0.0))  # trusted at the start: map = odom
     gateway.go_to(1.6, 0.8)
@@ -112,7 +105,7 @@ def test_a_correction_during_a_mission_resends_its_route_in_odom(
 
 
 def test_a_correction_that_moves_the_route_by_a_centimetre_keeps_it(
-    gateway: Gateway, cart: FakeFirmware, service: Localisation, clock: Clock
+    gateway: Gateway, cart: FakeFirmware, service: Localisation, clock: FakeClock
 ) -> None:
     """Near its goal: re-sent, the route would turn the cart on the spot to close a centimetre
     (cart2d/gateway/correction_resend.py)."""
@@ -128,7 +121,7 @@ def test_a_correction_that_moves_the_route_by_a_centimetre_keeps_it(
 
 
 def test_a_fix_far_from_the_prediction_is_doubted_and_changes_nothing(
-    gateway: Gateway, cart: FakeFirmware, service: Localisation, clock: Clock
+    gateway: Gateway, cart: FakeFirmware, service: Localisation, clock: FakeClock
 ) -> None:
     events: list[Event] = []
     drive(gateway, clock, (0.2, 0.8, 0.0))
@@ -138,7 +131,7 @@ def test_a_fix_far_from_the_prediction_is_doubted_and_changes_nothing(
 
 
 def test_setting_the_pose_makes_map_and_odom_agree_again(
-    gateway: Gateway, cart: FakeFirmware, service: Localisation, clock: Clock
+    gateway: Gateway, cart: FakeFirmware, service: Localisation, clock: FakeClock
 ) -> None:
     drive(gateway, clock, (0.2, 0.8, 0.0))
     service.fuse(fix_at((0.23, 0.8, 0.0)), (0.2, 0.8, 0.0), (0.2, 0.8, 0.0))

@@ -11,6 +11,7 @@ import pytest
 
 from cart2d.gateway.poses import TICKS, CaptureClock, CapturePoses, FirmwareClock
 from cart2d.perception.mjpeg import Frame
+from tests.support.clock import FakeClock
 
 TICK_S = 0.008
 SPEED = 20.0  # the cart's seconds per second of the gateway's clock
@@ -19,21 +20,13 @@ V = 0.5  # m/s along x, on the cart's clock
 CAMERA_EPOCH = 1000.0  # the camera's clock reads this at the firmware's zero
 
 
-class Wall:
-    def __init__(self) -> None:
-        self.t = 5.0
-
-    def __call__(self) -> float:
-        return self.t
-
-
 def wall_at(device_s: float) -> float:
     return 5.0 + device_s / SPEED
 
 
-def driven(first_tick: int = 65000) -> tuple[CapturePoses, Wall]:
+def driven(first_tick: int = 65000) -> tuple[CapturePoses, FakeClock]:
     """Telemetry every 40 ms of the cart's clock for 3 s, the cart at V along x."""
-    wall = Wall()
+    wall = FakeClock(5.0)
     poses = CapturePoses(LATENCY_S, wall)
     for k in range(76):
         t = 0.04 * k
@@ -79,7 +72,7 @@ def test_a_pose_back_from_the_capture_is_on_the_same_clock() -> None:
 
 
 def test_without_stamps_the_arrival_less_the_latency_is_used() -> None:
-    wall = Wall()
+    wall = FakeClock(5.0)
     poses = CapturePoses(LATENCY_S, wall)
     for k in range(50):  # a cart in real time: its clock and the gateway's alike
         wall.t = 5.0 + 0.04 * k

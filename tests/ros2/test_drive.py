@@ -10,15 +10,8 @@ import pytest
 
 from cart2d.link import MotionCancelled
 from cart2d.ros2.drive import SILENCE_S, CmdVelGate, DriveCommand, Driver, speed_limits
+from tests.support.clock import FakeClock
 from tests.support.waiting import wait_for as wait_until
-
-
-class Clock:
-    def __init__(self) -> None:
-        self.t = 100.0
-
-    def __call__(self) -> float:
-        return self.t
 
 
 class Tokens:
@@ -31,7 +24,7 @@ class Tokens:
         return self.generation
 
 
-def gate(clock: Clock, tokens: Tokens) -> CmdVelGate:
+def gate(clock: FakeClock, tokens: Tokens) -> CmdVelGate:
     return CmdVelGate(tokens, lambda: (0.5, 3.0), clock)
 
 
@@ -40,7 +33,7 @@ def test_the_manual_timeout_is_robot_tomls() -> None:
 
 
 def test_a_stream_keeps_the_token_of_its_first_command() -> None:
-    clock, tokens = Clock(), Tokens()
+    clock, tokens = FakeClock(), Tokens()
     g = gate(clock, tokens)
     first = g.admit(0.2, 0.0)
     tokens.generation = 1  # a stop
@@ -51,7 +44,7 @@ def test_a_stream_keeps_the_token_of_its_first_command() -> None:
 
 
 def test_a_silence_as_long_as_the_timeout_starts_a_new_stream() -> None:
-    clock, tokens = Clock(), Tokens()
+    clock, tokens = FakeClock(), Tokens()
     g = gate(clock, tokens)
     g.admit(0.2, 0.0)
     tokens.generation = 1
@@ -64,7 +57,7 @@ def test_a_silence_as_long_as_the_timeout_starts_a_new_stream() -> None:
 
 
 def test_speeds_are_clamped_to_the_limits() -> None:
-    command = gate(Clock(), Tokens()).admit(2.0, -10.0)
+    command = gate(FakeClock(), Tokens()).admit(2.0, -10.0)
     assert command == DriveCommand(0.5, -3.0, 0)
 
 
@@ -72,7 +65,7 @@ def test_speeds_are_clamped_to_the_limits() -> None:
 def test_a_speed_that_is_not_finite_is_dropped_with_a_line(
     v: float, omega: float, caplog: pytest.LogCaptureFixture
 ) -> None:
-    assert gate(Clock(), Tokens()).admit(v, omega) is None
+    assert gate(FakeClock(), Tokens()).admit(v, omega) is None
     assert "not finite" in caplog.text
 
 
