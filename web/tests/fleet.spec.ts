@@ -176,6 +176,15 @@ test("what the manager refuses is said in a sentence, and nothing is sent", asyn
   await expect(msg).toHaveClass(/form-error/);
 });
 
+/** A goal half a metre north of `name`, given on the map for it: shown assigned, then reached. */
+async function goalNorthOf(page: Page, name: string): Promise<void> {
+  const [x, y] = await place(name);
+  await page.locator("#goal-cart").selectOption(name);
+  await clickMap(page, [x, y + 0.5]);
+  await expect(page.locator("#goals li").first()).toContainText(name);
+  await expectReached(page, name);
+}
+
 test("the page follows the manager's live stream, polls while the socket is down, and takes the stream back", async ({ page }) => {
   test.setTimeout(60_000); // two goals driven and a reconnection
   let down = false;
@@ -198,11 +207,7 @@ test("the page follows the manager's live stream, polls while the socket is down
 
   // live: a goal is shown assigned, then reached, with no poll at all
   polls = 0;
-  const [x1, y1] = await place("cart1");
-  await page.locator("#goal-cart").selectOption("cart1");
-  await clickMap(page, [x1, y1 + 0.5]);
-  await expect(page.locator("#goals li").first()).toContainText("cart1");
-  await expectReached(page, "cart1");
+  await goalNorthOf(page, "cart1");
   expect(polls).toBe(0);
 
   // the socket drops (and cannot come back): the page polls and still follows the manager
@@ -210,11 +215,7 @@ test("the page follows the manager's live stream, polls while the socket is down
   for (const ws of sockets) await ws.close();
   await expect(page.locator("body")).toHaveAttribute("data-feed", "polling");
   await expect(page.locator("#manager-state")).toHaveText("manager connected (polling)");
-  const [x2, y2] = await place("cart2");
-  await page.locator("#goal-cart").selectOption("cart2");
-  await clickMap(page, [x2, y2 + 0.5]);
-  await expect(page.locator("#goals li").first()).toContainText("cart2");
-  await expectReached(page, "cart2");
+  await goalNorthOf(page, "cart2");
   expect(polls).toBeGreaterThan(0);
 
   // the stream is back: the page takes it again (its retries are at most 5 s apart)
