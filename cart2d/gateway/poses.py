@@ -34,17 +34,11 @@ FIRMWARE_KEEP_S = 30.0  # seconds of the firmware's clock kept: a faster clock t
 class PoseHistory:
     """Poses by the time they belong to on one clock, kept `keep_s` back from the newest."""
 
-    def __init__(self, keep_s: float = 3.0, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(self, keep_s: float = 3.0) -> None:
         self.keep_s = keep_s
-        self.clock = clock
         self._times: deque[float] = deque()
         self._poses: deque[Pose] = deque()
         self._lock = threading.Lock()
-
-    def __call__(self, message: dict[str, Any]) -> None:
-        """A gateway listener: its telemetry's poses, by their arrival on `clock`."""
-        if message.get("type") == "telemetry":
-            self.add(self.clock(), (float(message["x"]), float(message["y"]), float(message["theta"])))
 
     def add(self, t: float, pose: Pose) -> None:
         with self._lock:
@@ -139,7 +133,7 @@ class CapturePoses:
     def __init__(self, latency_s: float, clock: Callable[[], float] = time.monotonic) -> None:
         self.latency_s = latency_s
         self.clock = clock
-        self.by_arrival = PoseHistory(clock=clock)
+        self.by_arrival = PoseHistory()
         self.by_firmware = PoseHistory(keep_s=FIRMWARE_KEEP_S)
         self.firmware = FirmwareClock(1.0 / float(robot()["control"]["tick_hz"]))
         self.capture = CaptureClock(latency_s)

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from cart2d.gateway.poses import PoseHistory
+from cart2d.gateway.poses import CapturePoses, PoseHistory
 from cart2d.gateway.seeing import Seeing
 from cart2d.maps.world import Box
 from cart2d.planning import segment_square_distance
@@ -41,8 +41,10 @@ def test_the_pose_at_a_time_between_two_frames_is_interpolated_the_short_way_rou
 
 
 def test_before_the_first_telemetry_there_is_no_pose_and_after_the_last_it_is_the_last() -> None:
+    listener = CapturePoses(0.06)  # the gateway's listener of these histories
+    listener({"type": "truth", "x": 5.0, "y": 5.0, "theta": 0.0})  # not odometry: ignored
+    assert listener.newest() is None
     poses = PoseHistory(keep_s=10.0)
-    poses({"type": "truth", "x": 5.0, "y": 5.0, "theta": 0.0})  # not odometry: ignored
     assert poses.at(0.0) is None
     poses.add(2.0, (1.0, 2.0, 0.5))
     assert poses.at(1.9) is None
