@@ -6,14 +6,20 @@ is right only while the cart's clocks run as fast as the gateway's: behind a slo
 simulator running faster than real time, the cart drives on during the wait by its own clock.
 A camera that stamps its frames (X-Timestamp: the ESP32-CAM's, the simulator's) is looked up on
 the firmware's clock (telemetry's TICK) instead: the offset between the two clocks is learned
-from the frames themselves, the shortest gaps between a stamp and the firmware's time at the
-frame's arrival being the camera's latency. Nothing here asks whether the cart is simulated.
+from the frames themselves, from the gaps between a stamp and the firmware's time of the first
+telemetry after the frame's arrival (the camera's latency and half a telemetry period, in the
+median: telemetry queued behind a busy gateway makes a gap seconds short, a late frame long).
+A frame taken after the newest telemetry (telemetry held up behind a busy gateway) waits for the
+telemetry of its capture, up to TELEMETRY_WAIT_S, and has no pose if it does not come: the
+newest pose would be that of a cart that has since turned. Nothing here asks whether the cart is simulated.
 """
 
 from __future__ import annotations
 
 import bisect
+import itertools
 import math
+import statistics
 import threading
 import time
 from collections import deque
@@ -26,9 +32,11 @@ from cart2d.perception.occupancy import Pose
 
 TICKS = 65536  # telemetry's TICK is 16 bits
 GAPS_KEPT = 90  # frames whose stamp-to-arrival gap the offset is learned from (6 s at 15 fps)
-# Not the smallest gap: a telemetry frame handed on late by a busy gateway makes one too small
-GAP_QUANTILE = 0.2
+PERIODS_KEPT = 50  # telemetry frames whose spacing gives its period
 FIRMWARE_KEEP_S = 30.0  # seconds of the firmware's clock kept: a faster clock than the gateway's
+# How long a frame taken after the newest telemetry waits for it (wall seconds): a telemetry period
+# of the slowest rate that keeps up with a turning cart (2 Hz), and the camera's blind limit
+TELEMETRY_WAIT_S = 0.5
 
 
 class PoseHistory:
@@ -39,9 +47,11 @@ class PoseHistory:
         self._times: deque[float] = deque()
         self._poses: deque[Pose] = deque()
         self._lock = threading.Lock()
+        self._added = threading.Condition(self._lock)
 
     def add(self, t: float, pose: Pose) -> None:
-        with self._lock:
+        with self._added:
+            self._added.notify_all()
             if self._times and t < self._times[-1]:  # a clock that went back: a new history
                 self._times.clear()
                 self._poses.clear()
@@ -54,6 +64,11 @@ class PoseHistory:
     def newest(self) -> Pose | None:
         with self._lock:
             return self._poses[-1] if self._poses else None
+
+    def reaches(self, t: float, timeout_s: float) -> bool:
+        """Whether a pose at or after `t` is here, waiting up to `timeout_s` for one."""
+        with self._added:
+            return self._added.wait_for(lambda: bool(self._times) and self._times[-1] >= t, timeout_s)
 
     def at(self, t: float) -> Pose | None:
         """The pose at `t`: interpolated between the two poses around it, the newest one if `t`
@@ -102,11 +117,18 @@ class FirmwareClock:
             k = bisect.bisect_right(self._arrivals, arrived_s)
             return self._seconds[k] if k < len(self._seconds) else None
 
+    def period_s(self) -> float:
+        """Telemetry's period on the firmware's clock (the median spacing lately; 0 until known)."""
+        with self._lock:
+            recent = list(self._seconds)[-PERIODS_KEPT:]
+        steps = [b - a for a, b in itertools.pairwise(recent) if b > a]
+        return statistics.median(steps) if steps else 0.0
+
 
 class CaptureClock:
-    """A camera's stamps on the firmware's clock: stamp + a short gap seen lately between a
-    stamp and the firmware's time at its frame's arrival (GAP_QUANTILE), less the camera's
-    latency."""
+    """A camera's stamps on the firmware's clock: stamp + the median gap lately between a stamp
+    and the firmware's time of the first telemetry after its frame's arrival, less the camera's
+    latency and the half telemetry period that telemetry came after the arrival on average."""
 
     def __init__(self, latency_s: float, kept: int = GAPS_KEPT) -> None:
         self.latency_s = latency_s
@@ -119,20 +141,25 @@ class CaptureClock:
         self._last_stamp = stamp_s
         self._gaps.append(firmware_at_arrival_s - stamp_s)
 
-    def firmware_time(self, stamp_s: float) -> float | None:
+    def firmware_time(self, stamp_s: float, telemetry_period_s: float = 0.0) -> float | None:
         if not self._gaps:
             return None
-        low = sorted(self._gaps)[int(GAP_QUANTILE * (len(self._gaps) - 1))]
-        return stamp_s + low - self.latency_s
+        return stamp_s + statistics.median(self._gaps) - telemetry_period_s / 2 - self.latency_s
 
 
 class CapturePoses:
     """The pose at a frame's capture: by its stamp on the firmware's clock when the frame has a
     stamp and telemetry its TICK, else by its arrival less the camera's latency."""
 
-    def __init__(self, latency_s: float, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(
+        self,
+        latency_s: float,
+        clock: Callable[[], float] = time.monotonic,
+        telemetry_wait_s: float = TELEMETRY_WAIT_S,
+    ) -> None:
         self.latency_s = latency_s
         self.clock = clock
+        self.telemetry_wait_s = telemetry_wait_s
         self.by_arrival = PoseHistory()
         self.by_firmware = PoseHistory(keep_s=FIRMWARE_KEEP_S)
         self.firmware = FirmwareClock(1.0 / float(robot()["control"]["tick_hz"]))
@@ -156,10 +183,13 @@ class CapturePoses:
         return self.by_arrival.newest()
 
     def at(self, frame: Frame, back_s: float = 0.0) -> Pose | None:
-        """The pose `back_s` before `frame` was taken."""
+        """The pose `back_s` before `frame` was taken; None if it is not known (before the
+        history, or telemetry of the capture not here within `telemetry_wait_s`)."""
         captured = self._on_firmware_clock(frame)
         if captured is None:
             return self.by_arrival.at(frame.received_s - self.latency_s - back_s)
+        if not self.by_firmware.reaches(captured - back_s, self.telemetry_wait_s):
+            return None
         return self.by_firmware.at(captured - back_s)
 
     def _on_firmware_clock(self, frame: Frame) -> float | None:
@@ -169,4 +199,4 @@ class CapturePoses:
         if arrival is not None and frame.seq != self._observed_seq:
             self._observed_seq = frame.seq
             self.capture.observe(frame.stamp_s, arrival)
-        return self.capture.firmware_time(frame.stamp_s)
+        return self.capture.firmware_time(frame.stamp_s, self.firmware.period_s())
