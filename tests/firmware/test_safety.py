@@ -129,7 +129,7 @@ def test_a_front_switch_stops_the_cart_at_once(tmp_path: Path) -> None:
     # Sent to a point beyond the east wall (x = 2.05 m; the bumper is 0.17 m ahead of the axle),
     # the cart used to hit it at 0.5 m/s and push at full PWM until the stall guard tripped 1 s
     # later. Now the first closed switch stops it within a control tick or two.
-    sim = start_sim(tmp_path, start=(1.2, 0.9, 0.0))
+    sim = start_sim(tmp_path, start=(1.2, 0.9, 0.0), speed="1")  # every sample (high_rate_truth)
     try:
         with Link(sim.pty, timeout_s=0.3) as link:
             link.call("SET_POSE", 1.2, 0.9, 0.0)

@@ -51,7 +51,7 @@ def test_the_bumper_stops_the_cart_at_a_box(tmp_path: Path) -> None:
     # A box across the path: the switches close on its face and the firmware's bumper stop fires
     # within a control tick or two, as against a wall; the box counts as a box contact.
     world = World(boxes=(Box(1.5, 0.9, 0.2, 0.6, id="crate"),), boundary=(-0.25, -0.25, 2.05, 2.05))
-    sim = start_sim(tmp_path, world=world, start=(0.6, 0.9, 0.0))
+    sim = start_sim(tmp_path, world=world, start=(0.6, 0.9, 0.0), speed="1")  # every sample
     try:
         with Link(sim.pty, timeout_s=0.3) as link:
             link.call("SET_POSE", 0.6, 0.9, 0.0)

@@ -34,7 +34,9 @@ def events(sim: Simulator, kind: str, since: int = 0) -> list[dict[str, Any]]:
 
 
 def high_rate_truth(sim: Simulator, hz: float = 1000.0) -> list[dict[str, Any]]:
-    """Every truth message from now on, at `hz` per simulated second."""
+    """Every truth message from now on, at `hz` per simulated second. The simulator skips truth
+    lines for a reader more than 1 MiB behind: at full speed that is a tenth of a second of a
+    busy machine's delay at 1000 Hz, so a test that needs every sample runs at real time."""
     samples: list[dict[str, Any]] = []
     assert sim.side is not None
     sim.side.subscribe(samples.append)
