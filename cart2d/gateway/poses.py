@@ -51,7 +51,6 @@ class PoseHistory:
 
     def add(self, t: float, pose: Pose) -> None:
         with self._added:
-            self._added.notify_all()
             if self._times and t < self._times[-1]:  # a clock that went back: a new history
                 self._times.clear()
                 self._poses.clear()
@@ -60,6 +59,7 @@ class PoseHistory:
             while self._times and self._times[0] < t - self.keep_s:
                 self._times.popleft()
                 self._poses.popleft()
+            self._added.notify_all()
 
     def newest(self) -> Pose | None:
         with self._lock:
