@@ -11,6 +11,7 @@
 extern "C" {
 #include <avr_extint.h>  // avr_extint_set_strict_lvl_trig
 #include <sim_avr.h>     // avr_t, avr_run, avr_reset, avr_global_logger_set
+#include <sim_cycle_timers.h>  // avr_cycle_timer_register
 #include <sim_elf.h>     // elf_read_firmware, avr_load_firmware
 #include <sim_regbit.h>  // avr_regbit_set
 }
@@ -145,7 +146,15 @@ void Mcu::set_profile_gate(const bool* gate) {
   if (gate && profile_.empty()) profile_.assign(32768 / 2, 0);  // one slot per flash word
 }
 
+namespace {
+avr_cycle_count_t wake_nothing(avr_t*, avr_cycle_count_t, void*) { return 0; }
+}  // namespace
+
+// A sleeping core jumps to its next cycle timer, which may lie past the target: a timer at the
+// target makes a slice end on its cycle, so a reset or world change scheduled for a simulated
+// time happens there, not at the firmware's next interrupt (up to a timer period late).
 bool Mcu::run_until(uint64_t target_cycle) {
+  if (avr_ && target_cycle > avr_->cycle) avr_cycle_timer_register(avr_, target_cycle - avr_->cycle, wake_nothing, this);
   for (;;) {
     if (holding_ && avr_->cycle >= release_cycle_) release();
     if (avr_->cycle >= target_cycle) return true;
