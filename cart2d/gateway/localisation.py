@@ -29,7 +29,7 @@ import numpy as np
 from cart2d.gateway import messages
 from cart2d.gateway.bus import EventBus, PoseCorrected, Restarted, ViewerMessage
 from cart2d.gateway.camera import Overlay
-from cart2d.gateway.poses import CapturePoses
+from cart2d.gateway.poses import RATE_WINDOW_S, CapturePoses, timing_sigmas
 from cart2d.gateway.restarts import Restarts
 from cart2d.localisation.ekf import Pose2, PoseFilter, between, compose, to_map, to_odom
 from cart2d.localisation.markers import MarkerMap
@@ -47,10 +47,6 @@ MESSAGE_EVERY_S = 0.25  # LocalisationMessage at most this often, but at every c
 REROUTE_SHIFT_M = 0.01
 REROUTE_TURN_RAD = math.radians(1.0)
 SET_POSE_SIGMA = (0.01, 0.01, math.radians(1.0))  # the user's SET_POSE, as good as a tape measure
-# How far off a frame's capture time may be (the latency varies with Wi-Fi and load): a fix taken
-# while the cart moves is as uncertain as the motion in that time
-CAPTURE_SIGMA_S = 0.04
-RATE_WINDOW_S = 0.1  # the odometry's speed at capture: over this long before it
 
 
 class Frames:
@@ -236,12 +232,10 @@ class Localisation:
 
 
 def with_timing(fix: TagFix, before: Pose2, captured: Pose2) -> TagFix:
-    """The fix with the uncertainty of its capture time added: the odometry's speed just before
-    the capture times CAPTURE_SIGMA_S, in x and y and in the heading."""
-    step = between(before, captured)
-    v = math.hypot(step[0], step[1]) / RATE_WINDOW_S
-    w = abs(step[2]) / RATE_WINDOW_S
-    extra = np.diag([(v * CAPTURE_SIGMA_S) ** 2, (v * CAPTURE_SIGMA_S) ** 2, (w * CAPTURE_SIGMA_S) ** 2])
+    """The fix with the uncertainty of its capture time added (poses.timing_sigmas), in x and y
+    and in the heading."""
+    along, turned = timing_sigmas(before, captured)
+    extra = np.diag([along**2, along**2, turned**2])
     return dataclasses.replace(fix, covariance=fix.covariance + extra)
 
 

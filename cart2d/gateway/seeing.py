@@ -7,7 +7,8 @@ picture the panel shows. What it asks of the gateway is a `SeeingHost`: the came
 
 The pose at capture: a frame reaches the gateway `latency_s` after it was taken (one frame plus
 Wi-Fi on an ESP32-CAM; [sim.camera] latency_ms in the simulator); poses.py finds the odometry
-pose of that moment, on the firmware's clock when the camera stamps its frames.
+pose of that moment, on the firmware's clock when the camera stamps its frames, and how far the
+heading may be off when the capture time is (a turning cart's frames clear less floor).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 
 from cart2d.gateway.camera import Overlay
-from cart2d.gateway.poses import CapturePoses
+from cart2d.gateway.poses import RATE_WINDOW_S, CapturePoses, timing_sigmas
 from cart2d.params import robot
 from cart2d.perception.calibration import CameraCalibration, calibration_path, load_calibration
 from cart2d.perception.mjpeg import Frame
@@ -190,7 +191,10 @@ class Seeing:
         ):
             self.idle_skipped += 1
             return Overlay(draw=self._last_seen.draw)
-        seen = perception.process(np.asarray(bgr, dtype=np.uint8), self.to_map(pose))
+        earlier = self.poses.at(frame, back_s=RATE_WINDOW_S) or pose
+        seen = perception.process(
+            np.asarray(bgr, dtype=np.uint8), self.to_map(pose), timing_sigmas(earlier, pose)[1]
+        )
         self._last_seen = seen
         self.frames += 1
         self.frame_log.append((frame.stamp_s, pose))

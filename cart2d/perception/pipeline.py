@@ -57,12 +57,13 @@ class Perception:
         self.grid = grid
         self.fov_base = self.detector.field_of_view()
 
-    def process(self, bgr: npt.NDArray[np.uint8], pose: Pose) -> Perceived:
-        """A decoded frame and the cart's pose (x, y, theta in the map) when it was captured: the
-        parallax cue compares it with an earlier frame through the floor's homography the two
-        poses give (cart2d/perception/parallax.py)."""
+    def process(self, bgr: npt.NDArray[np.uint8], pose: Pose, heading_sigma: float = 0.0) -> Perceived:
+        """A decoded frame and the cart's pose (x, y, theta in the map) when it was captured,
+        its heading uncertain by `heading_sigma` (rad): the parallax cue compares it with an
+        earlier frame through the floor's homography the two poses give
+        (cart2d/perception/parallax.py)."""
         detection = self.detector.detect(bgr, self.parallax.observe(bgr, pose))
-        self.grid.integrate(pose, detection)
+        self.grid.integrate(pose, detection, heading_sigma)
         return Perceived(to_map(detection.hits, pose), to_map(self.fov_base, pose), detection)
 
     def process_jpeg(self, jpeg: bytes, pose: Pose) -> Perceived:

@@ -82,6 +82,20 @@ def test_a_cell_hit_in_a_frame_is_not_cleared_by_its_neighbours_rays() -> None:
     assert p_at(g, 1.01, 0.01) > 0.5
 
 
+def test_a_turning_frame_clears_no_floor_beyond_a_hit_within_its_heading_uncertainty() -> None:
+    # A ray 3 degrees beside a face's hit, on to 1.6 m: with the heading certain it clears the
+    # floor behind the face's end; uncertain by 0.1 rad (2.6 rad/s, 40 ms) the floor behind is
+    # left as it was, and before the hit it is cleared still. 10 degrees off, it is cleared.
+    beside = (1.6 * math.cos(math.radians(3)), 1.6 * math.sin(math.radians(3)))
+    wide = (1.6 * math.cos(math.radians(10)), 1.6 * math.sin(math.radians(10)))
+    for sigma, behind_cleared in ((0.0, True), (0.1, False)):
+        g = grid()
+        g.integrate((0.0, 0.0, 0.0), detection([(1.01, 0.0)], (beside, wide)), heading_sigma=sigma)
+        assert (p_at(g, 1.3, 0.066) < 0.5) is behind_cleared
+        assert p_at(g, 0.7, 0.033) < 0.5  # nearer than the hit
+        assert p_at(g, 1.3, 0.22) < 0.5  # the ray outside the band
+
+
 def test_the_pose_places_the_detection_in_the_map() -> None:
     g = grid()
     # facing +y from (0.5, -1.0): a hit 1 m ahead of base_link is at (0.5, 0.0) in the map

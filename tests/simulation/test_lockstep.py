@@ -140,10 +140,10 @@ def slow_while_the_box_comes_into_view(monkeypatch: pytest.MonkeyPatch) -> None:
     1.7 m, where the box 2 m ahead comes into the camera's range: a gateway on a busy machine."""
     process = Perception.process
 
-    def slow(self: Perception, bgr: np.ndarray, pose: Pose) -> Perceived:
+    def slow(self: Perception, bgr: np.ndarray, pose: Pose, heading_sigma: float = 0.0) -> Perceived:
         if 0.9 <= pose[0] <= 1.7:
             time.sleep(SLOW_S)
-        return process(self, bgr, pose)
+        return process(self, bgr, pose, heading_sigma)
 
     monkeypatch.setattr(Perception, "process", slow)
 
