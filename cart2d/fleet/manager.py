@@ -26,6 +26,9 @@ from cart2d.fleet.traffic import Traffic, TrafficError
 log = logging.getLogger(__name__)
 
 STEP_S = 0.1
+# How far from an order's node a cart may stand and still take it (allowedDeviationXY): a cart
+# whose nearest node another cart holds joins the traffic at a free node this near, if any
+DEVIATION_M = 0.3
 ALL_VEHICLES = f"{vda5050.INTERFACE}/{vda5050.MAJOR}/+/+/+"
 
 
@@ -36,6 +39,7 @@ class CartView:
     connection: str = "UNKNOWN"
     position: tuple[float, float, float] | None = None
     state: dict[str, Any] = field(default_factory=dict)
+    off_traffic: str | None = None  # why it could not join the traffic, while it cannot
 
     @property
     def online(self) -> bool:
@@ -54,6 +58,7 @@ class Goal:
     reached_s: float | None = None
     status: views.GoalStatus = "waiting"
     waited_s: float = 0.0  # for reservations, on its way
+    reason: str | None = None  # why it waits or failed, in a sentence
 
 
 @dataclass
@@ -160,10 +165,35 @@ class FleetManager:
         ):
             self.traffic.remove(cart.name)
         if cart.name not in self.traffic.standing:
-            try:
-                self.traffic.join(cart.name, cell)
-            except TrafficError as exc:
-                log.warning("%s cannot join the traffic: %s", cart.name, exc)
+            self._join(cart, cell)
+
+    def _join(self, cart: CartView, cell: Cell) -> None:
+        """The cart joins the traffic at `cell`, or, if another cart holds it, at the nearest free
+        node within DEVIATION_M of it (its next order can start there); else it stays off, and
+        the page says why."""
+        assert cart.position is not None
+        at = cart.position[:2]
+        near = sorted(
+            (
+                c
+                for c in self.lattice.free
+                if c not in self.traffic.holds and math.dist(self.lattice.position(c), at) <= DEVIATION_M
+            ),
+            key=lambda c: (math.dist(self.lattice.position(c), at), c),
+        )
+        holder = self.traffic.holds.get(cell)
+        candidates = ([cell] if holder in (None, cart.name) else []) + near
+        if candidates:
+            self.traffic.join(cart.name, candidates[0])
+            cart.off_traffic = None
+            return
+        why = (
+            f"it stands nearest node {node_id(cell)}, which {holder} holds, and no free node is within "
+            f"{DEVIATION_M:g} m: move it, or remove {holder} if it is gone"
+        )
+        if cart.off_traffic != why:
+            log.warning("%s cannot join the traffic: %s", cart.name, why)
+        cart.off_traffic = why
 
     def _progress(self, cart: CartView, state: dict[str, Any]) -> None:
         sent = self.sent.get(cart.name)
@@ -172,6 +202,7 @@ class FleetManager:
         if state.get("orderId") != sent.order_id:
             if sent.order_id in _references(state):  # the vehicle refused the order
                 sent.goal.status = "failed"
+                sent.goal.reason = _refusal(state, sent.order_id)
                 self.traffic.cancel(cart.name)
                 del self.sent[cart.name]
             return
@@ -207,6 +238,7 @@ class FleetManager:
             if goal.cart is not None:
                 idle = [c for c in idle if c.name == goal.cart]
             if not idle:
+                goal.reason = self._why_not_idle(goal.cart)
                 continue
             target = self.lattice.position(goal.cell)
             chosen = min(
@@ -215,10 +247,26 @@ class FleetManager:
             try:
                 self.traffic.send(chosen.name, goal.cell, leaving - {chosen.name})
             except TrafficError as exc:
-                log.info("goal %d waits: %s", goal.goal_id, exc)
+                if goal.reason != str(exc):
+                    log.info("goal %d waits: %s", goal.goal_id, exc)
+                goal.reason = str(exc)
                 continue
             goal.cart, goal.status, goal.assigned_s = chosen.name, "driving", self._clock()
+            goal.reason = None
             self.sent[chosen.name] = Sent(f"{chosen.name}-{goal.goal_id}", 0, 0, goal)
+
+    def _why_not_idle(self, name: str | None) -> str:
+        """Why no cart (or not cart `name`) can take a goal now."""
+        if name is None:
+            return "every cart is busy, offline or off the traffic"
+        cart = self.carts[name]
+        if not cart.online:
+            return f"{name} is {cart.connection}"
+        if cart.off_traffic is not None:
+            return f"{name} is off the traffic: {cart.off_traffic}"
+        if name not in self.traffic.standing:
+            return f"{name} has not said where it is yet"
+        return f"{name} is busy with another goal"
 
     # -- orders --------------------------------------------------------------------------------
     def step(self) -> None:
@@ -242,7 +290,7 @@ class FleetManager:
                 "nodeId": node_id(cell),
                 "sequenceId": 2 * i,
                 "released": i < journey.released,
-                "nodePosition": {"x": x, "y": y, "mapId": vda5050.MAP_ID, "allowedDeviationXY": 0.3},
+                "nodePosition": {"x": x, "y": y, "mapId": vda5050.MAP_ID, "allowedDeviationXY": DEVIATION_M},
                 "actions": [],
             }
             for i in range(first, len(route))
@@ -373,6 +421,7 @@ class FleetManager:
             held=held,
             route=[self.lattice.position(c) for c in journey.route[journey.passed :]] if journey else [],
             waiting_for=waiting_for,
+            off_traffic=cart.off_traffic,
         )
 
     def _goal_view(self, goal: Goal) -> views.GoalView:
@@ -382,6 +431,7 @@ class FleetManager:
             cart=goal.cart,
             status=goal.status,
             waited_s=round(goal.waited_s, 3),
+            reason=goal.reason,
         )
 
 
@@ -407,6 +457,15 @@ def _error_view(entry: dict[str, Any]) -> views.CartError:
         level=str(entry.get("errorLevel", "")),
         description=str(entry.get("errorDescription") or ""),
     )
+
+
+def _refusal(state: dict[str, Any], order_id: str) -> str:
+    """The vehicle's own words for refusing order `order_id` (its state's error about it)."""
+    for e in state.get("errors", []):
+        if any(str(r.get("referenceValue")) == order_id for r in e.get("errorReferences", [])):
+            words = e.get("errorDescription") or e.get("errorType") or "no reason given"
+            return f"the cart refused the order: {words}"
+    return "the cart refused the order"
 
 
 def _references(state: dict[str, Any]) -> set[str]:

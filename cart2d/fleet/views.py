@@ -59,6 +59,7 @@ class CartView(_View):
     held: list[Point]  # the lattice nodes it holds
     route: list[Point]  # the rest of its route, from the node it last passed
     waiting_for: str | None  # the cart holding the node it needs next
+    off_traffic: str | None  # why it is not on the shared lattice (it takes no goal), in a sentence
 
 
 class GoalView(_View):
@@ -67,6 +68,7 @@ class GoalView(_View):
     cart: str | None
     status: GoalStatus
     waited_s: float
+    reason: str | None  # why it waits (no cart free, a node held) or failed (the cart's refusal)
 
 
 class CartTruth(_View):

@@ -172,3 +172,65 @@ def test_a_cart_cancelled_between_two_nodes_takes_its_next_goal_from_the_node_it
     for _ in range(20):
         fleet.tick()
     assert goal.status == "reached", fleet.vehicles["c1"].errors
+
+
+def add_cart(fleet: Fleet, name: str, x: float, y: float) -> None:
+    """A cart that comes on line at (x, y), not necessarily on a node."""
+    cart = InstantCart(x, y)
+    fleet.carts[name], fleet.vehicles[name] = cart, Executor(cart, pose=cart.pose)
+    fleet.headers[name] = vda5050.Headers(name)
+    fleet._say(name, "connection", {"connectionState": "ONLINE"})
+    fleet._report(name)
+
+
+def gone_offline(fleet: Fleet, name: str) -> None:
+    """The cart's connection breaks and it is carried off: its reservations stay."""
+    fleet._say(name, "connection", {"connectionState": "CONNECTIONBROKEN"})
+    del fleet.carts[name], fleet.vehicles[name]
+
+
+def test_a_cart_nearest_a_node_another_holds_joins_at_a_free_node_within_reach() -> None:
+    lattice = Lattice((0.25, 0.25), 0.5, frozenset((i, j) for i in range(6) for j in range(2)))
+    fleet = Fleet(lattice, {"c1": (0, 0), "c2": (3, 0)})
+    gone_offline(fleet, "c2")
+    add_cart(fleet, "c3", 1.75, 0.48)  # 0.23 m from c2's node (3, 0), 0.27 m from (3, 1)
+    assert fleet.manager.traffic.standing["c3"] == (3, 1)
+    goal = fleet.manager.add_goal(*lattice.position((5, 0)), cart="c3")
+    for _ in range(20):
+        fleet.tick()
+    assert goal.status == "reached", (goal.reason, fleet.vehicles["c3"].errors)
+    assert fleet.manager.traffic.holds[(3, 0)] == "c2"  # its reservation held all along
+
+
+def test_a_cart_that_cannot_join_and_its_goal_say_why_until_the_holder_is_removed() -> None:
+    lattice = Lattice((0.25, 0.25), 0.5, frozenset((i, 0) for i in range(6)))
+    fleet = Fleet(lattice, {"c1": (0, 0), "c2": (3, 0)})
+    gone_offline(fleet, "c2")
+    add_cart(fleet, "c3", 1.8, 0.25)  # where c2 stood: no other node within 0.3 m
+    goal = fleet.manager.add_goal(*lattice.position((5, 0)), cart="c3")
+    fleet.tick()
+    (c3,) = [c for c in fleet.manager.view().carts if c.name == "c3"]
+    assert c3.off_traffic is not None and "nearest node n3_0, which c2 holds" in c3.off_traffic
+    (view,) = fleet.manager.view().goals
+    assert view.status == "waiting" and view.reason is not None and "c3 is off the traffic" in view.reason
+    fleet.manager.remove("c2")
+    for _ in range(20):
+        fleet.tick()
+    assert goal.status == "reached" and goal.reason is None
+    assert [c.off_traffic for c in fleet.manager.view().carts] == [None, None]
+
+
+def test_a_goal_waiting_for_a_busy_cart_or_a_held_node_says_so() -> None:
+    lattice = Lattice((0.25, 0.25), 0.5, frozenset((i, 0) for i in range(6)))
+    fleet = Fleet(lattice, {"c1": (0, 0), "c2": (5, 0)})
+    first = fleet.manager.add_goal(*lattice.position((2, 0)), cart="c1")
+    second = fleet.manager.add_goal(*lattice.position((1, 0)), cart="c1")
+    blocked = fleet.manager.add_goal(*lattice.position((5, 0)), cart="c1")  # where c2 is parked
+    fleet.tick()
+    assert first.status == "driving" and first.reason is None
+    assert second.reason == "c1 is busy with another goal"
+    for _ in range(20):
+        fleet.tick()
+    assert (first.status, second.status) == ("reached", "reached")
+    assert blocked.status == "waiting"
+    assert blocked.reason is not None and "held by c2, which is not going anywhere" in blocked.reason

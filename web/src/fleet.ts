@@ -54,7 +54,8 @@ function goalItem(goal: GoalView): HTMLLIElement {
   item.className = `goal-${goal.status}`;
   const [x, y] = goal.at;
   const waited = goal.waited_s > 0 ? `, waited ${goal.waited_s.toFixed(1)} s` : "";
-  item.textContent = `(${x.toFixed(2)}, ${y.toFixed(2)}) ${goal.cart ?? "unassigned"}: ${goal.status}${waited}`;
+  const why = goal.reason !== null && (goal.status === "waiting" || goal.status === "failed") ? ` (${goal.reason})` : "";
+  item.textContent = `(${x.toFixed(2)}, ${y.toFixed(2)}) ${goal.cart ?? "unassigned"}: ${goal.status}${waited}${why}`;
   return item;
 }
 

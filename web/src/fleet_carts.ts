@@ -70,6 +70,12 @@ class CartRow {
       errors.textContent = cart.errors.map((e) => `${e.type}: ${e.description}`).join("; ");
       state.append(errors);
     }
+    if (cart.off_traffic !== null) {
+      const off = document.createElement("span");
+      off.className = "cart-errors cart-off-traffic";
+      off.textContent = `off the traffic: ${cart.off_traffic}`;
+      state.append(off);
+    }
     this.cell("pose").textContent = poseText(cart);
     this.cell("order").textContent = cart.order_id ? `${cart.order_id} (goal ${cart.goal ?? "–"})` : "–";
     this.cell("holds").textContent = String(cart.held.length);

@@ -29,6 +29,7 @@ export interface CartView {
   held: [number, number][];
   route: [number, number][];
   waiting_for: string | null;
+  off_traffic: string | null;
 }
 /**
  * An entry of the cart's VDA 5050 state.errors (what it refused or could not do).
@@ -48,6 +49,7 @@ export interface GoalView {
   cart: string | null;
   status: "waiting" | "driving" | "reached" | "cancelled" | "failed";
   waited_s: number;
+  reason: string | null;
 }
 export interface TruthView {
   carts: {
