@@ -37,19 +37,28 @@ FIRMWARE_KEEP_S = 30.0  # seconds of the firmware's clock kept: a faster clock t
 # How long a frame taken after the newest telemetry waits for it (wall seconds): a telemetry period
 # of the slowest rate that keeps up with a turning cart (2 Hz), and the camera's blind limit
 TELEMETRY_WAIT_S = 0.5
-# How far off a frame's capture time may be (the latency varies with Wi-Fi and load; measured in
-# the simulator under load, 3 mm median and 6 mm p90 at 0.3 m/s: 10 to 20 ms): a pose looked up for
-# a frame is as uncertain as the cart's motion in that time, its speed taken over RATE_WINDOW_S
+# How far off a frame's capture time may be when nothing better is known (a camera without
+# stamps, or a stamp clock of fewer than MIN_GAPS gaps): a pose looked up for a frame is as
+# uncertain as the cart's motion in that time, its speed taken over RATE_WINDOW_S
 CAPTURE_SIGMA_S = 0.04
 RATE_WINDOW_S = 0.1
+# The stamp clock's offset is a median of gaps: its uncertainty is the median's standard error
+# (1.25 x the gaps' robust spread / sqrt(n)), or how far the last RECENT_GAPS' median has moved from
+# it (the gaps drift while telemetry queued at the start drains), whichever is more, from MIN_GAPS on.
+# It is settled from SETTLED_GAPS on (about a second of frames): under load the offset moved
+# 50 to 130 ms in the first 15 frames, when the cart turned on the spot to look, and the frames
+# then put the floor beside a box over the box (the README's example world, 1 run in 5).
+MIN_GAPS = 3
+RECENT_GAPS = 5
+SETTLED_GAPS = 15
 
 
-def timing_sigmas(before: Pose, captured: Pose) -> tuple[float, float]:
-    """The pose's uncertainty from the capture time's (m, rad): the odometry's speed between
-    `before` (RATE_WINDOW_S earlier) and `captured`, times CAPTURE_SIGMA_S."""
+def timing_sigmas(before: Pose, captured: Pose, sigma_s: float = CAPTURE_SIGMA_S) -> tuple[float, float]:
+    """The pose's uncertainty from the capture time's, `sigma_s` (m, rad): the odometry's speed
+    between `before` (RATE_WINDOW_S earlier) and `captured`, times sigma_s."""
     moved = math.dist(before[:2], captured[:2])
     turned = abs(math.remainder(captured[2] - before[2], math.tau))
-    return moved / RATE_WINDOW_S * CAPTURE_SIGMA_S, turned / RATE_WINDOW_S * CAPTURE_SIGMA_S
+    return moved / RATE_WINDOW_S * sigma_s, turned / RATE_WINDOW_S * sigma_s
 
 
 class PoseHistory:
@@ -159,6 +168,19 @@ class CaptureClock:
             return None
         return stamp_s + statistics.median(self._gaps) - telemetry_period_s / 2 - self.latency_s
 
+    def sigma_s(self) -> float | None:
+        """How far off the offset may be (s, see SETTLED_GAPS); None below MIN_GAPS gaps."""
+        gaps = list(self._gaps)
+        if len(gaps) < MIN_GAPS:
+            return None
+        middle = statistics.median(gaps)
+        spread = 1.4826 * statistics.median(abs(g - middle) for g in gaps)
+        drift = abs(statistics.median(gaps[-RECENT_GAPS:]) - middle)
+        return max(1.25 * spread / math.sqrt(len(gaps)), drift)
+
+    def settled(self) -> bool:
+        return len(self._gaps) >= SETTLED_GAPS
+
 
 class CapturePoses:
     """The pose at a frame's capture: by its stamp on the firmware's clock when the frame has a
@@ -194,6 +216,17 @@ class CapturePoses:
 
     def newest(self) -> Pose | None:
         return self.by_arrival.newest()
+
+    def sigma_s(self, frame: Frame) -> float:
+        """How far off `frame`'s capture time may be (after at(frame)): the stamp clock's
+        uncertainty, CAPTURE_SIGMA_S without one."""
+        sigma = self.capture.sigma_s() if frame.stamp_s is not None else None
+        return CAPTURE_SIGMA_S if sigma is None else sigma
+
+    def settled(self) -> bool:
+        """Whether frames' capture times are known as well as they will be: no stamped frame
+        seen (arrival less latency is all there is), or the stamp clock settled."""
+        return self._observed_seq is None or self.capture.settled()
 
     def at(self, frame: Frame, back_s: float = 0.0) -> Pose | None:
         """The pose `back_s` before `frame` was taken; None if it is not known (before the

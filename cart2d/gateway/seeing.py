@@ -58,6 +58,7 @@ SEND_INTERVAL_S = 0.5  # the perceived layer is refreshed at least this often wh
 # nothing for LOOK_TIMEOUT_S does not hold the cart up for longer.
 LOOK_FRAMES = 2
 LOOK_TIMEOUT_S = 1.0
+SETTLE_TIMEOUT_S = 2.0  # a camera whose stamps never settle holds the first look up no longer
 # Frames captured this near the cart's pose now show what new ones would (odometry at rest).
 STILL_M = 0.003
 STILL_RAD = math.radians(0.5)
@@ -171,6 +172,8 @@ class Seeing:
             self.skipped += 1
             return None
         pose = self.poses.at(frame)
+        with self._taken:
+            self._taken.notify_all()  # the capture clock may have settled (look() waits for it)
         if pose is None:
             self.skipped += 1
             return None
@@ -193,7 +196,9 @@ class Seeing:
             return Overlay(draw=self._last_seen.draw)
         earlier = self.poses.at(frame, back_s=RATE_WINDOW_S) or pose
         seen = perception.process(
-            np.asarray(bgr, dtype=np.uint8), self.to_map(pose), timing_sigmas(earlier, pose)[1]
+            np.asarray(bgr, dtype=np.uint8),
+            self.to_map(pose),
+            timing_sigmas(earlier, pose, self.poses.sigma_s(frame))[1],
         )
         self._last_seen = seen
         self.frames += 1
@@ -229,7 +234,9 @@ class Seeing:
     def look(self, at: Pose | None = None, timeout_s: float = LOOK_TIMEOUT_S) -> bool:
         """Waits until LOOK_FRAMES frames captured after this call are on the map (at most
         `timeout_s`), unless the last ones taken in were captured within STILL of pose `at`, the
-        cart's now (standing there, it has seen what it would see); whether they came. Not with
+        cart's now (standing there, it has seen what it would see); and until the frames' capture
+        times are known (poses.SETTLED_GAPS, at most SETTLE_TIMEOUT_S): a cart that turns to look
+        before then places what it sees a few degrees off. Whether the frames came. Not with
         the camera service's lock held: taking a frame in needs it."""
         since = time.monotonic()
         with self._taken:
@@ -243,6 +250,8 @@ class Seeing:
                 came = self._taken.wait_for(
                     lambda: sum(t >= since for t, _ in self._captures) >= LOOK_FRAMES, timeout_s
                 )
+            if came:
+                self._taken.wait_for(self.poses.settled, since + SETTLE_TIMEOUT_S - time.monotonic())
         self.looks.append(time.monotonic() - since)
         return came
 

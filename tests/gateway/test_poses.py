@@ -12,7 +12,15 @@ import time
 
 import pytest
 
-from cart2d.gateway.poses import TICKS, CaptureClock, CapturePoses, FirmwareClock
+from cart2d.gateway.poses import (
+    CAPTURE_SIGMA_S,
+    MIN_GAPS,
+    SETTLED_GAPS,
+    TICKS,
+    CaptureClock,
+    CapturePoses,
+    FirmwareClock,
+)
 from cart2d.perception.mjpeg import Frame
 from tests.support.clock import FakeClock
 
@@ -168,3 +176,34 @@ def test_gaps_made_short_by_telemetry_queued_at_the_start_do_not_put_the_capture
         assert captured is not None
         errors.append(abs(captured - (stamp - 95.0)))
     assert max(errors[6:]) < 0.02, errors
+
+
+def test_the_stamp_clock_says_how_well_it_knows_the_offset_and_when_it_has_settled() -> None:
+    """Gaps spread over a 40 ms telemetry period: the median's standard error, a few ms once 90
+    are known; gaps that drift 10 ms a frame (telemetry queued at the start draining, seen under
+    load): at least the drift of the recent ones from the median, so a turning cart's frames are
+    taken as uncertain while it lasts. Settled from SETTLED_GAPS on."""
+    steady = CaptureClock(LATENCY_S)
+    for k in range(MIN_GAPS - 1):
+        steady.observe(100.0 + k / 15.0, 5.0 + k / 15.0 + 0.06)
+    assert steady.sigma_s() is None
+    for k in range(MIN_GAPS - 1, 90):
+        assert steady.settled() is (k >= SETTLED_GAPS)
+        steady.observe(100.0 + k / 15.0, 5.0 + k / 15.0 + 0.06 + 0.04 * ((k * 7) % 10) / 10)
+    sigma = steady.sigma_s()
+    assert sigma is not None and 0.001 < sigma < 0.004
+    drifting = CaptureClock(LATENCY_S)
+    for k in range(12):
+        drifting.observe(100.0 + k / 15.0, 5.0 + k / 15.0 + 0.06 + 0.01 * k)
+    sigma = drifting.sigma_s()
+    assert sigma is not None and sigma >= 0.03
+
+
+def test_a_frames_timing_uncertainty_comes_from_its_camera_clock_or_the_default() -> None:
+    poses, wall = driven()
+    unstamped = Frame(b"", 1, None, wall())
+    assert poses.settled()  # nothing to settle: no stamped frame seen
+    assert poses.sigma_s(unstamped) == CAPTURE_SIGMA_S
+    first = Frame(b"", 2, CAMERA_EPOCH + 2.5, wall_at(2.5 + LATENCY_S))
+    poses.at(first)
+    assert not poses.settled() and poses.sigma_s(first) == CAPTURE_SIGMA_S  # one gap: unknown
