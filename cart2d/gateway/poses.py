@@ -45,12 +45,13 @@ RATE_WINDOW_S = 0.1
 # The stamp clock's offset is a median of gaps: its uncertainty is the median's standard error
 # (1.25 x the gaps' robust spread / sqrt(n)), or how far the last RECENT_GAPS' median has moved from
 # it (the gaps drift while telemetry queued at the start drains), whichever is more, from MIN_GAPS on.
-# It is settled from SETTLED_GAPS on (about a second of frames): under load the offset moved
+# It is settled from SETTLED_GAPS on, once known within SETTLED_SIGMA_S: under load the offset moved
 # 50 to 130 ms in the first 15 frames, when the cart turned on the spot to look, and the frames
 # then put the floor beside a box over the box (the README's example world, 1 run in 5).
 MIN_GAPS = 3
 RECENT_GAPS = 5
-SETTLED_GAPS = 15
+SETTLED_GAPS = 8  # and the offset known within SETTLED_SIGMA_S: 0.026 rad at 2.6 rad/s
+SETTLED_SIGMA_S = 0.01
 
 
 def timing_sigmas(before: Pose, captured: Pose, sigma_s: float = CAPTURE_SIGMA_S) -> tuple[float, float]:
@@ -179,7 +180,8 @@ class CaptureClock:
         return max(1.25 * spread / math.sqrt(len(gaps)), drift)
 
     def settled(self) -> bool:
-        return len(self._gaps) >= SETTLED_GAPS
+        sigma = self.sigma_s()
+        return len(self._gaps) >= SETTLED_GAPS and sigma is not None and sigma <= SETTLED_SIGMA_S
 
 
 class CapturePoses:
@@ -200,6 +202,10 @@ class CapturePoses:
         self.firmware = FirmwareClock(1.0 / float(robot()["control"]["tick_hz"]))
         self.capture = CaptureClock(latency_s)
         self._observed_seq: int | None = None  # a frame looked up twice is one observation
+        # stamped frames looked up before any telemetry arrived after them: their gaps are taken
+        # at the next lookup, so every frame counts, not only those processed late
+        self._pending: deque[tuple[float, float]] = deque(maxlen=GAPS_KEPT)
+        self._stamped = False
 
     def __call__(self, message: dict[str, Any]) -> None:
         """A gateway listener: its telemetry."""
@@ -226,7 +232,7 @@ class CapturePoses:
     def settled(self) -> bool:
         """Whether frames' capture times are known as well as they will be: no stamped frame
         seen (arrival less latency is all there is), or the stamp clock settled."""
-        return self._observed_seq is None or self.capture.settled()
+        return not self._stamped or self.capture.settled()
 
     def at(self, frame: Frame, back_s: float = 0.0) -> Pose | None:
         """The pose `back_s` before `frame` was taken; None if it is not known (before the
@@ -241,8 +247,19 @@ class CapturePoses:
     def _on_firmware_clock(self, frame: Frame) -> float | None:
         if frame.stamp_s is None:
             return None
-        arrival = self.firmware.first_after(frame.received_s)
-        if arrival is not None and frame.seq != self._observed_seq:
+        self._stamped = True
+        while self._pending:
+            stamp, received = self._pending[0]
+            later = self.firmware.first_after(received)
+            if later is None:
+                break
+            self._pending.popleft()
+            self.capture.observe(stamp, later)
+        if frame.seq != self._observed_seq:
             self._observed_seq = frame.seq
-            self.capture.observe(frame.stamp_s, arrival)
+            arrival = self.firmware.first_after(frame.received_s)
+            if arrival is None:
+                self._pending.append((frame.stamp_s, frame.received_s))
+            else:
+                self.capture.observe(frame.stamp_s, arrival)
         return self.capture.firmware_time(frame.stamp_s, self.firmware.period_s())

@@ -58,7 +58,7 @@ SEND_INTERVAL_S = 0.5  # the perceived layer is refreshed at least this often wh
 # nothing for LOOK_TIMEOUT_S does not hold the cart up for longer.
 LOOK_FRAMES = 2
 LOOK_TIMEOUT_S = 1.0
-SETTLE_TIMEOUT_S = 2.0  # a camera whose stamps never settle holds the first look up no longer
+SETTLE_TIMEOUT_S = 2.0  # a camera whose stamps never settle holds one look up no longer, once
 # Frames captured this near the cart's pose now show what new ones would (odometry at rest).
 STILL_M = 0.003
 STILL_RAD = math.radians(0.5)
@@ -147,6 +147,7 @@ class Seeing:
         self._still: tuple[Pose, float, int] | None = None  # pose, since (capture time), frames since
         self._last_seen: Perceived | None = None
         self.idle_skipped = 0  # frames left out while the cart stood still
+        self._unsettled = False  # the capture clock did not settle once: looks no longer wait for it
 
     def close(self) -> None:
         self._unsubscribe()
@@ -235,7 +236,7 @@ class Seeing:
         """Waits until LOOK_FRAMES frames captured after this call are on the map (at most
         `timeout_s`), unless the last ones taken in were captured within STILL of pose `at`, the
         cart's now (standing there, it has seen what it would see); and until the frames' capture
-        times are known (poses.SETTLED_GAPS, at most SETTLE_TIMEOUT_S): a cart that turns to look
+        times are known (poses.SETTLED_SIGMA_S, at most SETTLE_TIMEOUT_S once): a cart that turns to look
         before then places what it sees a few degrees off. Whether the frames came. Not with
         the camera service's lock held: taking a frame in needs it."""
         since = time.monotonic()
@@ -250,8 +251,9 @@ class Seeing:
                 came = self._taken.wait_for(
                     lambda: sum(t >= since for t, _ in self._captures) >= LOOK_FRAMES, timeout_s
                 )
-            if came:
-                self._taken.wait_for(self.poses.settled, since + SETTLE_TIMEOUT_S - time.monotonic())
+            if came and not self._unsettled:
+                left = since + SETTLE_TIMEOUT_S - time.monotonic()
+                self._unsettled = not self._taken.wait_for(self.poses.settled, left)
         self.looks.append(time.monotonic() - since)
         return came
 
