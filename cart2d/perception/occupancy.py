@@ -69,15 +69,28 @@ def run_lengths(hits: FloatArray) -> FloatArray:
 
 def _reach(origin: FloatArray, ends: FloatArray, hits: FloatArray, heading_sigma: float) -> FloatArray:
     """Per ray (to `ends`), how far it may clear floor: up to the nearest hit within
-    `heading_sigma` of its bearing (unbounded with none, or a certain heading)."""
+    `heading_sigma` of its bearing (unbounded with none, or a certain heading). Bearings are taken
+    from the first ray's (a picture spans far less than a half turn), the hits sorted by theirs,
+    and each ray's window of hits found by bisection: a few hundred rays and hits in well under
+    a millisecond."""
     reach = np.full(len(ends), np.inf)
     if heading_sigma <= 0.0 or len(hits) == 0 or len(ends) == 0:
         return reach
     rays, faces = ends - origin, hits - origin
-    bearing = np.arctan2(rays[:, 1], rays[:, 0])
-    apart = np.angle(np.exp(1j * (bearing[:, None] - np.arctan2(faces[:, 1], faces[:, 0])[None, :])))
-    ranges = np.broadcast_to(np.hypot(faces[:, 0], faces[:, 1])[None, :], apart.shape)
-    return np.asarray(np.where(np.abs(apart) <= heading_sigma, ranges, np.inf).min(axis=1), dtype=np.float64)
+    ref = math.atan2(rays[0, 1], rays[0, 0])
+
+    def bearing(v: FloatArray) -> FloatArray:
+        return np.asarray(np.remainder(np.arctan2(v[:, 1], v[:, 0]) - ref + math.pi, math.tau) - math.pi)
+
+    order = np.argsort(bearing(faces))
+    sorted_bearings = bearing(faces)[order]
+    ranges = np.append(np.hypot(faces[order, 0], faces[order, 1]), np.inf)  # inf: past the last
+    b = bearing(rays)
+    lo = np.searchsorted(sorted_bearings, b - heading_sigma, side="left")
+    hi = np.searchsorted(sorted_bearings, b + heading_sigma, side="right")
+    # the minimum of ranges[lo:hi] per ray: reduceat over the pairs (lo, hi), its even results
+    nearest = np.minimum.reduceat(ranges, np.column_stack([lo, hi]).reshape(-1))[::2]
+    return np.asarray(np.where(hi > lo, nearest, reach), dtype=np.float64)
 
 
 class LogOddsGrid:

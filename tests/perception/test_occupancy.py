@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from cart2d.perception.detection import Detection
-from cart2d.perception.occupancy import LogOddsGrid, run_lengths
+from cart2d.perception.occupancy import LogOddsGrid, _reach, run_lengths
 
 MIN_RANGE_M = 0.25
 
@@ -212,3 +212,25 @@ def test_depth_assumed_behind_a_face_is_cleared_by_the_floor_seen_behind_it_and_
         g.integrate((0.0, 0.0, 0.0), front)
     assert p_at(g, 1.12, 0.01) < 0.5 and p_at(g, 1.17, 0.01) < 0.5  # floor seen beats an assumption
     assert p_at(g, 1.01, 0.01) > 0.9  # the face itself, seen, stays
+
+
+@pytest.mark.parametrize("heading", [0.0, math.pi - 0.1, -math.pi + 0.05])
+def test_the_reach_beside_hits_matches_every_pair_compared(heading: float) -> None:
+    """_reach's bisection against the all-pairs rule it stands for, for views across the +-pi
+    seam too: the nearest hit within the angle of each ray's bearing."""
+    rng = np.random.default_rng(5)
+    origin = np.array([0.3, -0.2])
+
+    def points(n: int) -> np.ndarray:
+        a, d = heading + rng.uniform(-0.5, 0.5, n), rng.uniform(0.2, 2.0, n)
+        return origin + np.column_stack([d * np.cos(a), d * np.sin(a)])
+
+    for _ in range(20):
+        ends, hits, sigma = points(200), points(int(rng.integers(1, 200))), float(rng.uniform(0.0, 0.2))
+        rays, faces = ends - origin, hits - origin
+        apart = np.arctan2(rays[:, 1], rays[:, 0])[:, None] - np.arctan2(faces[:, 1], faces[:, 0])[None, :]
+        apart = np.remainder(apart + math.pi, math.tau) - math.pi
+        expected = np.where(np.abs(apart) <= sigma, np.hypot(faces[:, 0], faces[:, 1])[None, :], np.inf).min(
+            axis=1
+        )
+        assert np.array_equal(_reach(origin, ends, hits, sigma), expected)
