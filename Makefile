@@ -74,8 +74,10 @@ python-checks: python-env
 	$(VENV)/bin/mypy
 	$(VENV)/bin/lint-imports
 
+# Two workers: most tests wait on a simulator running in real time, so two at once take about half
+# the time on two cores (tests/support keeps each worker's ports, domains and files its own).
 python-tests: python-env firmware sim panel
-	$(PY) -m pytest -q --durations=15
+	$(PY) -m pytest -q -n 2 --durations=15
 
 # The control panel: npm ci (exact versions from web/package-lock.json; browsers are never
 # downloaded: the tests use Debian's /usr/bin/chromium), a type check and the Vite build.
