@@ -173,27 +173,25 @@ class FleetManager:
         the page says why."""
         assert cart.position is not None
         at = cart.position[:2]
-        near = sorted(
-            (
+        holder = self.traffic.holds.get(cell)
+        if holder not in (None, cart.name):
+            near = [
                 c
                 for c in self.lattice.free
                 if c not in self.traffic.holds and math.dist(self.lattice.position(c), at) <= DEVIATION_M
-            ),
-            key=lambda c: (math.dist(self.lattice.position(c), at), c),
-        )
-        holder = self.traffic.holds.get(cell)
-        candidates = ([cell] if holder in (None, cart.name) else []) + near
-        if candidates:
-            self.traffic.join(cart.name, candidates[0])
-            cart.off_traffic = None
-            return
-        why = (
-            f"it stands nearest node {node_id(cell)}, which {holder} holds, and no free node is within "
-            f"{DEVIATION_M:g} m: move it, or remove {holder} if it is gone"
-        )
-        if cart.off_traffic != why:
-            log.warning("%s cannot join the traffic: %s", cart.name, why)
-        cart.off_traffic = why
+            ]
+            if not near:
+                why = (
+                    f"it stands nearest node {node_id(cell)}, which {holder} holds, and no free node is "
+                    f"within {DEVIATION_M:g} m: move it, or remove {holder} if it is gone"
+                )
+                if cart.off_traffic != why:
+                    log.warning("%s cannot join the traffic: %s", cart.name, why)
+                cart.off_traffic = why
+                return
+            cell = min(near, key=lambda c: (math.dist(self.lattice.position(c), at), c))
+        self.traffic.join(cart.name, cell)
+        cart.off_traffic = None
 
     def _progress(self, cart: CartView, state: dict[str, Any]) -> None:
         sent = self.sent.get(cart.name)

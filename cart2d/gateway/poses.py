@@ -201,11 +201,11 @@ class CapturePoses:
         self.by_firmware = PoseHistory(keep_s=FIRMWARE_KEEP_S)
         self.firmware = FirmwareClock(1.0 / float(robot()["control"]["tick_hz"]))
         self.capture = CaptureClock(latency_s)
-        self._observed_seq: int | None = None  # a frame looked up twice is one observation
+        # a frame looked up twice is one observation; None until a stamped frame is looked up
+        self._observed_seq: int | None = None
         # stamped frames looked up before any telemetry arrived after them: their gaps are taken
         # at the next lookup, so every frame counts, not only those processed late
         self._pending: deque[tuple[float, float]] = deque(maxlen=GAPS_KEPT)
-        self._stamped = False
 
     def __call__(self, message: dict[str, Any]) -> None:
         """A gateway listener: its telemetry."""
@@ -232,7 +232,7 @@ class CapturePoses:
     def settled(self) -> bool:
         """Whether frames' capture times are known as well as they will be: no stamped frame
         seen (arrival less latency is all there is), or the stamp clock settled."""
-        return not self._stamped or self.capture.settled()
+        return self._observed_seq is None or self.capture.settled()
 
     def at(self, frame: Frame, back_s: float = 0.0) -> Pose | None:
         """The pose `back_s` before `frame` was taken; None if it is not known (before the
@@ -247,7 +247,6 @@ class CapturePoses:
     def _on_firmware_clock(self, frame: Frame) -> float | None:
         if frame.stamp_s is None:
             return None
-        self._stamped = True
         while self._pending:
             stamp, received = self._pending[0]
             later = self.firmware.first_after(received)

@@ -82,8 +82,9 @@ def _reach(origin: FloatArray, ends: FloatArray, hits: FloatArray, heading_sigma
     def bearing(v: FloatArray) -> FloatArray:
         return np.asarray(np.remainder(np.arctan2(v[:, 1], v[:, 0]) - ref + math.pi, math.tau) - math.pi)
 
-    order = np.argsort(bearing(faces))
-    sorted_bearings = bearing(faces)[order]
+    face_bearings = bearing(faces)
+    order = np.argsort(face_bearings)
+    sorted_bearings = face_bearings[order]
     ranges = np.append(np.hypot(faces[order, 0], faces[order, 1]), np.inf)  # inf: past the last
     b = bearing(rays)
     lo = np.searchsorted(sorted_bearings, b - heading_sigma, side="left")

@@ -42,13 +42,17 @@ class Fleet:
         self.manager = FleetManager(lattice, clock=lambda: self.now, publish=self._sent)
         self.carts: dict[str, InstantCart] = {}
         self.vehicles: dict[str, Executor] = {}
-        self.headers = {name: vda5050.Headers(name) for name in starts}
+        self.headers: dict[str, vda5050.Headers] = {}
         for name, cell in starts.items():
-            cart = InstantCart(*lattice.position(cell))
-            self.carts[name] = cart
-            self.vehicles[name] = Executor(cart, pose=cart.pose)
-            self._say(name, "connection", {"connectionState": "ONLINE"})
-            self._report(name)
+            self.add(name, *lattice.position(cell))
+
+    def add(self, name: str, x: float, y: float) -> None:
+        """A cart that comes on line at (x, y), not necessarily on a node."""
+        cart = InstantCart(x, y)
+        self.carts[name], self.vehicles[name] = cart, Executor(cart, pose=cart.pose)
+        self.headers[name] = vda5050.Headers(name)
+        self._say(name, "connection", {"connectionState": "ONLINE"})
+        self._report(name)
 
     def _sent(self, topic: str, message: dict[str, Any]) -> None:
         where = vda5050.vehicle_of(topic)
@@ -174,15 +178,6 @@ def test_a_cart_cancelled_between_two_nodes_takes_its_next_goal_from_the_node_it
     assert goal.status == "reached", fleet.vehicles["c1"].errors
 
 
-def add_cart(fleet: Fleet, name: str, x: float, y: float) -> None:
-    """A cart that comes on line at (x, y), not necessarily on a node."""
-    cart = InstantCart(x, y)
-    fleet.carts[name], fleet.vehicles[name] = cart, Executor(cart, pose=cart.pose)
-    fleet.headers[name] = vda5050.Headers(name)
-    fleet._say(name, "connection", {"connectionState": "ONLINE"})
-    fleet._report(name)
-
-
 def gone_offline(fleet: Fleet, name: str) -> None:
     """The cart's connection breaks and it is carried off: its reservations stay."""
     fleet._say(name, "connection", {"connectionState": "CONNECTIONBROKEN"})
@@ -193,7 +188,7 @@ def test_a_cart_nearest_a_node_another_holds_joins_at_a_free_node_within_reach()
     lattice = Lattice((0.25, 0.25), 0.5, frozenset((i, j) for i in range(6) for j in range(2)))
     fleet = Fleet(lattice, {"c1": (0, 0), "c2": (3, 0)})
     gone_offline(fleet, "c2")
-    add_cart(fleet, "c3", 1.75, 0.48)  # 0.23 m from c2's node (3, 0), 0.27 m from (3, 1)
+    fleet.add("c3", 1.75, 0.48)  # 0.23 m from c2's node (3, 0), 0.27 m from (3, 1)
     assert fleet.manager.traffic.standing["c3"] == (3, 1)
     goal = fleet.manager.add_goal(*lattice.position((5, 0)), cart="c3")
     for _ in range(20):
@@ -206,7 +201,7 @@ def test_a_cart_that_cannot_join_and_its_goal_say_why_until_the_holder_is_remove
     lattice = Lattice((0.25, 0.25), 0.5, frozenset((i, 0) for i in range(6)))
     fleet = Fleet(lattice, {"c1": (0, 0), "c2": (3, 0)})
     gone_offline(fleet, "c2")
-    add_cart(fleet, "c3", 1.8, 0.25)  # where c2 stood: no other node within 0.3 m
+    fleet.add("c3", 1.8, 0.25)  # where c2 stood: no other node within 0.3 m
     goal = fleet.manager.add_goal(*lattice.position((5, 0)), cart="c3")
     fleet.tick()
     (c3,) = [c for c in fleet.manager.view().carts if c.name == "c3"]
