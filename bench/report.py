@@ -95,7 +95,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     report = _header(args.quick, done) + "\n".join(s.markdown for s, _ in done)
     (args.out / "REPORT.md").write_text(report)
     print(f"bench: report in {args.out / 'REPORT.md'}", file=sys.stderr)
-    return 0 if all(s.targets_met for s, _ in done) else 1
+    missed = [s for s, _ in done if not s.targets_met]
+    for section in missed:
+        # CI keeps only the log's tail: the missed sections' own tables say which target.
+        print(f"bench: {section.name} MISSED its targets:\n{section.markdown}", file=sys.stderr)
+    return 1 if missed else 0
 
 
 if __name__ == "__main__":
