@@ -7,7 +7,8 @@ for 2 s, so a request is retransmitted only within RETRANSMIT_WINDOW_S of its fi
 transmission. The wait is measured from the line (line.py: its latency, and back-off sized to
 the tries it loses), so a lost reply costs a retry of a few tens of milliseconds, not a mission;
 a request that can be executed twice without harm (commands.py, REPEATABLE) goes on as a new
-one after the window while the line is alive, for up to PATIENCE_S. A reader thread decodes
+one after the window while the line is alive, for up to PATIENCE_S (and a late reply to one of
+its earlier SEQs answers it: a busy host's reader may decode it seconds late). A reader thread decodes
 everything the firmware sends, and drops a partial packet that waited too long (protocol.py,
 Decoder). If the port disappears (USB unplugged, simulator restarted, a network bridge's
 connection dropped) the link reopens it in the background; requests in the meantime fail with
@@ -184,7 +185,7 @@ class Link:
         self._epochs = itertools.count(1)  # next() on a count is atomic: several threads bump it
         self.settings_epoch = 0  # changes whenever the firmware's settings may have changed
         self._reply_lock = threading.Condition()
-        self._pending_seq: int | None = None
+        self._pending_seqs: tuple[int, ...] = ()  # the SEQs of the request waiting, every round's
         self._reply: Reply | None = None
         self._listeners: list[TelemetryListener] = []
         self._telemetry_queue: deque[Telemetry] = deque(maxlen=TELEMETRY_BACKLOG)
@@ -369,8 +370,10 @@ class Link:
         reply_bytes = reply_size(commands.reply_results(code))
         fixed = self.timeout_s if timeout_s is None else timeout_s
         all_tries = 0
+        rounds: list[int] = []  # a late reply to an earlier round answers the request too
         while True:  # each round a new SEQ: the firmware answers a round's retransmissions from memory
             self._seq = (self._seq + 1) & 0xFF
+            rounds.append(self._seq)
             data = encode_request(self._seq, code, list(args))
             round_began = time.monotonic()
             if not first_sent:
@@ -382,12 +385,12 @@ class Link:
                 else:
                     wait = min(fixed, STOP_RESEND_S) if stop else fixed
                 written = time.monotonic()
-                reply = self._exchange(data, self._seq, wait, interruptible)
+                reply = self._exchange(data, tuple(rounds), wait, interruptible)
                 tries += 1
                 all_tries += 1
                 self.line.tried(reply is not None, self.alive(), len(data) + reply_bytes)
                 if reply is not None:
-                    if tries == 1 or not self.line.timed():
+                    if reply.seq == rounds[-1] and (tries == 1 or not self.line.timed()):
                         self.line.answered_at_once(time.monotonic() - written, len(data), reply_bytes)
                     return reply
                 if token is not None:
@@ -440,12 +443,14 @@ class Link:
             raise CommandRefused(reply)
         return reply.results
 
-    def _exchange(self, data: bytes, seq: int, timeout_s: float, interruptible: bool) -> Reply | None:
+    def _exchange(
+        self, data: bytes, seqs: tuple[int, ...], timeout_s: float, interruptible: bool
+    ) -> Reply | None:
         port = self._serial
         if port is None or not self.connected.is_set():
             raise LinkDown(f"{self.port} is not open")
         with self._reply_lock:
-            self._pending_seq = seq
+            self._pending_seqs = seqs
             self._reply = None
         try:
             port.write(data)
@@ -458,7 +463,7 @@ class Link:
                 if left <= 0 or not self.connected.is_set() or (interruptible and self._stops_queued):
                     break
                 self._reply_lock.wait(left)
-            reply, self._reply, self._pending_seq = self._reply, None, None
+            reply, self._reply, self._pending_seqs = self._reply, None, ()
             if reply is None and self._unanswered_since is None:
                 self._unanswered_since = deadline - timeout_s
         return reply
@@ -539,7 +544,7 @@ class Link:
         except ProtocolError:
             return
         with self._reply_lock:
-            if reply.seq == self._pending_seq:
+            if reply.seq in self._pending_seqs:
                 self._reply = reply
                 self._reply_lock.notify_all()
 

@@ -17,6 +17,7 @@ import pytest
 
 from cart2d.link import Link, LinkTimeout
 from cart2d.link.protocol import Decoder, Packet, encode_reply, encode_request, encode_telemetry
+from cart2d.link.transport import RETRANSMIT_WINDOW_S
 from cart2d.spec import load_spec
 from tests.support.swallowing_port import SwallowingPort
 
@@ -147,3 +148,33 @@ def test_a_read_waiting_for_its_reply_gives_way_to_a_stop_and_is_answered_after_
         reader.join(10.0)
     assert fake.received == ["STATUS", "STOP", "STATUS"]  # cut short, stopped, asked again
     assert len(results) == 1 and isinstance(results[0], tuple)
+
+
+class LateFirmware(FakeFirmware):
+    """Answers a request's first SEQ only, and only `delay_s` later: a host whose reader decodes
+    the reply long after it came (a busy machine), or a line with a long queue."""
+
+    def __init__(self, delay_s: float) -> None:
+        self.delay_s = delay_s
+        self.first_seq: int | None = None
+        super().__init__(lambda name, n: False)
+
+    def _handle(self, packet: Packet) -> None:
+        super()._handle(packet)
+        if self.first_seq is None:
+            self.first_seq = packet.seq
+            reply = encode_reply(packet.seq, 0, packet.body[0], [0.0] * 16)
+            threading.Timer(self.delay_s, os.write, (self._master, reply)).start()
+
+
+def test_a_reply_later_than_the_retransmission_window_still_answers_its_request() -> None:
+    # A STOP answered 147 times without one reply in 6.5 s on a busy machine: each reply reached
+    # the reader after its round (1.5 s) had ended and a new SEQ was waited for.
+    fake = LateFirmware(delay_s=RETRANSMIT_WINDOW_S + 0.3)
+    try:
+        with Link(fake.name).open() as link:
+            reply = link.request("STATUS")
+    finally:
+        fake.close()
+    assert reply.seq == fake.first_seq
+    assert fake.received.count("STATUS") > 1  # a second round with a new SEQ began before it came
