@@ -160,7 +160,8 @@ class Localisation:
         if captured is None or now is None:
             return None
         for fix in fixes:
-            self.fuse(with_timing(fix, before or captured, captured), captured, now)
+            timed = with_timing(fix, before or captured, captured, self._poses.sigma_s(frame))
+            self.fuse(timed, captured, now)
         return None
 
     def fuse(self, fix: TagFix, captured_odom: Pose2, now_odom: Pose2) -> str:
@@ -231,10 +232,10 @@ class Localisation:
         }
 
 
-def with_timing(fix: TagFix, before: Pose2, captured: Pose2) -> TagFix:
-    """The fix with the uncertainty of its capture time added (poses.timing_sigmas), in x and y
-    and in the heading."""
-    along, turned = timing_sigmas(before, captured)
+def with_timing(fix: TagFix, before: Pose2, captured: Pose2, sigma_s: float) -> TagFix:
+    """The fix with the uncertainty of its capture time (`sigma_s`, the stamp clock's) added
+    (poses.timing_sigmas), in x and y and in the heading."""
+    along, turned = timing_sigmas(before, captured, sigma_s)
     extra = np.diag([along**2, along**2, turned**2])
     return dataclasses.replace(fix, covariance=fix.covariance + extra)
 

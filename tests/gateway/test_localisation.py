@@ -14,7 +14,7 @@ import pytest
 from cart2d.gateway import Gateway
 from cart2d.gateway.bus import Event, PoseCorrected, ViewerMessage
 from cart2d.gateway.camera import CameraFeed
-from cart2d.gateway.localisation import Localisation
+from cart2d.gateway.localisation import Localisation, with_timing
 from cart2d.gateway.messages import LocalisationMessage, TelemetryMessage
 from cart2d.localisation.ekf import Pose2
 from cart2d.localisation.markers import MarkerMap, arena_markers
@@ -168,3 +168,16 @@ def test_what_the_camera_sees_is_placed_in_map_and_the_markers_processor_gets_ev
     # perception's pose: odometry's (0.2, 0, 0) is map's (1.0, 0.7, pi/2)
     assert seeing.to_map((0.2, 0.0, 0.0)) == pytest.approx((1.0, 0.7, math.pi / 2))
     gateway.camera_service.use_camera(None)
+
+
+def test_a_fix_from_a_turning_cart_counts_for_less_while_the_cameras_clock_is_unsure() -> None:
+    # The heading of a frame taken while turning at 2.6 rad/s is only as good as its capture
+    # time: with the camera's clock known to 2 ms the fix keeps its own heading variance; with
+    # 40 ms (no stamps, or a clock still settling) it grows by (2.6 rad/s x 40 ms)^2.
+    before, captured = (0.0, 0.0, 0.0), (0.0, 0.0, 0.26)  # RATE_WINDOW_S apart
+    settled = with_timing(fix_at(captured), before, captured, 0.002).covariance[2, 2]
+    unsure = with_timing(fix_at(captured), before, captured, 0.04).covariance[2, 2]
+    own = FIX_COVARIANCE[2, 2]
+    assert settled - own == pytest.approx((2.6 * 0.002) ** 2)
+    assert unsure - own == pytest.approx((2.6 * 0.04) ** 2)
+    assert unsure > 20 * own  # about 6 degrees of doubt: the filter takes such a heading lightly
