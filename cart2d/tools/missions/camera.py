@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from cart2d.gateway.camera import CameraFeed
+from cart2d.gateway.seeing import SETTLE_TIMEOUT_S
 from cart2d.perception.calibration import calibration_path
 from cart2d.simulation.camera import SimCameraServer
 from cart2d.simulation.lockstep import Lockstep
@@ -72,11 +73,17 @@ def mission_camera(
 
 
 def _wait_until_seeing(gateway: Gateway, frames: int = 3, wall_timeout_s: float = 20.0) -> None:
-    """Until perception has seen a few frames: a user looks before sending the cart."""
+    """Until perception has seen a few frames and knows their capture times (at most
+    SETTLE_TIMEOUT_S more): a user looks before sending the cart. The mission's time starts
+    after it: a freshly started gateway's clock settling (about a second, longer on a busy
+    machine) is not the mission's, and its first look would otherwise wait for it."""
     deadline = time.monotonic() + wall_timeout_s
     while time.monotonic() < deadline:
         seeing = gateway.seeing
         if seeing is not None and seeing.frames >= frames:
+            settle_by = time.monotonic() + SETTLE_TIMEOUT_S
+            while not seeing.poses.settled() and time.monotonic() < settle_by:
+                time.sleep(0.02)
             return
         time.sleep(0.02)
     raise SimulatorError(f"the simulated camera gave perception no frame in {wall_timeout_s:g} s")
