@@ -76,6 +76,11 @@ READ_TIMEOUT_S = 0.05  # how long the reader waits for a byte before it checks t
 # firmware sends telemetry (25 Hz) and answers within milliseconds; a Nano's bootloader after a
 # reset keeps the line silent for at most ~1.6 s (the old ATmegaBOOT; Optiboot ~1 s).
 STALL_S = 3.0
+# Opening a Nano's port resets it into its bootloader, which takes what comes in the first second
+# as STK500 commands: a request's bytes there can hold it in a page write for as long as requests
+# keep coming (every byte feeds its watchdog) while the firmware never starts. The link sends
+# nothing after an open until the line speaks (the firmware's telemetry) or this long has passed.
+BOOT_QUIET_S = 1.6
 # The longest wait for a reply before the request is retransmitted (a direct line: ~8 ms round
 # trip); the wait is measured from the line below that (line.py).
 TIMEOUT_S = 0.25
@@ -493,6 +498,7 @@ class Link:
             self.settings_may_change()  # opening a Nano's port resets it
             with self._reply_lock:
                 self._unanswered_since = None
+            self._quiet_while_booting(self._serial)
             self.connected.set()
             why = self._read_until_gone(self._serial)
             self.connected.clear()
@@ -505,6 +511,13 @@ class Link:
                 self.lost_reason = why
                 log.warning("link to %s lost (%s); reopening", self.port, why)
                 self._closing.wait(REOPEN_DELAY_S)
+
+    def _quiet_while_booting(self, port: serial.Serial) -> None:
+        """Until the line speaks or BOOT_QUIET_S passed (the bytes stay for the reader)."""
+        deadline = time.monotonic() + BOOT_QUIET_S
+        with contextlib.suppress(serial.SerialException, OSError, TypeError):
+            while not port.in_waiting and time.monotonic() < deadline and not self._closing.is_set():
+                self._closing.wait(0.01)
 
     def _read_until_gone(self, port: serial.Serial) -> str:
         """Decodes what the port sends until it is gone, closing or released; why it ended."""
