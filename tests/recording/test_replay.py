@@ -32,10 +32,19 @@ BOX = {"x": 1.2, "y": 0.9, "sx": 0.2, "sy": 0.2, "height": 0.3, "colour": "#3050
 EVENT_AT_S = 1.0
 EVENT_NODE = [0.0, 1.0]  # off every route: it changes the map, not the drive
 IN_THE_WALL = [-0.45, 0.0]  # the room's outline: refused at once
+START = (0.0, 0.0)
+
+
+def at_the_start(trail: list[list[float]]) -> bool:
+    """Nothing of the drive in a trail: no point, or the start's (telemetry recorded at 0.0 s,
+    which a seek to 0.0 keeps, on a busy machine's recording)."""
+    return all(math.hypot(x - START[0], y - START[1]) < 0.005 for x, y in trail)
+
+
 GOALS = [[1.2, 0.0], IN_THE_WALL, [0.4, 0.4]]
 MISSION = {
     "map": "maps/room.yaml",
-    "start": [0.0, 0.0, 0.0],
+    "start": [*START, 0.0],
     "goals": GOALS,
     "world": {"boxes": [BOX]},
     "events": [{"at_s": EVENT_AT_S, "add": [EVENT_NODE]}],
@@ -216,7 +225,7 @@ def test_a_seek_rebuilds_the_state_at_that_time_and_tells_the_viewers(recorded: 
         told.clear()
         player.seek(0.0)  # back to before anything: what came later is taken away
         kinds = {m["type"]: m for m in told}
-        assert kinds["replay"]["trail"] == [] and kinds["mission"]["state"] == "idle"
+        assert at_the_start(kinds["replay"]["trail"]) and kinds["mission"]["state"] == "idle"
         assert kinds["perceived"]["cells"] == []
         assert client.get("/api/map").json()["version"] == recorded.first_map_view()["version"]  # type: ignore[index]
     finally:
@@ -270,6 +279,7 @@ def test_a_looped_replay_starts_again_from_the_start_with_the_state_there(record
         wait_for(lambda: player.seeks >= 2, 60.0)
         assert player.state == "playing"
         again = [m for m in told if m["type"] == "replay" and "trail" in m]
-        assert again and all(m["position_s"] < 1.0 and m["trail"] == [] for m in again)  # 1 ms is 1 s here
+        # 1 ms is 1 s here
+        assert again and all(m["position_s"] < 1.0 and at_the_start(m["trail"]) for m in again)
     finally:
         player.close()
