@@ -2,75 +2,26 @@
 missions"): a lost reply costs a retry, not a request; a STOP is resent fastest; a read waiting
 for its reply gives way to a STOP and is asked again after it. Against a firmware fake on a
 pseudo-terminal that answers as the firmware does (a repeated SEQ and CRC from memory) and loses
-the replies it is told to. No assertion on the wall clock: counts, orders and ratios."""
+the replies it is told to (tests/support/pty_firmware.py). No assertion on the wall clock:
+counts, orders and ratios."""
 
 from __future__ import annotations
 
 import os
 import random
-import select
 import threading
-import time
 from collections.abc import Callable, Iterator
 
 import pytest
 
 from cart2d.link import Link, LinkTimeout
-from cart2d.link.protocol import Decoder, Packet, encode_reply, encode_request, encode_telemetry
+from cart2d.link.protocol import Packet, encode_reply, encode_request
 from cart2d.link.transport import RETRANSMIT_WINDOW_S
 from cart2d.spec import load_spec
+from tests.support.pty_firmware import FakeFirmware
 from tests.support.swallowing_port import SwallowingPort
 
 SPEC = load_spec()
-TELEMETRY_S = 0.04
-
-
-class FakeFirmware:
-    """A pseudo-terminal the link opens as its serial port. Every request is decoded; `answers`
-    decides whether its reply goes out (the request is executed either way, once per SEQ and
-    CRC, as the firmware's duplicate memory has it). A telemetry frame goes out every 40 ms, as
-    the firmware's do: the line is alive."""
-
-    def __init__(self, answers: Callable[[str, int], bool]) -> None:
-        self._master, self._slave = os.openpty()
-        self.name = os.ttyname(self._slave)
-        self.answers = answers
-        self.received: list[str] = []  # every request's command name, retransmissions included
-        self.executed: list[str] = []
-        self._last: tuple[int, int] | None = None
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._serve, daemon=True)
-        self._thread.start()
-
-    def _serve(self) -> None:
-        decoder = Decoder()
-        next_frame = time.monotonic()
-        while not self._stop.is_set():
-            if time.monotonic() >= next_frame:
-                next_frame += TELEMETRY_S
-                os.write(self._master, encode_telemetry([0.0] * 16, 0))
-            ready, _, _ = select.select([self._master], [], [], 0.005)
-            if not ready:
-                continue
-            for item in decoder.feed(os.read(self._master, 4096)):
-                if isinstance(item, Packet):
-                    self._handle(item)
-
-    def _handle(self, packet: Packet) -> None:
-        name = SPEC.name_of(packet.body[0]).removeprefix("COMMAND_")
-        self.received.append(name)
-        if self._last != (packet.seq, packet.crc):
-            self._last = (packet.seq, packet.crc)
-            self.executed.append(name)
-        if self.answers(name, len(self.received)):
-            results = [0.0] * SPEC.commands[f"COMMAND_{name}"].result_count
-            os.write(self._master, encode_reply(packet.seq, 0, packet.body[0], results))
-
-    def close(self) -> None:
-        self._stop.set()
-        self._thread.join()
-        os.close(self._master)
-        os.close(self._slave)
 
 
 @pytest.fixture
